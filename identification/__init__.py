@@ -1,0 +1,1 @@
+"""Identification of machine kinematic errors from alignment observations."""

@@ -1,0 +1,1 @@
+"""Stage models, simulators and calibration routines."""

@@ -1,0 +1,1 @@
+"""Vision locators shared by all kinid methods."""
