@@ -1,1 +1,32 @@
-"""kinid package."""
+"""Two parallel Y axes of a gantry (patent 003): offset table, smooth model, simulated gantry.
+
+The camera rides on one Y axis, the placement head on a second one (V) with
+its own X axis. :func:`calibrate` steps both Y axes together, images a plate
+on the head and builds the patent's piecewise-linear offset table of camera
+Y (:class:`OffsetTable`, whose ``head_move(ps_mm, pe_mm)`` is the head move
+for a camera-Y move, INTERFACES.md §5); :func:`fit_smooth` fits a parallelism
+angle plus straightness polynomial instead. :class:`SimulatedGantry` is
+``urdf/gantry_dual_y.urdf`` with error values set.
+"""
+from .calibrate import calibrate, default_roi, measure_pixel_to_mm, verify
+from .simulate import (ErrorProfile, SimulatedGantry, default_error_profiles, random_error_profiles,
+                       random_texture)
+from .smooth import SmoothModel, fit_smooth
+from .table import OffsetTable, RoundRecord, head_move_from
+
+__all__ = [
+    "calibrate",
+    "measure_pixel_to_mm",
+    "verify",
+    "default_roi",
+    "OffsetTable",
+    "RoundRecord",
+    "head_move_from",
+    "SmoothModel",
+    "fit_smooth",
+    "SimulatedGantry",
+    "ErrorProfile",
+    "default_error_profiles",
+    "random_error_profiles",
+    "random_texture",
+]

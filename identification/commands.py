@@ -1,0 +1,163 @@
+"""``kinid identify``, ``predict``, ``simulate``, ``diagnose`` and ``demo`` (INTERFACES.md §4)."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import DataError
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser("identify", help="fit the default model plus added effects to alignment observations")
+    p.add_argument("--machine", required=True, help="machine URDF (INTERFACES.md §1)")
+    p.add_argument("--data", required=True, help="observations CSV (INTERFACES.md §3)")
+    p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
+    p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
+    p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
+    p.add_argument("--report", default=None, metavar="DIR", help="with --auto: write the report (plots, HTML) to DIR")
+    p.add_argument("--out", required=True, help="fit JSON to write")
+    p.set_defaults(run=_identify)
+
+    p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark")
+    p.add_argument("--fit", required=True)
+    p.add_argument("--poses", required=True, help="CSV with the observation columns without the solved axes")
+    p.add_argument("--out", required=True)
+    p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
+    p.set_defaults(run=_predict)
+
+    p = sub.add_parser("simulate", help="alignment readings of a machine with a known error set")
+    p.add_argument("--machine", required=True)
+    p.add_argument("--errors", required=True, help='JSON: effect name -> value(s), e.g. {"EX0C": 12, "EXX:periodic:10": [1.5, 0]}')
+    p.add_argument("--plan", default="patent", help="'patent' (7 tilt x 12 table angles x 4 marks) or a CSV of poses")
+    p.add_argument("--noise-um", type=float, default=0.0, help="σ of the reading noise, µm")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
+    p.add_argument("--no-directions", action="store_true", help="do not write dir_<axis> columns")
+    p.add_argument("--no-time", action="store_true", help="do not write the t_s column")
+    p.add_argument("--out", required=True)
+    p.set_defaults(run=_simulate)
+
+    p = sub.add_parser("diagnose", help="compare a fit with data and rank the effects that may be missing")
+    p.add_argument("--fit", required=True)
+    p.add_argument("--data", required=True)
+    p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: replicates, else the fit's)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (INTERFACES.md §4)")
+    p.add_argument("--report", default=None, metavar="DIR", help="write plots and an HTML report to DIR")
+    p.add_argument("--top", type=int, default=10, help="candidates to show in the readable report")
+    p.set_defaults(run=_diagnose)
+
+    p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect")
+    p.add_argument("--out", default=None, help="report folder (default: a fresh kinid-demo-<time> folder)")
+    p.add_argument("--seed", type=int, default=7)
+    p.set_defaults(run=_demo)
+
+
+def _positive(value, name):
+    if value is not None and not (np.isfinite(value) and value > 0):
+        raise DataError(f"{name} must be a positive number of µm, got {value}")
+
+
+def _axes_list(text, machine):
+    if text is None:
+        return None
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    unknown = [n for n in names if n not in machine.axis_names]
+    if unknown:
+        raise DataError(f"--solve: unknown axes {', '.join(unknown)}; this machine has {', '.join(machine.axis_names)}")
+    return names
+
+
+def _identify(args) -> int:
+    from .fit import fit, model_effects, save_fit
+    from .machine import load_machine
+    from .observations import read_observations
+
+    _positive(args.noise_um, "--noise-um")
+    machine = load_machine(args.machine)
+    obs = read_observations(args.data, machine)
+    effects = model_effects(machine, args.add)
+    if args.auto:
+        from .diagnose import forward_select
+        from .report import selection_report
+
+        steps = forward_select(machine, obs, effects, noise_um=args.noise_um, progress=sys.stderr)
+        result = steps[-1].fit
+        if args.report:
+            selection_report(steps, obs, args.report)
+    else:
+        result = fit(machine, obs, effects, noise_um=args.noise_um)
+    save_fit(result, args.out)
+    print(result.table())
+    print(f"fit written to {args.out}")
+    return 0
+
+
+def _predict(args) -> int:
+    from .alignment import solve_axes
+    from .fit import load_fit
+    from .observations import read_observations, write_observations
+
+    loaded = load_fit(args.fit)
+    machine = loaded.machine
+    solve = _axes_list(args.solve, machine)
+    solve_names = solve or [a.name for a in machine.axes if a.kind == "prismatic"]
+    poses = read_observations(args.poses, machine, optional_axes=solve_names)
+    out = solve_axes(machine, loaded.effects, loaded.theta, poses, solve_names)
+    write_observations(args.out, out, machine)
+    print(f"{len(out)} poses solved for {', '.join(solve_names)}; written to {args.out}")
+    return 0
+
+
+def _simulate(args) -> int:
+    from dataclasses import replace
+
+    from .machine import load_machine
+    from .observations import write_observations
+    from .simulate import load_errors, load_plan, simulate
+
+    if args.noise_um < 0 or not np.isfinite(args.noise_um):
+        raise DataError(f"--noise-um must be zero or positive, got {args.noise_um}")
+    machine = load_machine(args.machine)
+    effects, theta = load_errors(args.errors, machine)
+    solve = _axes_list(args.solve, machine)
+    plan = load_plan(args.plan, machine, solve)
+    obs = simulate(machine, plan, effects, theta, noise_um=args.noise_um, rng=np.random.default_rng(args.seed), solve=solve, directions=not args.no_directions)
+    if args.no_time:
+        obs = replace(obs, t_s=None)
+    write_observations(args.out, obs, machine)
+    print(f"{len(obs)} alignments simulated with {len(effects)} effects, noise {args.noise_um} µm; written to {args.out}")
+    return 0
+
+
+def _diagnose(args) -> int:
+    from .diagnose import diagnose
+    from .fit import load_fit
+    from .observations import read_observations
+
+    _positive(args.noise_um, "--noise-um")
+    loaded = load_fit(args.fit)
+    obs = read_observations(args.data, loaded.machine)
+    result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, fit_noise_um=loaded.noise_um if loaded.noise_source == "given" else None)
+    if args.report:
+        from .report import diagnosis_report
+
+        diagnosis_report(result, obs, args.report)
+    if args.json:
+        print(json.dumps(result.summary()))
+    else:
+        print(result.text(top=args.top))
+        if args.report:
+            print(f"report written to {Path(args.report) / 'index.html'}")
+    return 0
+
+
+def _demo(args) -> int:
+    from .demo import run_demo
+
+    run_demo(args.out, seed=args.seed)
+    return 0

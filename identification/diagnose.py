@@ -1,0 +1,373 @@
+"""Compare a model with measurements and find which effect is missing.
+
+Score (Lagrange-multiplier) test of every candidate effect at the current fit:
+with whitened residuals r (orthogonal to the model's Jacobian J₀ at the
+optimum) and a candidate's whitened Jacobian block C, the block's part not
+explained by the model is C⊥ = (I − Q₀Q₀ᵀ) C and adding the candidate lowers
+the sum of squares, to first order, by Δ = rᵀ C⊥ (C⊥ᵀ C⊥)⁺ C⊥ᵀ r. With σ
+known, Δ ~ χ²_k under "no such effect"; with σ estimated, an F test. All
+candidates' blocks come from one Pinocchio pass: a candidate's column is its
+error joint's column times the basis value.
+
+The verdict is ``missing-effect`` when the best candidate passes a Bonferroni
+threshold α / (number of live candidates), or when the residual is not
+consistent with the noise (χ² test at α); otherwise ``noise``.
+:func:`forward_select` adds the best candidate, refits the full nonlinear
+model and rescores the rest until the verdict is ``noise``.
+
+References
+----------
+C. R. Rao, "Large sample tests of statistical hypotheses concerning several
+parameters ...", Proc. Cambridge Phil. Soc. 44, 1948 (score test).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.stats
+
+from .effects import candidate_library
+from .fit import FitResult, fit
+from .machine import Machine
+from .observations import Observations
+from .residuals import design, effect_columns, residuals
+
+__all__ = ["Candidate", "Diagnosis", "diagnose", "score_candidates", "forward_select", "SelectionStep", "noise_from_replicates", "ALPHA"]
+
+#: Family-wise significance level of the verdict.
+ALPHA = 0.01
+#: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
+ALIAS_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """Score of one candidate effect.
+
+    Attributes
+    ----------
+    effect : str
+    status : {"live", "aliased", "invisible"}
+    k : int
+        Parameters of the effect (degrees of freedom of the test).
+    statistic : float
+        Predicted drop of the whitened sum of squares (χ² units).
+    p_value, log10_p : float
+    rms_after_um : float
+        Predicted residual RMS per coordinate after adding it, µm.
+    size : float
+        Estimated size: the coefficient (k = 1), the amplitude √(a² + b²)
+        (periodic) or the largest term's effect over the data (poly), in ``size_unit``.
+    size_std : float
+    size_unit : str
+    aliases_with : tuple of str
+        For ``aliased``: the model parameters it cannot be told from.
+    """
+
+    effect: str
+    status: str
+    k: int
+    statistic: float
+    p_value: float
+    log10_p: float
+    rms_after_um: float
+    size: float
+    size_std: float
+    size_unit: str
+    aliases_with: tuple = ()
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Result of :func:`diagnose`.
+
+    Attributes
+    ----------
+    fit : FitResult
+        The current model refitted on these data.
+    verdict : {"missing-effect", "noise"}
+    rms_um, noise_um : float
+        Residual RMS per coordinate and σ, µm.
+    noise_source : {"given", "replicates", "fit", "residuals"}
+    chi2_p : float
+        P-value of the residual sum of squares against σ (NaN if σ was estimated from the residuals).
+    threshold : float
+        Bonferroni threshold on a candidate's p-value.
+    candidates : tuple of Candidate
+        Live candidates best first, then aliased and invisible ones.
+    studentized : array (N,)
+        Externally studentized residual norm of each alignment (χ-like, 3 dof).
+    leverage : array (N,)
+        Leverage of each alignment (sum over its 3 coordinates of the hat matrix diagonal).
+    outliers : tuple of int
+        Rows whose studentized residual is beyond the Bonferroni χ²₃ quantile.
+    """
+
+    fit: FitResult
+    verdict: str
+    rms_um: float
+    noise_um: float
+    noise_source: str
+    chi2_p: float
+    threshold: float
+    candidates: tuple
+    studentized: np.ndarray
+    leverage: np.ndarray
+    outliers: tuple
+
+    @property
+    def live(self) -> list:
+        return [c for c in self.candidates if c.status == "live"]
+
+    def summary(self) -> dict:
+        """The JSON object of ``kinid diagnose --json`` (INTERFACES.md §4)."""
+        return {
+            "verdict": self.verdict,
+            "rms_um": float(self.rms_um),
+            "noise_um": float(self.noise_um),
+            "candidates": [{"effect": c.effect, "rms_after_um": float(c.rms_after_um), "p_value": float(c.p_value)} for c in self.live],
+        }
+
+    def text(self, top: int = 10) -> str:
+        """A readable report."""
+        f = self.fit
+        lines = [
+            f"model: {len(f.effects)} effects, {f.rank} identifiable parameters; {f.residuals_um.shape[0]} alignments",
+            f"residual RMS {self.rms_um:.3f} µm per coordinate; noise σ {self.noise_um:.3f} µm ({self.noise_source})"
+            + (f"; χ² test of the residual against σ: p = {self.chi2_p:.3g}" if np.isfinite(self.chi2_p) else ""),
+        ]
+        if self.verdict == "noise":
+            lines.append("verdict: noise — no candidate effect is significant and the residual is consistent with the noise")
+        else:
+            best = self.live[0] if self.live else None
+            if best is not None and best.p_value < self.threshold:
+                lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {best.p_value:.3g} < {self.threshold:.3g})")
+                lines.append(f"  add it:  kinid identify ... --add {best.effect}")
+            else:
+                lines.append("verdict: missing-effect — the residual exceeds the noise, but no candidate in the library explains it")
+        lines.append("")
+        w = max([len(c.effect) for c in self.live[:top]] + [6])
+        lines.append(f"{'rank':>4}  {'effect':<{w}}  {'k':>2}  {'Δχ²':>10}  {'p-value':>9}  {'RMS after':>9}  size ± std")
+        for i, c in enumerate(self.live[:top], 1):
+            lines.append(
+                f"{i:>4}  {c.effect:<{w}}  {c.k:>2}  {c.statistic:10.1f}  {c.p_value:9.2g}  {c.rms_after_um:8.3f}µ  {c.size:.4g} ± {c.size_std:.2g} {c.size_unit}"
+            )
+        aliased = [c for c in self.candidates if c.status != "live"]
+        if aliased:
+            lines.append("")
+            lines.append(f"{len(aliased)} candidates cannot be tested with these data:")
+            for c in aliased[:top]:
+                why = f"aliased with {', '.join(c.aliases_with)}" if c.status == "aliased" else "invisible to this measurement plan"
+                lines.append(f"  {c.effect}: {why}")
+            if len(aliased) > top:
+                lines.append(f"  ... and {len(aliased) - top} more")
+        if self.outliers:
+            lines.append("")
+            lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
+        if f.aliases:
+            lines.append("")
+            lines.append("held fixed (not identifiable from these data):")
+            lines += [f"  - {a.message}" for a in f.aliases]
+        return "\n".join(lines)
+
+
+def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray):
+    """Pooled σ (µm per coordinate) from alignments repeated at the same pose, or None.
+
+    Rows are replicates when they have the same mark, the same readings of the
+    preset (non-prismatic) axes and the same approach directions.
+    """
+    preset = [j for j, a in enumerate(machine.axes) if a.kind != "prismatic"]
+    keys = {}
+    for i in range(len(obs)):
+        key = (obs.marks[i], *np.round(obs.axes[i, preset], 9), *(obs.directions[a][i] for a in sorted(obs.directions)))
+        keys.setdefault(key, []).append(i)
+    ss, dof = 0.0, 0
+    for rows in keys.values():
+        if len(rows) > 1:
+            g = r_um[rows]
+            ss += float(np.sum((g - g.mean(axis=0)) ** 2))
+            dof += 3 * (len(rows) - 1)
+    return (np.sqrt(ss / dof), dof) if dof else None
+
+
+def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool, d_errors=None):
+    """Score test of each candidate effect at the fit ``result`` (see module docstring).
+
+    Returns
+    -------
+    list of Candidate, unsorted.
+    """
+    d0 = design(machine, result.effects, obs)
+    if d_errors is None:
+        _, J0, d_errors = residuals(machine, d0, obs, result.theta)
+    else:
+        J0 = effect_columns(d_errors, d0)
+    M = result.residuals_um.size
+    r = result.residuals_um.ravel() / sigma
+    J0 = J0.reshape(M, -1)[:, result.identifiable] / sigma
+    Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((M, 0))
+    r = r - Q0 @ (Q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
+    rss = float(r @ r)
+    p0 = result.rank
+    dc = design(machine, candidates, obs)
+    C_all = effect_columns(d_errors, dc).reshape(M, -1) / sigma
+    C_perp_all = C_all - Q0 @ (Q0.T @ C_all)
+    model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
+    visible_floor = 1e-12 * max(1.0, float(np.abs(C_all).max())) if C_all.size else 1e-12
+    out = []
+    start = 0
+    for e in candidates:
+        k = e.n_params
+        C = C_all[:, start : start + k]
+        Cp = C_perp_all[:, start : start + k]
+        start += k
+        unit = e.param_units(machine)[0]
+        norm_c = np.linalg.norm(C, axis=0)
+        if not np.any(norm_c > visible_floor):
+            out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
+            continue
+        ratio = np.linalg.norm(Cp, axis=0) / np.where(norm_c > 0, norm_c, 1.0)
+        U, s, Vt = np.linalg.svd(Cp / np.where(norm_c > 0, norm_c, 1.0), full_matrices=False)
+        keep = s > ALIAS_TOL
+        if not keep.any() or ratio.max() < ALIAS_TOL:
+            coef = np.linalg.lstsq(J0, C, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
+            weight = np.abs(coef).max(axis=1) * np.linalg.norm(J0, axis=0) if coef.size else np.zeros(0)
+            order = np.argsort(-weight)
+            names = tuple(model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
+            out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names))
+            continue
+        kk = int(keep.sum())
+        proj = U[:, keep].T @ r
+        delta = float(proj @ proj)
+        if sigma_known:
+            log_sf = scipy.stats.chi2.logsf(delta, kk)
+        else:
+            dof2 = M - p0 - kk
+            F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
+            log_sf = scipy.stats.f.logsf(F, kk, dof2)
+        # size of the effect: least-squares coefficients of the projected block
+        beta, *_ = np.linalg.lstsq(Cp, r, rcond=None)
+        cov = np.linalg.pinv(Cp.T @ Cp)
+        size, size_std = _size(e, beta, cov, obs, machine)
+        rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
+        out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)), rms_after, size, size_std, unit))
+    return out
+
+
+def _size(effect, beta, cov, obs, machine):
+    if effect.basis == "periodic":
+        amp = float(np.hypot(*beta))
+        g = beta / amp if amp > 0 else np.array([1.0, 0.0])
+        return amp, float(np.sqrt(max(g @ cov @ g, 0.0)))
+    if effect.basis == "poly":
+        j = effect.degree - 1
+        return float(beta[j]), float(np.sqrt(max(cov[j, j], 0.0)))
+    return float(beta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
+
+
+def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit_noise_um=None, alpha: float = ALPHA, theta0=None, result: FitResult | None = None) -> Diagnosis:
+    """Refit ``effects`` on ``obs`` and rank the candidate library.
+
+    Parameters
+    ----------
+    machine, obs, effects
+    noise_um : float, optional
+        σ per coordinate, µm. Default: from replicate alignments in the data,
+        else ``fit_noise_um``, else estimated from the residuals.
+    fit_noise_um : float, optional
+        The σ the fit was made with, if it was given.
+    alpha : float
+        Family-wise significance level.
+    result : FitResult, optional
+        An existing fit of ``effects`` on ``obs`` (skips the refit).
+    """
+    if result is None:
+        result = fit(machine, obs, effects, theta0=theta0)
+    r = result.residuals_um
+    M = r.size
+    if noise_um is not None:
+        sigma, source = float(noise_um), "given"
+    else:
+        rep = noise_from_replicates(machine, obs, r)
+        if rep is not None:
+            sigma, source = float(rep[0]), "replicates"
+        elif fit_noise_um is not None:
+            sigma, source = float(fit_noise_um), "fit"
+        else:
+            sigma, source = float(np.sqrt(np.sum(r**2) / max(result.dof, 1))), "residuals"
+    known = source != "residuals"
+    library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
+    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known)
+    live = sorted([c for c in scored if c.status == "live"], key=lambda c: (c.log10_p, c.rms_after_um))
+    rest = [c for c in scored if c.status != "live"]
+    threshold = alpha / max(len(live), 1)
+    chi2_p = float(scipy.stats.chi2.sf(np.sum(r**2) / sigma**2, result.dof)) if known else float("nan")
+    significant = bool(live) and live[0].p_value < threshold
+    verdict = "missing-effect" if significant or (known and chi2_p < alpha) else "noise"
+    stud, lev = _studentized(machine, obs, result, sigma)
+    bound = scipy.stats.chi2.isf(alpha / len(obs), 3)
+    outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
+    rms = float(np.sqrt(np.mean(r**2)))
+    return Diagnosis(result, verdict, rms, sigma, source, chi2_p, threshold, tuple(live + rest), stud, lev, outliers)
+
+
+def _studentized(machine, obs, result, sigma):
+    """Per-alignment studentized residual norm and leverage (hat matrix of the identifiable Jacobian)."""
+    d0 = design(machine, result.effects, obs)
+    _, J, _ = residuals(machine, d0, obs, result.theta)
+    N = len(obs)
+    M = 3 * N
+    Jf = J.reshape(M, -1)[:, result.identifiable]
+    Q = scipy.linalg.qr(Jf, mode="economic")[0] if Jf.shape[1] else np.zeros((M, 0))
+    h = np.sum(Q**2, axis=1).reshape(N, 3)
+    r = result.residuals_um
+    stud = np.sqrt(np.sum(r**2 / np.maximum(1 - h, 1e-12), axis=1)) / sigma
+    return stud, h.sum(axis=1)
+
+
+@dataclass(frozen=True)
+class SelectionStep:
+    """One step of forward selection: the model, its fit and its diagnosis, and what was added to reach it."""
+
+    added: str | None
+    fit: FitResult
+    diagnosis: Diagnosis
+
+
+def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=None, alpha: float = ALPHA, max_steps: int = 8, progress=None) -> list:
+    """Add the best candidate, refit the full nonlinear model, rescore; until the verdict is ``noise``.
+
+    Parameters
+    ----------
+    progress : file-like, optional
+        Where to print one line per step (the RMS falling against σ).
+
+    Returns
+    -------
+    list of SelectionStep
+        The first step is the starting model.
+    """
+    effects = list(effects)
+    added = None
+    steps = []
+    theta0 = None
+    for _ in range(max_steps + 1):
+        dg = diagnose(machine, obs, effects, noise_um=noise_um, alpha=alpha, theta0=theta0)
+        steps.append(SelectionStep(added, dg.fit, dg))
+        if progress is not None:
+            what = "start" if added is None else f"+ {added}"
+            print(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}", file=progress, flush=True)
+        best = dg.live[0] if dg.live else None
+        if dg.verdict == "noise" or best is None or best.p_value >= dg.threshold:
+            break
+        from .effects import parse_effect
+
+        effects.append(parse_effect(best.effect, machine))
+        theta0 = np.r_[dg.fit.theta, np.zeros(effects[-1].n_params)]
+        added = best.effect
+        if noise_um is None and dg.noise_source in ("given", "replicates", "fit"):
+            noise_um = dg.noise_um
+    return steps

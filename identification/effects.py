@@ -1,0 +1,181 @@
+"""Effects: an error joint plus a basis that says how its value varies (INTERFACES.md §2).
+
+=====================  ==============================================  ==========
+name                   value of the error joint                        parameters
+=====================  ==============================================  ==========
+``EX0C``               constant                                        1
+``EXX:poly<k>``        Σ_j θ_j q^j, j = 1..k, q = position of axis X    k
+``EXX:periodic:<P>``   a·sin(2πq/P) + b·cos(2πq/P), P in mm or deg     2
+``EXX:reversal``       β·s/2, s = approach direction (column dir_x)    1
+``<code>:drift``       γ·t, t = column ``t_s``                          1
+=====================  ==============================================  ==========
+
+Parameter units: the joint's unit u (µm for a translation, µrad for a
+rotation) — times (mm or deg)^-j for a polynomial term, per second for drift.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import DataError
+from .machine import Machine
+
+__all__ = ["Effect", "parse_effect", "default_model", "candidate_library", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
+
+LINEAR_PERIODS_MM = (2, 4, 5, 8, 10, 16, 20)
+ROTARY_PERIODS_DEG = (360, 180, 120, 90)
+_SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+_BASIS = re.compile(r"^(?:poly(?P<deg>[1-9])|periodic:(?P<period>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)|(?P<rev>reversal)|(?P<drift>drift))$")
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One error joint plus a basis.
+
+    Attributes
+    ----------
+    name : str
+        As written by users: ``EXX:periodic:10``.
+    code : str
+        The error joint.
+    basis : {"constant", "poly", "periodic", "reversal", "drift"}
+    degree : int
+        Polynomial degree (poly only).
+    period : float
+        Period in mm or deg (periodic only).
+    axis : str
+        The axis whose position or direction drives the basis ("" for constant/drift).
+    unit : {"um", "urad"}
+        Unit of the error joint's value.
+    """
+
+    name: str
+    code: str
+    basis: str
+    degree: int = 0
+    period: float = 0.0
+    axis: str = ""
+    unit: str = "um"
+
+    @property
+    def n_params(self) -> int:
+        return {"poly": self.degree, "periodic": 2}.get(self.basis, 1)
+
+    def param_names(self) -> list[str]:
+        if self.basis == "poly":
+            return [f"{self.name}[q{str(j).translate(_SUPERSCRIPT)}]" for j in range(1, self.degree + 1)]
+        if self.basis == "periodic":
+            return [f"{self.name}[sin]", f"{self.name}[cos]"]
+        return [self.name]
+
+    def param_units(self, machine: Machine) -> list[str]:
+        u = "µm" if self.unit == "um" else "µrad"
+        if self.basis == "poly":
+            q = "mm" if machine.axis(self.axis).kind == "prismatic" else "deg"
+            return [f"{u}/{q}" + (str(j).translate(_SUPERSCRIPT) if j > 1 else "") for j in range(1, self.degree + 1)]
+        if self.basis == "drift":
+            return [f"{u}/s"]
+        return [u] * self.n_params
+
+
+def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effect:
+    """Parse an effect name against a machine.
+
+    Raises
+    ------
+    DataError
+        Naming the effect and what is wrong (unknown joint, bad basis, a
+        position basis on a set-up joint ...).
+    """
+    code, _, basis = name.strip().partition(":")
+    if code not in machine.error_codes:
+        close = [c for c in machine.error_codes if c[:2] == code[:2]][:6]
+        hint = f"; joints starting {code[:2]!r}: {', '.join(close)}" if close else ""
+        raise DataError(f"{source} {name!r}: {code!r} is not an error joint of this machine{hint}")
+    joint = machine.error_joint(code)
+    if not basis:
+        return Effect(name, code, "constant", unit=joint.unit)
+    m = _BASIS.match(basis)
+    if not m:
+        raise DataError(f"{source} {name!r}: unknown basis {basis!r}; expected poly<k> (k=1..9), periodic:<P>, reversal or drift")
+    if m.group("drift"):
+        return Effect(name, code, "drift", unit=joint.unit)
+    axis = joint.axis
+    if axis in ("W", "T") or axis not in machine.axis_names:
+        raise DataError(f"{source} {name!r}: a {basis.split(':')[0]} basis needs the position of an axis; {code} is a set-up error")
+    if m.group("deg"):
+        return Effect(name, code, "poly", degree=int(m.group("deg")), axis=axis, unit=joint.unit)
+    if m.group("period"):
+        period = float(m.group("period"))
+        if not period > 0:
+            raise DataError(f"{source} {name!r}: the period must be positive")
+        return Effect(name, code, "periodic", period=period, axis=axis, unit=joint.unit)
+    return Effect(name, code, "reversal", axis=axis, unit=joint.unit)
+
+
+def default_model(machine: Machine) -> list[Effect]:
+    """Every location error (E?0?, set-up joints W and T included) as a constant, in URDF order."""
+    return [Effect(e.code, e.code, "constant", unit=e.unit) for e in machine.error_joints if e.location]
+
+
+def candidate_library(machine: Machine, model, *, has_directions: bool, has_time: bool) -> list[Effect]:
+    """The default candidate library of INTERFACES.md §2, minus effects already in ``model``.
+
+    For every position-dependent joint: poly1, poly2, poly3, periodic at the
+    standard periods, reversal (when the data have ``dir_`` columns); drift on
+    every error joint (when the data have ``t_s``); every constant location
+    error the model lacks.
+    """
+    have = {e.name for e in model}
+    out = []
+    for j in machine.error_joints:
+        if j.location:
+            out.append(f"{j.code}")
+        else:
+            kind = machine.axis(j.axis).kind
+            out += [f"{j.code}:poly{k}" for k in (1, 2, 3)]
+            periods = LINEAR_PERIODS_MM if kind == "prismatic" else ROTARY_PERIODS_DEG
+            out += [f"{j.code}:periodic:{p}" for p in periods]
+            if has_directions:
+                out.append(f"{j.code}:reversal")
+        if has_time:
+            out.append(f"{j.code}:drift")
+    return [parse_effect(n, machine) for n in out if n not in have]
+
+
+def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None) -> np.ndarray:
+    """Basis values (N, n_params) of ``effect`` for N poses.
+
+    Parameters
+    ----------
+    axes_user : array (N, n_axes)
+        Axis readings in machine order, mm / deg.
+    t_s : array (N,) or None
+        Times, s (drift).
+    directions : mapping axis name -> array (N,) of ±1, or None (reversal).
+
+    Raises
+    ------
+    DataError
+        If the data lack the column the basis needs (``t_s``, ``dir_<axis>``).
+    """
+    n = axes_user.shape[0]
+    if effect.basis == "constant":
+        return np.ones((n, 1))
+    if effect.basis == "drift":
+        if t_s is None:
+            raise DataError(f"effect {effect.name!r} needs the column 't_s' in the data")
+        return np.asarray(t_s, float).reshape(n, 1)
+    q = axes_user[:, machine.axis_names.index(effect.axis)]
+    if effect.basis == "poly":
+        return np.stack([q**j for j in range(1, effect.degree + 1)], axis=1)
+    if effect.basis == "periodic":
+        phase = 2 * np.pi * q / effect.period
+        return np.stack([np.sin(phase), np.cos(phase)], axis=1)
+    column = f"dir_{effect.axis.lower()}"
+    if directions is None or effect.axis not in directions:
+        raise DataError(f"effect {effect.name!r} needs the column {column!r} in the data")
+    return (np.asarray(directions[effect.axis], float) / 2.0).reshape(n, 1)

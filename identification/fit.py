@@ -1,0 +1,338 @@
+"""Identify effect parameters from alignment observations.
+
+Levenberg–Marquardt on the nonlinear residuals: Pinocchio gives residuals and
+Jacobians (:mod:`identification.residuals`); each step is a small quadratic
+program — min ½‖J_s δ + r‖² + ½λ‖δ‖² on unit-scaled columns, with optional
+bounds — solved by CasADi's ``qrqp`` active-set solver. Parameters the data
+cannot separate are found first (:mod:`identification.identifiability`), held
+fixed at zero and reported by name.
+
+Units: parameters in the effects' units (µm, µrad, µm/mm ...), residuals µm.
+"""
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .atomic import write_text
+from .effects import Effect, default_model, parse_effect
+from .errors import DataError
+from .identifiability import RANK_TOL, Alias, Identifiability, analyse
+from .machine import Machine, machine_from_urdf
+from .observations import Observations
+from .residuals import design, residuals
+
+__all__ = ["FitResult", "fit", "save_fit", "load_fit", "model_effects", "FIT_FORMAT"]
+
+FIT_FORMAT = "kinid-fit/1"
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """An identified model.
+
+    Attributes
+    ----------
+    machine : Machine
+    effects : tuple of Effect
+    param_names, units : tuple of str
+    values : array (P,)
+        Identified values; NaN where the parameter is not identifiable.
+    std : array (P,)
+        Standard deviations from the covariance at ``noise_um``; NaN where held.
+    identifiable : array (P,) of bool
+    aliases : tuple of Alias
+        The parameters held fixed, by name, with what they alias with.
+    rank : int
+    condition_number, o1, o3 : float
+        Of the whitened, column-scaled Jacobian of the identifiable parameters.
+    residuals_um : array (N, 3)
+        Tool point − mark in the workpiece frame, µm.
+    rms_um : float
+        RMS over all residual components, µm (comparable with a per-axis σ).
+    noise_um : float
+        σ used for the standard deviations (given, or estimated from the residuals).
+    noise_source : {"given", "residuals"}
+    dof : int
+        Residual degrees of freedom, 3N − rank.
+    iterations : int
+    success : bool
+    message : str
+    """
+
+    machine: Machine
+    effects: tuple
+    param_names: tuple
+    units: tuple
+    values: np.ndarray
+    std: np.ndarray
+    identifiable: np.ndarray
+    aliases: tuple
+    rank: int
+    condition_number: float
+    o1: float
+    o3: float
+    residuals_um: np.ndarray
+    rms_um: float
+    noise_um: float
+    noise_source: str
+    dof: int
+    iterations: int
+    success: bool
+    message: str
+    singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Parameter vector for the model: identified values, 0 where held."""
+        return np.where(self.identifiable, self.values, 0.0)
+
+    @property
+    def effect_names(self) -> tuple:
+        return tuple(e.name for e in self.effects)
+
+    def table(self) -> str:
+        """Readable table: parameter, value, standard deviation, unit."""
+        w = max([len(n) for n in self.param_names] + [9])
+        lines = [f"{'parameter':<{w}}  {'value':>12}  {'std':>10}  unit"]
+        for n, v, s, u, ok in zip(self.param_names, self.values, self.std, self.units, self.identifiable):
+            if ok:
+                lines.append(f"{n:<{w}}  {v:12.4f}  {s:10.4f}  {u}")
+            else:
+                lines.append(f"{n:<{w}}  {'held':>12}  {'':>10}  {u}")
+        lines.append("")
+        lines.append(
+            f"residual RMS {self.rms_um:.4f} µm per coordinate over {self.residuals_um.shape[0]} alignments; "
+            f"σ = {self.noise_um:.4f} µm ({self.noise_source}); rank {self.rank}/{len(self.param_names)}; "
+            f"condition {self.condition_number:.3g}; O1 {self.o1:.3g}; O3 {self.o3:.3g}"
+        )
+        if self.aliases:
+            lines.append("not identifiable from these data (held fixed, not returned as values):")
+            lines += [f"  - {a.message}" for a in self.aliases]
+        if not self.success:
+            lines.append(f"WARNING: {self.message}")
+        return "\n".join(lines)
+
+
+def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
+    """The default model (or ``base`` effect names) plus the effects named in ``add``."""
+    effects = default_model(machine) if base is None else [parse_effect(n, machine) for n in base]
+    names = {e.name for e in effects}
+    for n in add:
+        e = parse_effect(n, machine, source="--add effect")
+        if e.name in names:
+            raise DataError(f"--add effect {n!r} is already in the model")
+        names.add(e.name)
+        effects.append(e)
+    return effects
+
+
+@functools.lru_cache(maxsize=32)
+def _step_solver(n: int):
+    """CasADi QP for one Levenberg–Marquardt step in ``n`` scaled parameters."""
+    opts = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
+    return ca.conic("lm_step", "qrqp", {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity(0, n)}, opts)
+
+
+def _lm_step(Js, r, lam, lbx, ubx):
+    """δ minimising ½‖Js δ + r‖² + ½ λ‖δ‖² within [lbx, ubx] (scaled units)."""
+    n = Js.shape[1]
+    H = Js.T @ Js + lam * np.eye(n)
+    g = Js.T @ r
+    sol = _step_solver(n)(h=ca.DM(H), g=ca.DM(g), lbx=ca.DM(lbx), ubx=ca.DM(ubx), a=ca.DM(0, n), lba=ca.DM(0, 1), uba=ca.DM(0, 1))
+    return np.asarray(sol["x"]).ravel()
+
+
+def fit(
+    machine: Machine,
+    obs: Observations,
+    effects=None,
+    *,
+    noise_um: float | None = None,
+    bounds: dict | None = None,
+    rank_tol: float = RANK_TOL,
+    max_iter: int = 100,
+    xtol: float = 1e-12,
+    theta0=None,
+) -> FitResult:
+    """Fit ``effects`` (default: the default model) to the observations.
+
+    Parameters
+    ----------
+    machine : Machine
+    obs : Observations
+    effects : sequence of Effect, optional
+    noise_um : float, optional
+        σ of one residual coordinate, µm. Default: estimated from the residuals.
+    bounds : dict name -> (low, high), optional
+        Box bounds on parameters, in their units.
+    rank_tol : float
+        See :mod:`identification.identifiability`.
+    max_iter : int
+        Levenberg–Marquardt iterations at most.
+    xtol : float
+        Stop when the scaled step is below ``xtol`` × (1 + ‖scaled θ‖).
+    theta0 : array (P,), optional
+        Starting values (default zero).
+
+    Returns
+    -------
+    FitResult
+    """
+    if noise_um is not None and not noise_um > 0:
+        raise DataError(f"--noise-um must be positive, got {noise_um}")
+    effects = tuple(default_model(machine) if effects is None else effects)
+    d = design(machine, effects, obs)
+    names = d.param_names()
+    P = d.n_params
+    theta = np.zeros(P) if theta0 is None else np.asarray(theta0, float).copy()
+    r, J, _ = residuals(machine, d, obs, theta)
+    M = r.size
+    sigma0 = noise_um or 1.0
+    ident = analyse(J.reshape(M, P) / sigma0, names, tol=rank_tol)
+    free = ident.identifiable
+    theta[~free] = 0.0
+    D = np.linalg.norm(J.reshape(M, P)[:, free], axis=0)
+    lo = np.full(P, -np.inf)
+    hi = np.full(P, np.inf)
+    for name, (a, b) in (bounds or {}).items():
+        if name not in names:
+            raise DataError(f"bound on unknown parameter {name!r}")
+        lo[names.index(name)], hi[names.index(name)] = a, b
+
+    cost = 0.5 * float(np.sum(r**2))
+    lam = 1e-9
+    success, message, it = False, "", 0
+    for it in range(1, max_iter + 1):
+        Js = J.reshape(M, P)[:, free] / D
+        xs = theta[free] * D
+        delta = _lm_step(Js, r.ravel(), lam, lo[free] * D - xs, hi[free] * D - xs)
+        trial = theta.copy()
+        trial[free] += delta / D
+        r_new = residuals(machine, d, obs, trial, jacobian=False)
+        cost_new = 0.5 * float(np.sum(r_new**2))
+        if cost_new <= cost:
+            small = np.linalg.norm(delta) <= xtol * (1 + np.linalg.norm(xs))
+            flat = cost - cost_new <= 1e-15 * cost
+            theta, cost = trial, cost_new
+            lam = max(lam / 10, 1e-12)
+            r, J, _ = residuals(machine, d, obs, theta)
+            if small or flat:
+                success, message = True, f"converged in {it} iterations"
+                break
+        else:
+            lam *= 10
+            if lam > 1e12:
+                success, message = True, f"converged in {it} iterations (no further decrease)"
+                break
+    else:
+        message = f"did not converge in {max_iter} iterations"
+
+    # uncertainty at the solution
+    rms = float(np.sqrt(np.mean(r**2)))
+    rank = int(free.sum())
+    dof = M - rank
+    if noise_um is None:
+        sigma, source = (float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan")), "residuals"
+    else:
+        sigma, source = float(noise_um), "given"
+    Jf = J.reshape(M, P)[:, free] / sigma
+    Df = np.linalg.norm(Jf, axis=0)
+    _, s, Vt = np.linalg.svd(Jf / Df, full_matrices=False)
+    cov_scaled = (Vt.T / s**2) @ Vt
+    std = np.full(P, np.nan)
+    std[free] = np.sqrt(np.diag(cov_scaled)) / Df
+    final = analyse(J.reshape(M, P) / sigma, names, tol=rank_tol)
+    if not np.array_equal(final.identifiable, free):
+        message += "; the identifiable set changed at the solution (nonlinear aliasing): check the held parameters"
+    values = np.where(free, theta, np.nan)
+    units = tuple(u for e in effects for u in e.param_units(machine))
+    return FitResult(
+        machine, effects, tuple(names), units, values, std, free.copy(), ident.aliases, rank,
+        final.condition_number if final.rank == rank else ident.condition_number, ident.o1, ident.o3,
+        r, rms, sigma, source, dof, it, success, message, ident.singular_values,
+    )
+
+
+def fit_to_dict(result: FitResult) -> dict:
+    params = []
+    for n, v, s, u, ok in zip(result.param_names, result.values, result.std, result.units, result.identifiable):
+        params.append({"name": n, "value": float(v) if ok else None, "std": float(s) if ok else None, "unit": u, "identified": bool(ok)})
+    return {
+        "format": FIT_FORMAT,
+        "machine": {"path": result.machine.path, "urdf": result.machine.urdf},
+        "effects": list(result.effect_names),
+        "parameters": params,
+        "unidentifiable": [{"name": a.name, "kind": a.kind, "partners": [list(p) for p in a.partners], "message": a.message} for a in result.aliases],
+        "rank": result.rank,
+        "condition_number": result.condition_number,
+        "o1": result.o1,
+        "o3": result.o3,
+        "rms_um": result.rms_um,
+        "noise_um": result.noise_um,
+        "noise_source": result.noise_source,
+        "dof": result.dof,
+        "n_observations": int(result.residuals_um.shape[0]),
+        "iterations": result.iterations,
+        "success": result.success,
+        "message": result.message,
+    }
+
+
+def save_fit(result: FitResult, path) -> None:
+    """Write a fit as JSON (whole or not at all); it embeds the machine's URDF."""
+    write_text(path, json.dumps(fit_to_dict(result), indent=1, ensure_ascii=False) + "\n")
+
+
+@dataclass(frozen=True)
+class LoadedFit:
+    """A fit read back from JSON: enough to predict and to diagnose."""
+
+    machine: Machine
+    effects: tuple
+    param_names: tuple
+    theta: np.ndarray
+    identifiable: np.ndarray
+    noise_um: float
+    noise_source: str
+    data: dict
+
+
+def load_fit(path) -> LoadedFit:
+    """Read a fit written by :func:`save_fit`.
+
+    Raises
+    ------
+    DataError
+        If the file is missing, not JSON, or not a kinid fit.
+    """
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataError("fit file not found", path=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"cannot read ({exc})", path=path) from None
+    except json.JSONDecodeError as exc:
+        raise DataError(f"not JSON ({exc.msg})", path=path, line=exc.lineno) from None
+    if not isinstance(data, dict) or data.get("format") != FIT_FORMAT:
+        raise DataError(f"not a kinid fit (expected \"format\": \"{FIT_FORMAT}\")", path=path)
+    try:
+        machine = machine_from_urdf(data["machine"]["urdf"], data["machine"].get("path", str(path)))
+        effects = tuple(parse_effect(n, machine, source="effect") for n in data["effects"])
+        params = data["parameters"]
+        names = tuple(p["name"] for p in params)
+        ok = np.array([bool(p["identified"]) for p in params])
+        theta = np.array([float(p["value"]) if p["identified"] else 0.0 for p in params])
+        noise = float(data["noise_um"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
+    if sum(e.n_params for e in effects) != len(names):
+        raise DataError("malformed kinid fit: the parameters do not match the effects", path=path)
+    return LoadedFit(machine, effects, names, theta, ok, noise, data.get("noise_source", "given"), data)

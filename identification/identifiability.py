@@ -1,0 +1,142 @@
+"""Which parameters the data can separate, and which combinations they cannot.
+
+The whitened Jacobian's columns are scaled to unit length and factorised by QR
+in the model's own order (location errors of the axes, then the set-up of the
+board and of the sensor, then added effects): a column whose component
+orthogonal to the columns before it is below ``tol`` (a sine of the angle to
+their span) cannot be separated from them. Such a parameter is held fixed and
+reported by name together with the parameters it aliases with — never returned
+as a number. Observability indices follow Sun & Hollerbach (2008): O1 of Borm
+& Menq (geometric mean of the singular values over √m) and O3 (the minimum
+singular value), on the column-scaled Jacobian.
+
+References
+----------
+J.-H. Borm, C.-H. Menq, "Determination of optimal measurement configurations
+for robot calibration based on observability measure", IJRR 10(1), 1991.
+Y. Sun, J. M. Hollerbach, "Observability index selection for robot
+calibration", ICRA 2008.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+__all__ = ["Alias", "Identifiability", "analyse", "RANK_TOL", "INVISIBLE_TOL"]
+
+#: A unit column whose distance to the span of the earlier columns is below this is dependent.
+RANK_TOL = 1e-8
+#: A column whose norm is below this fraction of the largest column norm has no effect on the data.
+INVISIBLE_TOL = 1e-12
+
+
+@dataclass(frozen=True)
+class Alias:
+    """A parameter the data cannot determine.
+
+    Attributes
+    ----------
+    name : str
+    kind : {"invisible", "aliased"}
+        ``invisible``: it does not change the residuals of these data at all;
+        ``aliased``: it changes them only as a combination of other parameters.
+    partners : tuple of (str, float)
+        For ``aliased``: parameters p_i and coefficients c_i such that the data
+        see p_i + c_i · name.
+    message : str
+    """
+
+    name: str
+    kind: str
+    partners: tuple = ()
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """Result of :func:`analyse`.
+
+    Attributes
+    ----------
+    identifiable : array (P,) of bool
+    rank : int
+    aliases : tuple of Alias
+        One per parameter that is not identifiable, in model order.
+    singular_values : array
+        Of the unit-column Jacobian of the identifiable parameters.
+    condition_number, o1, o3 : float
+    """
+
+    identifiable: np.ndarray
+    rank: int
+    aliases: tuple
+    singular_values: np.ndarray
+    condition_number: float
+    o1: float
+    o3: float
+
+
+def _describe(name, partners):
+    if not partners:
+        return f"{name} cannot be identified from these data (held fixed)"
+    if len(partners) == 1:
+        other, c = partners[0]
+        if abs(c - 1) < 1e-6:
+            return f"{other} and {name}: only their sum is identified ({name} held fixed)"
+        if abs(c + 1) < 1e-6:
+            return f"{other} and {name}: only their difference is identified ({name} held fixed)"
+    seen = ", ".join(f"{p} {'+' if c >= 0 else '-'} {abs(c):.4g}·{name}" for p, c in partners)
+    return f"{name} is aliased with {', '.join(p for p, _ in partners)}: the data see only {seen} ({name} held fixed)"
+
+
+def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float = INVISIBLE_TOL) -> Identifiability:
+    """Identifiability of the parameters of Jacobian ``J``.
+
+    Parameters
+    ----------
+    J : array (M, P)
+        Whitened Jacobian (residuals / σ per parameter unit).
+    names : sequence of str
+        Parameter names, in priority order (earlier ones are kept when aliased).
+    tol : float
+        Rank tolerance on unit columns (see module docstring).
+    invisible_tol : float
+        Relative column norm below which a parameter is invisible.
+
+    Returns
+    -------
+    Identifiability
+    """
+    M, P = J.shape
+    norms = np.linalg.norm(J, axis=0)
+    biggest = norms.max() if P else 0.0
+    visible = norms > invisible_tol * max(biggest, np.finfo(float).tiny)
+    Jn = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
+    accepted = np.zeros(P, dtype=bool)
+    aliases = []
+    if P:
+        R = scipy.linalg.qr(Jn, mode="r")[0]
+        diag = np.abs(np.diag(R)) if R.shape[0] >= P else np.r_[np.abs(np.diag(R)), np.zeros(P - R.shape[0])]
+        for j in range(P):
+            if visible[j] and diag[j] > tol:
+                accepted[j] = True
+        acc = np.flatnonzero(accepted)
+        for j in range(P):
+            if accepted[j]:
+                continue
+            if not visible[j]:
+                aliases.append(Alias(names[j], "invisible", (), f"{names[j]} has no effect on these data (held fixed)"))
+                continue
+            earlier = acc[acc < j]
+            c = np.linalg.lstsq(Jn[:, earlier], Jn[:, j], rcond=None)[0] if len(earlier) else np.zeros(0)
+            order = np.argsort(-np.abs(c))
+            partners = tuple((names[earlier[i]], float(c[i] * norms[j] / norms[earlier[i]])) for i in order if abs(c[i]) > 1e-3)
+            aliases.append(Alias(names[j], "aliased", partners, _describe(names[j], partners)))
+    s = np.linalg.svd(Jn[:, accepted], compute_uv=False) if accepted.any() else np.zeros(0)
+    L = len(s)
+    o1 = float(np.exp(np.mean(np.log(s))) / np.sqrt(M)) if L and s.min() > 0 else 0.0
+    o3 = float(s.min()) if L else 0.0
+    cond = float(s.max() / s.min()) if L and s.min() > 0 else float("inf")
+    return Identifiability(accepted, int(accepted.sum()), tuple(aliases), s, cond, o1, o3)

@@ -1,0 +1,427 @@
+"""Machines: a URDF with ISO 230-1 error joints, loaded into Pinocchio (INTERFACES.md §1).
+
+:func:`load_machine` discovers the motion axes and error joints and checks the
+naming and placement convention. :func:`evaluate` gives the tool point in the
+workpiece frame and its derivatives with respect to every joint, from
+Pinocchio's forward kinematics and joint Jacobians.
+
+Units: axis readings in mm (prismatic) and degrees (revolute) at this
+module's boundary; error-joint values in µm (prismatic) and µrad (revolute);
+Pinocchio works in metres and radians inside.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import MachineError
+
+__all__ = [
+    "Axis",
+    "ErrorJoint",
+    "Machine",
+    "load_machine",
+    "machine_from_urdf",
+    "evaluate",
+    "tool_in_workpiece_mm",
+]
+
+_ERROR_CODE = re.compile(r"^E([XYZABC])(0?)([A-Z][A-Z0-9]*)$")
+_AXIS_NAME = re.compile(r"^[A-DF-Z][A-Z0-9]*$", re.IGNORECASE)
+_UNIT = {"prismatic": "mm", "revolute": "deg"}
+
+
+@dataclass(frozen=True)
+class Axis:
+    """A motion axis of the machine.
+
+    Attributes
+    ----------
+    name : str
+        Joint name in the URDF (``X``, ``B``, ``J1`` ...).
+    kind : {"prismatic", "revolute"}
+    chain : {"workpiece", "tool"}
+    column : str
+        Its column in observation files: ``x_mm``, ``b_deg`` ...
+    q_index, v_index : int
+        Position in Pinocchio's configuration / velocity vector.
+    nq : int
+        1, or 2 for a continuous (unbounded revolute) joint stored as (cos, sin).
+    """
+
+    name: str
+    kind: str
+    chain: str
+    column: str
+    q_index: int
+    v_index: int
+    nq: int = 1
+
+
+@dataclass(frozen=True)
+class ErrorJoint:
+    """An error joint named by its ISO 230-1 code.
+
+    Attributes
+    ----------
+    code : str
+        ``EXX``, ``EC0Y``, ``EX0W`` ...
+    direction : str
+        Error direction letter ``X Y Z`` (translation) or ``A B C`` (rotation).
+    axis : str
+        The axis it belongs to (``W``/``T`` for set-up).
+    location : bool
+        True for a location (position-independent) error ``E<d>0<k>``.
+    kind : {"prismatic", "revolute"}
+    unit : {"um", "urad"}
+        Unit of its value at kinid's boundary.
+    q_index, v_index : int
+    """
+
+    code: str
+    direction: str
+    axis: str
+    location: bool
+    kind: str
+    unit: str
+    q_index: int
+    v_index: int
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A loaded machine: Pinocchio model plus the discovered axes and error joints."""
+
+    path: str
+    urdf: str
+    model: pin.Model
+    axes: tuple
+    error_joints: tuple
+    workpiece_frame: int
+    tool_frame: int
+
+    def axis(self, name: str) -> Axis:
+        for a in self.axes:
+            if a.name == name:
+                return a
+        raise KeyError(name)
+
+    def error_joint(self, code: str) -> ErrorJoint:
+        for e in self.error_joints:
+            if e.code == code:
+                return e
+        raise KeyError(code)
+
+    @property
+    def axis_names(self) -> tuple:
+        return tuple(a.name for a in self.axes)
+
+    @property
+    def error_codes(self) -> tuple:
+        return tuple(e.code for e in self.error_joints)
+
+
+def _joint_kind(jmodel) -> tuple[str | None, np.ndarray | None]:
+    """(kind, unit axis in the joint frame) of a 1-DOF joint, else (None, None)."""
+    short = jmodel.shortname()
+    m = re.fullmatch(r"JointModel(P|R|RUB)([XYZ])", short)
+    if m:
+        axis = np.zeros(3)
+        axis["XYZ".index(m.group(2))] = 1.0
+        return ("prismatic" if m.group(1) == "P" else "revolute"), axis
+    if short in ("JointModelPrismaticUnaligned", "JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned"):
+        kind = "prismatic" if "Prismatic" in short else "revolute"
+        return kind, np.asarray(jmodel.axis, dtype=float).reshape(3)
+    return None, None
+
+
+def _ancestors(model: pin.Model, joint_id: int) -> list[int]:
+    """Joint ids from the root (exclusive) to ``joint_id`` (inclusive)."""
+    chain = []
+    j = joint_id
+    while j != 0:
+        chain.append(j)
+        j = model.parents[j]
+    return chain[::-1]
+
+
+def _urdf_origins(text: str, path) -> dict:
+    """Joint name -> (xyz, rpy) of its ``<origin>`` as written in the URDF.
+
+    Pinocchio folds fixed joints into the next joint's placement, so the
+    "zero origin" rule of error joints is checked on the file itself.
+    """
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise MachineError(f"not valid XML ({exc})", path=path) from None
+    origins = {}
+    for joint in root.iter("joint"):
+        o = joint.find("origin")
+
+        def vec(key):
+            raw = o.get(key, "0 0 0") if o is not None else "0 0 0"
+            try:
+                values = tuple(float(v) for v in raw.split())
+            except ValueError:
+                values = ()
+            if len(values) != 3:
+                raise MachineError(f"joint {joint.get('name')!r}: origin {key}={raw!r} is not three numbers", path=path)
+            return values
+
+        origins[joint.get("name")] = (vec("xyz"), vec("rpy"))
+    return origins
+
+
+def load_machine(path) -> Machine:
+    """Load a machine URDF and check it against INTERFACES.md §1.
+
+    Parameters
+    ----------
+    path : str or Path
+        URDF file.
+
+    Returns
+    -------
+    Machine
+
+    Raises
+    ------
+    MachineError
+        If the file cannot be read or parsed, a ``workpiece`` or ``tool`` link
+        is missing, or an error joint breaks the naming/placement convention
+        (the message names the joint and what is wrong).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MachineError("machine file not found", path=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MachineError(f"cannot read ({exc})", path=path) from None
+    return machine_from_urdf(text, path)
+
+
+def machine_from_urdf(text: str, path="<urdf>") -> Machine:
+    """Build a :class:`Machine` from URDF text; ``path`` names it in messages."""
+    origins = _urdf_origins(text, path)
+    try:
+        model = pin.buildModelFromXML(text)
+    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError for malformed URDF
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise MachineError(f"not a valid URDF ({first})", path=path) from None
+
+    frames = {}
+    for name in ("workpiece", "tool"):
+        if not model.existFrame(name):
+            raise MachineError(f"no link named {name!r}; the {name} chain must end at a link named {name!r}", path=path)
+        frames[name] = model.getFrameId(name)
+    chains = {c: set(_ancestors(model, model.frames[frames[c]].parentJoint)) for c in frames}
+
+    axes, errors, pending = [], [], []
+    for jid in range(1, model.njoints):
+        name = model.names[jid]
+        jmodel = model.joints[jid]
+        kind, direction = _joint_kind(jmodel)
+        in_chain = [c for c in ("workpiece", "tool") if jid in chains[c]]
+        where = f"joint {name!r}"
+        if kind is None:
+            raise MachineError(f"{where} has type {jmodel.shortname()}; only 1-DOF prismatic/revolute joints are supported", path=path)
+        if len(in_chain) != 1:
+            raise MachineError(f"{where} is on neither the workpiece nor the tool chain" if not in_chain else f"{where} is on both chains", path=path)
+        if name.upper().startswith("E"):
+            m = _ERROR_CODE.match(name)
+            if not m:
+                raise MachineError(
+                    f"{where}: a joint name starting with 'E' must be an ISO 230-1 error code "
+                    "E<d><k> or E<d>0<k> with d in XYZABC (e.g. EXX, EC0Y)",
+                    path=path,
+                )
+            d, zero, k = m.group(1), m.group(2) == "0", m.group(3)
+            want_kind = "prismatic" if d in "XYZ" else "revolute"
+            if kind != want_kind:
+                raise MachineError(f"{where}: direction {d} needs a {want_kind} joint, found {kind}", path=path)
+            want_axis = np.eye(3)["XYZ".index(d) if d in "XYZ" else "ABC".index(d)]
+            if not np.allclose(direction, want_axis, atol=1e-9):
+                raise MachineError(f"{where}: axis must be {want_axis.astype(int).tolist()} (direction {d}), found {np.round(direction, 6).tolist()}", path=path)
+            origin = origins.get(name, ((0.0,) * 3, (0.0,) * 3))
+            if not np.allclose(np.r_[origin[0], origin[1]], 0.0, atol=1e-12):
+                raise MachineError(f"{where}: an error joint must have a zero origin (xyz and rpy 0), found xyz={list(origin[0])} rpy={list(origin[1])}", path=path)
+            pending.append((jid, name, d, zero, k, in_chain[0]))
+            errors.append(
+                ErrorJoint(name, d, k, zero, kind, "um" if kind == "prismatic" else "urad", model.idx_qs[jid], model.idx_vs[jid])
+            )
+        else:
+            if not _AXIS_NAME.match(name):
+                raise MachineError(f"{where}: a motion axis name must be letters and digits (not starting with E)", path=path)
+            axes.append(
+                Axis(name, kind, in_chain[0], f"{name.lower()}_{_UNIT[kind]}", model.idx_qs[jid], model.idx_vs[jid], model.nqs[jid])
+            )
+
+    axis_ids = {model.names[model.getJointId(a.name)]: model.getJointId(a.name) for a in axes}
+    for jid, name, d, zero, k, chain in pending:
+        _check_placement(model, jid, name, zero, k, chain, axis_ids, frames, path)
+    if not axes:
+        raise MachineError("no motion axes (prismatic/revolute joints whose names do not start with E)", path=path)
+    return Machine(str(path), text, model, tuple(axes), tuple(errors), frames["workpiece"], frames["tool"])
+
+
+def _check_placement(model, jid, name, zero, k, chain, axis_ids, frames, path):
+    """Check that error joint ``name`` sits where §1 says for axis ``k``."""
+    is_error = lambda j: model.names[j].startswith("E") and _ERROR_CODE.match(model.names[j])  # noqa: E731
+    where = f"joint {name!r}"
+    if k in ("W", "T"):
+        if not zero:
+            raise MachineError(f"{where}: set-up joints are location errors, named E<d>0{k}", path=path)
+        end = "workpiece" if k == "W" else "tool"
+        if chain != end:
+            raise MachineError(f"{where}: set-up joints of {k} belong on the {end} chain", path=path)
+        # every joint between it and the end link must be an E?0k joint
+        j_end = model.frames[frames[end]].parentJoint
+        j = j_end
+        while j != jid:
+            if not (is_error(j) and model.names[j][2:] == f"0{k}"):
+                raise MachineError(f"{where}: set-up joints must sit directly before link {end!r}; joint {model.names[j]!r} is in between", path=path)
+            j = model.parents[j]
+        return
+    if k not in axis_ids:
+        raise MachineError(f"{where}: refers to axis {k!r}, which is not a motion axis of this machine", path=path)
+    kid = axis_ids[k]
+    if zero:  # directly before joint k: walk down to k through location errors of k only
+        # the child of jid on the way to k
+        path_to_k = _ancestors(model, kid)
+        if jid not in path_to_k:
+            raise MachineError(f"{where}: a location error of {k} must sit directly before joint {k!r} (it is not on its chain)", path=path)
+        for j in path_to_k[path_to_k.index(jid) + 1 : -1]:
+            if not (is_error(j) and model.names[j][2:] == f"0{k}"):
+                raise MachineError(f"{where}: a location error of {k} must sit directly before joint {k!r}; joint {model.names[j]!r} is in between", path=path)
+    else:  # directly after joint k, only PDGE joints of k in between
+        j = model.parents[jid]
+        while j != kid:
+            if j == 0 or not (is_error(j) and _ERROR_CODE.match(model.names[j]).group(2) == "" and model.names[j][2:] == k):
+                raise MachineError(f"{where}: a position-dependent error of {k} must sit directly after joint {k!r}", path=path)
+            j = model.parents[j]
+
+
+def _configuration(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray) -> np.ndarray:
+    """Pinocchio configuration from axis values and error values (SI, in machine order)."""
+    q = pin.neutral(machine.model)
+    for a, value in zip(machine.axes, axes_si):
+        if a.nq == 2:
+            q[a.q_index : a.q_index + 2] = (np.cos(value), np.sin(value))
+        else:
+            q[a.q_index] = value
+    for e, value in zip(machine.error_joints, errors_si):
+        q[e.q_index] = value
+    return q
+
+
+def axes_to_si(machine: Machine, axes_user: np.ndarray) -> np.ndarray:
+    """Axis readings (..., n_axes) in mm / deg to m / rad."""
+    scale = np.array([1e-3 if a.kind == "prismatic" else np.pi / 180.0 for a in machine.axes])
+    return np.asarray(axes_user, dtype=float) * scale
+
+
+def errors_to_si(machine: Machine, errors_user: np.ndarray) -> np.ndarray:
+    """Error-joint values (..., n_errors) in µm / µrad to m / rad."""
+    return np.asarray(errors_user, dtype=float) * 1e-6
+
+
+def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True):
+    """Tool point in the workpiece frame and its derivatives, for a batch of poses.
+
+    Parameters
+    ----------
+    machine : Machine
+    axes_user : array (N, n_axes)
+        Axis readings in machine-axis order (``machine.axes``), mm or deg.
+    errors_user : array (N, n_errors) or (n_errors,)
+        Error-joint values in ``machine.error_joints`` order, µm or µrad.
+    jacobian : bool
+        Also return the derivatives.
+
+    Returns
+    -------
+    p_mm : array (N, 3)
+        Tool point expressed in the workpiece frame, mm.
+    d_errors : array (N, 3, n_errors)
+        ∂p/∂(error joint value) in µm per µm (prismatic) or µm per µrad (revolute).
+    d_axes : array (N, 3, n_axes)
+        ∂p/∂(axis reading) in µm per mm (prismatic) or µm per deg (revolute).
+    """
+    model = machine.model
+    data = model.createData()
+    axes_si = axes_to_si(machine, np.atleast_2d(axes_user))
+    n = axes_si.shape[0]
+    errors_si = errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints))))
+    wf, tf = machine.workpiece_frame, machine.tool_frame
+    ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
+    av = np.array([a.v_index for a in machine.axes], dtype=int)
+    axis_scale = np.array([1.0 if a.kind == "prismatic" else np.pi / 180.0 for a in machine.axes])
+    p = np.empty((n, 3))
+    d_err = np.empty((n, 3, len(ev))) if jacobian else None
+    d_ax = np.empty((n, 3, len(av))) if jacobian else None
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    for i in range(n):
+        q = _configuration(machine, axes_si[i], errors_si[i])
+        if jacobian:
+            pin.computeJointJacobians(model, data, q)
+        else:
+            pin.forwardKinematics(model, data, q)
+        oMw = pin.updateFramePlacement(model, data, wf)
+        oMt = pin.updateFramePlacement(model, data, tf)
+        R = oMw.rotation
+        delta = oMt.translation - oMw.translation
+        p[i] = R.T @ delta * 1e3
+        if jacobian:
+            Jt = pin.getFrameJacobian(model, data, tf, lwa)
+            Jw = pin.getFrameJacobian(model, data, wf, lwa)
+            # d(R^T delta) = R^T (v_t - v_w + delta x w_w)
+            G = R.T @ (Jt[:3] - Jw[:3] + np.cross(delta, Jw[3:].T).T)  # (3, nv), m per SI unit
+            d_err[i] = G[:, ev]  # m/m == µm/µm ; m/rad == µm/µrad
+            d_ax[i] = G[:, av] * 1e3 * axis_scale  # mm per SI -> µm per mm or per deg
+    if jacobian:
+        return p, d_err, d_ax
+    return p
+
+
+def tool_in_workpiece_mm(machine: Machine, axes: Mapping[str, float], joint_errors: Mapping[str, float] | None = None) -> np.ndarray:
+    """Tool point in the workpiece frame (mm) at one pose.
+
+    Parameters
+    ----------
+    machine : Machine
+    axes : mapping
+        Axis name -> reading (mm or deg); missing axes are 0.
+    joint_errors : mapping, optional
+        Error code -> value (µm or µrad); missing joints are 0.
+
+    Returns
+    -------
+    array (3,)
+        mm.
+
+    Examples
+    --------
+    >>> from urdf import path
+    >>> m = load_machine(path("five_axis_bc"))
+    >>> tool_in_workpiece_mm(m, {"X": 10.0}).round(6).tolist()
+    [10.0, 0.0, 0.0]
+    """
+    joint_errors = joint_errors or {}
+    unknown = set(axes) - set(machine.axis_names)
+    if unknown:
+        raise MachineError(f"unknown axes {sorted(unknown)}; this machine has {list(machine.axis_names)}", path=machine.path)
+    unknown = set(joint_errors) - set(machine.error_codes)
+    if unknown:
+        raise MachineError(f"unknown error joints {sorted(unknown)}", path=machine.path)
+    a = np.array([[axes.get(n, 0.0) for n in machine.axis_names]])
+    e = np.array([joint_errors.get(c, 0.0) for c in machine.error_codes])
+    return evaluate(machine, a, e, jacobian=False)[0]

@@ -1,0 +1,212 @@
+"""``kinid dual-axis``: the two-parallel-Y-axes calibration on a simulated gantry.
+
+Measures ``pixel_to_mm`` by moving the head, runs the patent's calibration
+rounds, fits the smooth model, and compares both on held-out camera positions
+(the mid-points between table vertices): measured by the camera and, since
+the gantry is simulated, against the truth.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from identification.errors import DataError
+
+__all__ = ["register", "run_simulation"]
+
+
+def register(subparsers) -> None:
+    """Add the ``dual-axis`` verb to the ``kinid`` command line."""
+    p = subparsers.add_parser(
+        "dual-axis",
+        help="calibrate two parallel Y axes (camera Y / head Y) on a simulated gantry",
+        description="Patent 003 on the simulated gantry urdf/gantry_dual_y.urdf: both Y axes step together, "
+                    "the camera images the plate on the head, the offset table is refined round by round; "
+                    "then a smooth model (parallelism + straightness polynomial) is compared with the table "
+                    "at held-out positions.")
+    p.add_argument("--y-start-mm", type=float, default=0.0, help="camera Y at the start, mm (default 0)")
+    p.add_argument("--step-mm", type=float, default=10.0, help="step of both Y axes, mm (default 10)")
+    p.add_argument("--steps", type=int, default=30, help="number of steps (default 30)")
+    p.add_argument("--spec-um", type=float, default=1.0, help="acceptance limit per table entry, µm (default 1)")
+    p.add_argument("--max-rounds", type=int, default=5, help="rounds before giving up (default 5)")
+    p.add_argument("--degree", type=int, default=3, help="degree of the smooth model's polynomial (default 3)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulation (texture, noise)")
+    p.add_argument("--random-errors", action="store_true",
+                   help="draw a random error set from the seed instead of the built-in one")
+    p.add_argument("--noise", type=float, default=1.5, help="image noise, grey levels (default 1.5)")
+    p.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
+    p.add_argument("--plot", metavar="OUT.png", help="plot of the plate offset before/after compensation")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    p.set_defaults(run=_run)
+
+
+def _stats(err_um: np.ndarray) -> dict:
+    err = np.asarray(err_um, float).reshape(-1, 2)
+    return {"max_x_um": float(np.max(np.abs(err[:, 0]))), "max_y_um": float(np.max(np.abs(err[:, 1]))),
+            "max_um": float(np.max(np.hypot(err[:, 0], err[:, 1]))),
+            "rms_um": float(np.sqrt(np.mean(np.sum(err ** 2, axis=1))))}
+
+
+def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max_rounds=5, degree=3, seed=0,
+                   random_errors=False, noise_sigma=1.5, repeat_um=0.0):
+    """Run the whole story on a simulated gantry.
+
+    Parameters
+    ----------
+    y_start_mm, step_mm, n_steps, spec_um, max_rounds
+        As in :func:`stages.dual_axis.calibrate`.
+    degree : int
+        Degree of the smooth model.
+    seed : int
+        Seed of ``np.random.default_rng`` for the simulation.
+    random_errors : bool
+        Use :func:`random_error_profiles` instead of the built-in error set.
+    noise_sigma : float
+        Image noise, grey levels.
+    repeat_um : float
+        Positioning repeatability of every axis, µm.
+
+    Returns
+    -------
+    dict
+        ``gantry``, ``pixel_to_mm``, ``table``, ``smooth``, ``held_out_mm`` and
+        the summary ``report`` (JSON-ready).
+    """
+    from .calibrate import calibrate, measure_pixel_to_mm, verify
+    from .simulate import SimulatedGantry, random_error_profiles
+    from .smooth import fit_smooth
+
+    for name, v in (("noise", noise_sigma), ("repeat-um", repeat_um)):
+        if not np.isfinite(v) or v < 0:
+            raise DataError(f"--{name} must be a non-negative number, got {v!r}")
+    rng = np.random.default_rng(seed)
+    errors = random_error_profiles(rng) if random_errors else None
+    g = SimulatedGantry(errors, noise_sigma=noise_sigma, repeat_um=repeat_um, rng=rng)
+    head0 = (0.0, float(y_start_mm))  # Y = V, X = 0: the plate is centred under the camera
+    mr = measure_pixel_to_mm(g, y_start_mm, head0)
+    table = calibrate(g, y_start_mm, head0, step_mm, n_steps, mr.matrix, spec_um, max_rounds=max_rounds)
+    smooth = fit_smooth(table, degree)
+    held = table.y_mm[:-1] + 0.5 * float(step_mm)
+    y0 = float(y_start_mm)
+
+    def truth(comp):
+        out = []
+        for p in held:
+            dx, dy = (0.0, p - y0) if comp is None else comp.head_move(y0, p)
+            out.append(g.plate_offset_um(y0, head0, p, (head0[0] + dx, head0[1] + dy)))
+        return np.array(out)
+
+    measured = {"table": verify(g, table, y0, head0, held, mr.matrix),
+                "smooth": verify(g, smooth, y0, head0, held, mr.matrix)}
+    true = {"uncompensated": truth(None), "table": truth(table), "smooth": truth(smooth)}
+    better = "table" if _stats(true["table"])["max_um"] <= _stats(true["smooth"])["max_um"] else "smooth"
+    report = {
+        "y_start_mm": y0, "step_mm": float(step_mm), "steps": int(n_steps), "spec_um": float(spec_um),
+        "pixel_to_mm": mr.matrix.tolist(), "true_pixel_to_mm": g.true_pixel_to_mm.tolist(),
+        "rounds": table.rounds, "converged": table.converged,
+        "max_change_um": [r.max_change_um for r in table.history],
+        "smooth": {"degree": smooth.degree, "parallelism_urad": smooth.parallelism_urad,
+                   "scale_um_per_m": smooth.scale_um_per_m, "fit_rms_um": smooth.rms_um.tolist()},
+        "held_out": {
+            "positions": len(held),
+            "uncompensated_truth": _stats(true["uncompensated"]),
+            "table_measured": _stats(measured["table"]), "table_truth": _stats(true["table"]),
+            "smooth_measured": _stats(measured["smooth"]), "smooth_truth": _stats(true["smooth"]),
+        },
+        "better": better,
+        "table": table.to_dict(),
+    }
+    return {"gantry": g, "pixel_to_mm": mr.matrix, "table": table, "smooth": smooth, "held_out_mm": held,
+            "truth_um": true, "measured_um": measured, "report": report}
+
+
+def _plot(path, result) -> None:
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from identification.atomic import atomic_write
+
+    g, table, smooth = result["gantry"], result["table"], result["smooth"]
+    y0 = float(table.y_mm[0])
+    head0 = (0.0, y0)
+    ys = np.linspace(table.y_mm[0], table.y_mm[-1], 241)
+
+    def offsets(comp):
+        out = []
+        for p in ys:
+            dx, dy = (0.0, p - y0) if comp is None else comp.head_move(y0, p)
+            out.append(g.plate_offset_um(y0, head0, p, (head0[0] + dx, head0[1] + dy)))
+        return np.array(out)
+
+    before, after_t, after_s = offsets(None), offsets(table), offsets(smooth)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    for col, name in enumerate(("head X", "head Y")):
+        ax = axes[0, col]
+        ax.plot(ys, before[:, col], "k-", label="before compensation")
+        ax.plot(table.y_mm, -table.offset_mm[:, col] * 1e3, "o", ms=3, label="table vertices (negated)")
+        ax.set_title(f"plate offset, {name}")
+        ax.set_ylabel("µm")
+        ax.legend(fontsize=8)
+        ax = axes[1, col]
+        ax.plot(ys, after_t[:, col], "-", label="after: table")
+        ax.plot(ys, after_s[:, col], "-", label=f"after: smooth (degree {smooth.degree})")
+        ax.plot(result["held_out_mm"], result["measured_um"]["table"][:, col], "x", ms=4,
+                label="held-out, table, measured by camera")
+        ax.axhline(table.spec_um, color="grey", lw=0.5, ls="--")
+        ax.axhline(-table.spec_um, color="grey", lw=0.5, ls="--")
+        ax.set_xlabel("camera Y, mm")
+        ax.set_ylabel("µm")
+        ax.legend(fontsize=8)
+    fig.suptitle(f"dual Y axes: {table.message}", fontsize=9)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    with atomic_write(path, "wb") as f:
+        f.write(buf.getvalue())
+
+
+def _format(rep: dict) -> str:
+    lines = [
+        f"dual-axis calibration on the simulated gantry (urdf/gantry_dual_y.urdf): {rep['steps']} steps of "
+        f"{rep['step_mm']:g} mm from camera Y {rep['y_start_mm']:g} mm, spec {rep['spec_um']:g} µm",
+        "pixel_to_mm measured (mm/px): " + np.array2string(np.array(rep["pixel_to_mm"]), precision=6),
+        "round  max entry change (µm)",
+    ]
+    lines += [f"{i:5d}  {c:10.3f}" for i, c in enumerate(rep["max_change_um"], 1)]
+    lines.append(f"{'converged' if rep['converged'] else 'NOT converged'} after {rep['rounds']} round(s)")
+    s = rep["smooth"]
+    lines.append(f"smooth model (degree {s['degree']}): parallelism {s['parallelism_urad']:.2f} µrad, "
+                 f"scale {s['scale_um_per_m']:.2f} µm/m, fit RMS x {s['fit_rms_um'][0]:.3f} µm, "
+                 f"y {s['fit_rms_um'][1]:.3f} µm")
+    h = rep["held_out"]
+    lines.append(f"held-out positions ({h['positions']} mid-steps)   max|x| µm  max|y| µm  max µm  RMS µm")
+    for key, label in (("uncompensated_truth", "uncompensated (truth)"),
+                       ("table_measured", "table, measured by camera"), ("table_truth", "table (truth)"),
+                       ("smooth_measured", "smooth, measured by camera"), ("smooth_truth", "smooth (truth)")):
+        v = h[key]
+        lines.append(f"  {label:34s} {v['max_x_um']:9.3f} {v['max_y_um']:9.3f} {v['max_um']:7.3f} {v['rms_um']:7.3f}")
+    lines.append(f"better on held-out positions: {rep['better']}")
+    return "\n".join(lines)
+
+
+def _run(args) -> int:
+    result = run_simulation(y_start_mm=args.y_start_mm, step_mm=args.step_mm, n_steps=args.steps,
+                            spec_um=args.spec_um, max_rounds=args.max_rounds, degree=args.degree,
+                            seed=args.seed, random_errors=args.random_errors, noise_sigma=args.noise,
+                            repeat_um=args.repeat_um)
+    if args.plot:
+        _plot(args.plot, result)
+    rep = result["report"]
+    if args.json:
+        print(json.dumps(rep))
+    else:
+        print(_format(rep))
+        if args.plot:
+            print(f"plot written to {args.plot}")
+    return 0

@@ -1,0 +1,412 @@
+"""Detection and decoding of ring-coded marks (patent 002, INTERFACES.md §5).
+
+A mark is a centre circle (not coded) surrounded by a ring of ``n`` equal
+angular elements, each printed (1) or not (0). The code is the smallest value
+over all cyclic rotations of the ``n`` bits read clockwise as seen in the image
+(x right, y down), first bit most significant.
+
+Detection (:func:`detect_markers`):
+
+1. threshold a downsampled copy (Otsu) and keep blobs whose shape matches
+   their moment ellipse (candidate centre circles);
+2. affine-normalise each candidate with its ellipse and sample the full-
+   resolution image on a polar grid (so perspective and anisotropic scale are
+   undone): locate the ring band radially, read the angular profile;
+3. find the element phase from the profile's edges, read each element's mean
+   ink; an element that is not clearly printed or clearly blank, a ring band
+   that is not where a ring belongs, or ink in the gap between circle and ring
+   rejects the mark (a dropped mark is better than a wrong code);
+4. refine the centre circle's centre by a blurred-ellipse fit
+   (:func:`vision.circles.fit_disk_model`).
+
+:func:`decode_from_segments` is the patent's arithmetic on segment element
+counts and the angles between segment centroids.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .circles import as_gray, fit_disk_model, weighted_centroid
+
+__all__ = ["Marker", "canonical_code", "decode_from_segments", "detect_markers", "read_ring"]
+
+
+@dataclass(frozen=True)
+class Marker:
+    """A decoded ring-coded mark.
+
+    Attributes
+    ----------
+    code : int
+        Canonical code (smallest cyclic rotation).
+    x_px, y_px : float
+        Centre of the centre circle, pixels.
+    radius_px : float
+        Radius of the centre circle (geometric mean of its semi-axes), pixels.
+    bits : str
+        The bits of ``code`` as a string of length n, MSB first.
+    """
+
+    code: int
+    x_px: float
+    y_px: float
+    radius_px: float
+    bits: str
+
+
+def canonical_code(bits_value: int, n=12) -> int:
+    """Smallest value over the ``n`` cyclic rotations of an ``n``-bit value.
+
+    Examples
+    --------
+    >>> canonical_code(0b110001110000)
+    199
+    """
+    n = int(n)
+    v = int(bits_value)
+    if not 0 <= v < (1 << n):
+        raise ValueError(f"bits_value must be in 0..{(1 << n) - 1} for n={n}, got {bits_value}")
+    mask = (1 << n) - 1
+    best = v
+    for _ in range(n - 1):
+        v = ((v << 1) | (v >> (n - 1))) & mask
+        best = min(best, v)
+    return best
+
+
+def decode_from_segments(segment_elements, gap_angles_deg, n=12) -> int:
+    """Decode a mark from its printed segments, as in patent 002 (formulas 4-5).
+
+    Parameters
+    ----------
+    segment_elements : sequence of int
+        ``M_i``: elements in each printed ring segment, in clockwise order
+        (``m_i = round(A_i / a)`` from segment area ``A_i`` and element area ``a``).
+    gap_angles_deg : sequence of float
+        ``theta_i``: angle, seen from the centre circle's centroid, from the
+        centroid of segment i clockwise to that of segment i+1 (the last one
+        back to the first), degrees.
+    n : int
+        Number of ring elements.
+
+    Returns
+    -------
+    int
+        The canonical code. The blank elements between segments i and i+1 are
+        ``q_i = round(theta_i n / 360 - (M_i + M_{i+1}) / 2)``.
+
+    Examples
+    --------
+    The patent's worked example: segments of 3 and 2 elements at 195 and 165
+    degrees give gaps of 4 and 3 and the code 000011000111:
+
+    >>> decode_from_segments([3, 2], [195, 165])
+    199
+    """
+    m = [int(v) for v in segment_elements]
+    th = [float(v) for v in gap_angles_deg]
+    n = int(n)
+    if len(m) != len(th) or not m:
+        raise ValueError(f"need one gap angle per segment, got {len(m)} segments and {len(th)} angles")
+    if any(v < 1 for v in m):
+        raise ValueError(f"segment element counts must be >= 1, got {m}")
+    bits = []
+    for i, mi in enumerate(m):
+        mj = m[(i + 1) % len(m)]
+        q = int(round(th[i] * n / 360.0 - (mi + mj) / 2.0))
+        if q < 1 and len(m) > 1:
+            raise ValueError(f"gap {i} has {q} elements (angle {th[i]} deg); segments must be separated")
+        bits += [1] * mi + [0] * max(q, 0)
+    if len(bits) != n:
+        raise ValueError(f"segments and gaps add up to {len(bits)} elements, expected {n}")
+    value = int("".join(map(str, bits)), 2)
+    return canonical_code(value, n)
+
+
+# ---------------------------------------------------------------------------
+# detection
+
+#: Ring geometry relative to the centre-circle radius (patent: Ø5 centre, Ø9-Ø13 ring).
+_RHO_MIN, _RHO_MAX = 1.2, 3.2
+
+
+def _sqrt_inv(M):
+    """Symmetric M^(-1/2) of a 2x2 symmetric positive definite matrix."""
+    w, V = np.linalg.eigh(M)
+    return (V / np.sqrt(w)) @ V.T
+
+
+def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
+    """Read the bits of the ring around a centre circle ``q^T M q <= 1`` at (x, y).
+
+    Parameters
+    ----------
+    img : numpy.ndarray
+        Float grey image, full resolution.
+    x, y : float
+        Centre-circle centre, pixels.
+    M : array_like, shape (2, 2)
+        Centre-circle ellipse matrix.
+    bg, ink : float
+        Background and ink grey levels.
+    n : int
+        Ring elements.
+    n_angles : int or None
+        Angular samples; default ``max(360, 30 n)``.
+
+    Returns
+    -------
+    tuple
+        ``(value, reason)``: the n-bit value read clockwise from the element
+        phase origin (MSB first) and ``""``, or ``(None, reason)`` when the ring
+        cannot be read with confidence.
+    """
+    import cv2
+
+    if n_angles is None:
+        n_angles = max(360, 30 * n)
+    A = _sqrt_inv(np.asarray(M, float))  # unit circle -> centre ellipse
+    R = np.linalg.det(A) ** 0.5
+    step = max(0.5 / R, 0.02)  # half-pixel radial steps, at most 100 rows
+    rho = np.arange(_RHO_MIN, _RHO_MAX, step)
+    th = (np.arange(n_angles) + 0.5) * (2 * np.pi / n_angles)
+    u = np.stack([np.cos(th), np.sin(th)])  # (2, n_angles)
+    d = A @ u  # (2, n_angles)
+    mx = (x + rho[:, None] * d[0][None, :]).astype(np.float32)
+    my = (y + rho[:, None] * d[1][None, :]).astype(np.float32)
+    P = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
+    h, w = img.shape
+    outside = ~((mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1))
+    P[outside] = np.nan
+    W = (P - bg) / (ink - bg)  # ink fraction, (n_rho, n_angles)
+    valid = ~np.isnan(W)
+    f = (np.nan_to_num(W, nan=0.0) > 0.5).sum(axis=1) / np.maximum(valid.sum(axis=1), 1)
+    fmax = f.max()
+    if fmax < 0.5 / n:
+        return None, "no ring around the centre circle"
+    band = np.flatnonzero(f > 0.5 * fmax)
+    r_in, r_out = rho[band[0]], rho[band[-1]]
+    if not (1.4 < r_in < 2.3 and 2.1 < r_out < 3.2 and r_out - r_in > 0.35):
+        return None, f"ring band {r_in:.2f}-{r_out:.2f} (centre radii) is not where a ring belongs"
+    if not valid[rho <= r_out + 2.0 / R].all():
+        return None, "ring cut by the image border"
+    # the gap between centre circle and ring must be empty
+    inside = rho < r_in - 0.15
+    if np.any(inside) and W[inside].mean(axis=1).max() > 0.15:
+        return None, "ink between the centre circle and the ring"
+    width = r_out - r_in
+    core = (rho > r_in + 0.25 * width) & (rho < r_out - 0.25 * width)
+    if core.sum() < 1:
+        core = (rho >= r_in) & (rho <= r_out)
+    prof = W[core].mean(axis=0)  # angular profile, clockwise as seen in the image
+    # element phase from the edges of the profile
+    b = prof > 0.5
+    edges = np.flatnonzero(b != np.roll(b, 1))
+    if edges.size == 0:
+        return None, "ring has no element boundaries"
+    # sub-sample edge position: linear interpolation of the 0.5 crossing
+    p0, p1 = np.roll(prof, 1)[edges], prof[edges]
+    frac = np.clip((0.5 - p0) / np.where(p1 != p0, p1 - p0, 1.0), 0.0, 1.0)
+    t_edge = (edges - 1 + frac + 0.5) * (2 * np.pi / n_angles)  # angle of the crossing
+    z = np.exp(1j * n * t_edge)
+    if abs(z.mean()) < 0.9:
+        return None, "ring edges do not fall on an element grid"
+    phase = np.angle(z.mean()) / n  # element boundaries at phase + k 2pi/n
+    bits = []
+    per = n_angles / n
+    for k in range(n):
+        a0 = phase + (k + 0.2) * 2 * np.pi / n
+        idx = (np.floor(a0 / (2 * np.pi) * n_angles + np.arange(int(0.6 * per))).astype(int)) % n_angles
+        v = prof[idx].mean()
+        if 0.25 < v < 0.75:
+            return None, f"element {k} is neither printed nor blank (ink {v:.2f})"
+        bits.append(1 if v >= 0.75 else 0)
+    value = int("".join(map(str, bits)), 2)
+    if value == 0 or value == (1 << n) - 1:
+        return None, "ring is uniform"
+    return value, ""
+
+
+def _candidates(small, sign, thr, scale, min_area):
+    """Round blobs in the downsampled image: list of (cx, cy, M) in full-resolution pixels."""
+    import cv2
+
+    mask = ((small < thr) if sign < 0 else (small > thr)).astype(np.uint8)
+    nlab, labels, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    h, w = small.shape
+    out = []
+    for k in range(1, nlab):
+        x, y, bw, bh, area = (int(v) for v in stats[k])
+        if area < min_area or x == 0 or y == 0 or x + bw == w or y + bh == h:
+            continue
+        if max(bw, bh) > 3 * min(bw, bh) or area < 0.5 * bw * bh:
+            continue
+        sub = labels[y:y + bh, x:x + bw] == k
+        ys, xs = np.nonzero(sub)
+        cx, cy = xs.mean(), ys.mean()  # relative to the bbox corner
+        cov = np.cov(np.vstack([xs - cx, ys - cy]), bias=True) + np.eye(2) / 12.0
+        det = np.linalg.det(cov)
+        if not det > 0:
+            continue
+        M = np.linalg.inv(4 * cov)
+        # overlap of the blob with its moment ellipse (a disk: ~1; a bar or an arc: clearly less)
+        gy, gx = np.mgrid[y:y + bh, x:x + bw]
+        qx = gx - (cx + x)
+        qy = gy - (cy + y)
+        ell = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.0
+        inter = np.count_nonzero(ell & sub)
+        ell_area = np.pi / np.sqrt(np.linalg.det(M))  # the ellipse may extend past the bbox
+        union = area + ell_area - inter
+        if inter / union < 0.85:
+            continue
+        X = (cx + x + 0.5) * scale - 0.5
+        Y = (cy + y + 0.5) * scale - 0.5
+        out.append((X, Y, M / (scale * scale), area * scale * scale))
+    return out
+
+
+def detect_markers(image, bits=12, *, polarity="auto", refine="fit") -> list:
+    """Detect and decode ring-coded marks.
+
+    Parameters
+    ----------
+    image : array_like
+        Grey image (H, W) or BGR (H, W, 3).
+    bits : int
+        Ring elements per mark.
+    polarity : {"auto", "dark", "light"}
+        Dark marks on a light background, light on dark, or ``auto`` (tries the
+        polarity suggested by the image first, then the other one).
+    refine : {"fit", "centroid"}
+        Centre refinement: blurred-ellipse model fit (most accurate) or
+        background-subtracted weighted centroid (faster).
+
+    Returns
+    -------
+    list of Marker
+        Sorted by y then x. Marks whose ring leaves the image, or whose ring
+        cannot be read with confidence, are left out.
+    """
+    import cv2
+
+    n = int(bits)
+    if not 3 <= n <= 30:
+        raise ValueError(f"bits must be in 3..30, got {bits!r}")
+    if polarity not in ("auto", "dark", "light"):
+        raise ValueError(f"polarity must be 'auto', 'dark' or 'light', got {polarity!r}")
+    if refine not in ("fit", "centroid"):
+        raise ValueError(f"refine must be 'fit' or 'centroid', got {refine!r}")
+    arr = np.asarray(image)
+    img = arr if (arr.ndim == 2 and arr.dtype == np.uint8) else as_gray(arr)
+    h, w = img.shape
+    scale = max(1, int(max(h, w) // 1024))
+    small = cv2.resize(img, (w // scale, h // scale), interpolation=cv2.INTER_AREA) if scale > 1 else img
+    small = np.ascontiguousarray(small)
+    lo, hi = np.percentile(small[:: max(1, small.shape[0] // 256), :: max(1, small.shape[1] // 256)], [1, 99])
+    if hi - lo < 10:
+        return []
+    u8 = np.clip((small - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
+    thr_u8, _ = cv2.threshold(u8, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    thr = lo + thr_u8 * (hi - lo) / 255.0
+    med = float(np.median(small[:: max(1, small.shape[0] // 256), :: max(1, small.shape[1] // 256)]))
+    guess = -1 if med > thr else 1
+    signs = {"dark": [-1], "light": [1], "auto": [guess, -guess]}[polarity]
+    markers = []
+    for sign in signs:
+        for X, Y, M, area in _candidates(small, sign, thr, scale, min_area=12):
+            m = _decode_one(img, X, Y, M, sign, n, refine)
+            if m is not None:
+                markers.append(m)
+        if markers:
+            break
+    markers.sort(key=lambda m: (round(m.y_px), m.x_px))
+    return markers
+
+
+def _local_levels(img, X, Y, M, sign):
+    """Background and ink grey levels around one candidate (robust medians)."""
+    A = _sqrt_inv(M)
+    R = np.sqrt(np.linalg.det(A))
+    h, w = img.shape
+    th = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    u = np.stack([np.cos(th), np.sin(th)])
+    d = A @ u
+    inner = [(X + r * d[0], Y + r * d[1]) for r in (0.0, 0.3, 0.5)]
+    outer = [(X + r * d[0], Y + r * d[1]) for r in (1.4, 1.5)]
+
+    def sample(pts):
+        xs = np.concatenate([p[0] for p in pts])
+        ys = np.concatenate([p[1] for p in pts])
+        xi = np.clip(np.rint(xs).astype(int), 0, w - 1)
+        yi = np.clip(np.rint(ys).astype(int), 0, h - 1)
+        return img[yi, xi]
+
+    ink = float(np.median(sample(inner)))
+    bg = float(np.median(sample(outer)))
+    if R < 1 or (ink - bg) * sign <= 0:
+        return None
+    return bg, ink
+
+
+#: Marks are decoded and refined on a box-filtered copy in which the centre radius is about this (px).
+_WORK_RADIUS_PX = 40.0
+
+#: Outer half-width of the edge band used by the centre refinement, work pixels.
+_WINDOW_PX = 6.0
+
+
+def _decode_one(img, X, Y, M, sign, n, refine):
+    """Decode and refine one candidate (full-resolution guess X, Y, M); returns a Marker or None."""
+    import cv2
+
+    R_full = np.linalg.det(M) ** -0.25
+    f = max(1, int(R_full // _WORK_RADIUS_PX))
+    # crop around the mark, aligned to the box size f; box filtering keeps the centre unbiased
+    ext = _RHO_MAX * np.sqrt(np.linalg.inv(M).diagonal()) + 2 * f
+    h, w = img.shape
+    x0, y0 = max(0, int(X - ext[0])), max(0, int(Y - ext[1]))
+    x1, y1 = min(w, int(np.ceil(X + ext[0])) + 1), min(h, int(np.ceil(Y + ext[1])) + 1)
+    x1 -= (x1 - x0) % f
+    y1 -= (y1 - y0) % f
+    if x1 - x0 < 3 * f or y1 - y0 < 3 * f:
+        return None
+    crop = img[y0:y1, x0:x1].astype(np.float32)
+    work = cv2.resize(crop, ((x1 - x0) // f, (y1 - y0) // f), interpolation=cv2.INTER_AREA) if f > 1 else crop
+    Xw, Yw, Mw = (X - x0 + 0.5) / f - 0.5, (Y - y0 + 0.5) / f - 0.5, M * (f * f)
+    # a crop clipped by the image border must still look like the border to read_ring: it does,
+    # because the crop only ever stops short of the ring where the image itself ends.
+    lv = _local_levels(work, Xw, Yw, Mw, sign)
+    if lv is None:
+        return None
+    bg, ink = lv
+    if abs(ink - bg) < 10:
+        return None
+    value, _ = read_ring(work, Xw, Yw, Mw, bg, ink, n)
+    if value is None:
+        return None
+    R0 = np.linalg.det(Mw) ** -0.25
+    # the ring's inner edge is at ~1.8 R: keep the window clear of it
+    win = max(2.0, min(0.45 * R0, _WINDOW_PX))
+    if refine == "fit":
+        r = fit_disk_model(work, Xw, Yw, Mw, window_px=win)
+        if not r["ok"]:
+            return None
+        x, y, Mf = r["x"], r["y"], r["M"]
+        if abs(r["amp"]) < 0.5 * abs(ink - bg) or np.hypot(x - Xw, y - Yw) > 0.5 * R0:
+            return None
+        # re-read the ring with the refined ellipse: must agree
+        value2, _ = read_ring(work, x, y, Mf, r["bg"], r["bg"] + r["amp"], n)
+        if value2 is None or canonical_code(value2, n) != canonical_code(value, n):
+            return None
+        radius = r["radius"]
+    else:
+        xy = weighted_centroid(work, Xw, Yw, Mw, bg, ink, window_px=win)
+        if xy is None:
+            return None
+        x, y = xy
+        radius = float(R0)
+    code = canonical_code(value, n)
+    return Marker(int(code), float((x + 0.5) * f - 0.5 + x0), float((y + 0.5) * f - 0.5 + y0), float(radius * f),
+                  format(code, f"0{n}b"))
