@@ -40,6 +40,9 @@ __all__ = ["Candidate", "Diagnosis", "diagnose", "score_candidates", "forward_se
 ALPHA = 0.01
 #: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
 ALIAS_TOL = 1e-6
+#: A rotation whose lever arm to the tool point (RMS over the data) is below this, in metres, is
+#: invisible: even 1 mrad of it moves the point by less than 0.1 µm. (Translations have lever 1.)
+INVISIBLE_LEVER_M = 1e-4
 
 
 @dataclass(frozen=True)
@@ -216,7 +219,9 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     C_all = effect_columns(d_errors, dc).reshape(M, -1) / sigma
     C_perp_all = C_all - Q0 @ (Q0.T @ C_all)
     model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
+    lever = np.sqrt(np.mean(np.sum(d_errors**2, axis=1), axis=0))  # per error joint: m/rad or 1
     visible_floor = 1e-12 * max(1.0, float(np.abs(C_all).max())) if C_all.size else 1e-12
+    codes = machine.error_codes
     out = []
     start = 0
     for e in candidates:
@@ -226,7 +231,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         start += k
         unit = e.param_units(machine)[0]
         norm_c = np.linalg.norm(C, axis=0)
-        if not np.any(norm_c > visible_floor):
+        if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
             out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
             continue
         ratio = np.linalg.norm(Cp, axis=0) / np.where(norm_c > 0, norm_c, 1.0)
@@ -249,7 +254,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
             log_sf = scipy.stats.f.logsf(F, kk, dof2)
         # size of the effect: least-squares coefficients of the projected block
-        beta, *_ = np.linalg.lstsq(Cp, r, rcond=None)
+        beta = -np.linalg.lstsq(Cp, r, rcond=None)[0]  # r is model − measurement
         cov = np.linalg.pinv(Cp.T @ Cp)
         size, size_std = _size(e, beta, cov, obs, machine)
         rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
@@ -301,7 +306,9 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit
     known = source != "residuals"
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known)
-    live = sorted([c for c in scored if c.status == "live"], key=lambda c: (c.log10_p, c.rms_after_um))
+    location = {j.code for j in machine.error_joints if j.location}
+    # best first; exact ties (identical columns) go to the location error, the more physical reading
+    live = sorted([c for c in scored if c.status == "live"], key=lambda c: (round(c.log10_p, 6), c.effect.split(":")[0] not in location, c.rms_after_um))
     rest = [c for c in scored if c.status != "live"]
     threshold = alpha / max(len(live), 1)
     chi2_p = float(scipy.stats.chi2.sf(np.sum(r**2) / sigma**2, result.dof)) if known else float("nan")

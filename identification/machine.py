@@ -364,7 +364,8 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     wf, tf = machine.workpiece_frame, machine.tool_frame
     ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
     av = np.array([a.v_index for a in machine.axes], dtype=int)
-    axis_scale = np.array([1.0 if a.kind == "prismatic" else np.pi / 180.0 for a in machine.axes])
+    # SI derivative (m per m, m per rad) -> µm per mm, µm per deg
+    axis_scale = np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in machine.axes])
     p = np.empty((n, 3))
     d_err = np.empty((n, 3, len(ev))) if jacobian else None
     d_ax = np.empty((n, 3, len(av))) if jacobian else None
@@ -386,7 +387,7 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
             # d(R^T delta) = R^T (v_t - v_w + delta x w_w)
             G = R.T @ (Jt[:3] - Jw[:3] + np.cross(delta, Jw[3:].T).T)  # (3, nv), m per SI unit
             d_err[i] = G[:, ev]  # m/m == µm/µm ; m/rad == µm/µrad
-            d_ax[i] = G[:, av] * 1e3 * axis_scale  # mm per SI -> µm per mm or per deg
+            d_ax[i] = G[:, av] * axis_scale
     if jacobian:
         return p, d_err, d_ax
     return p
