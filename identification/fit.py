@@ -217,7 +217,7 @@ def fit(
         cost_new = 0.5 * float(np.sum(r_new**2))
         if cost_new <= cost:
             small = np.linalg.norm(delta) <= xtol * (1 + np.linalg.norm(xs))
-            flat = cost - cost_new <= 1e-15 * cost
+            flat = cost - cost_new <= 1e-13 * cost
             theta, cost = trial, cost_new
             lam = max(lam / 10, 1e-12)
             r, J, _ = residuals(machine, d, obs, theta)
