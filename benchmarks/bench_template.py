@@ -25,7 +25,7 @@ def render_plate(coverage, shift_px, rng, *, shape=(192, 192), pixel_mm=0.05, bl
     def image_to_plane(pts_px):
         return (np.asarray(pts_px, dtype=float) - shift) * pixel_mm
 
-    return render_pattern(coverage, shape, image_to_plane, supersample=8, blur_px=blur_px,
+    return render_pattern(coverage, shape, image_to_plane, supersample=4, blur_px=blur_px,
                           noise_sigma=noise_sigma, rng=rng)
 
 

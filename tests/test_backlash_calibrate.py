@@ -90,9 +90,9 @@ def test_every_command_within_travel_of_start(expose_position):
                         backlash_theta_deg=0.0).fiducial_mm()        # keep the fiducial in view at the start
     st = SimulatedStage(initial_command=start, camera_at_mm=at, rng=np.random.default_rng(7))
     rec = RecordingStage(st, expose_position)
-    res = calibrate(rec, travel_mm=0.6, travel_deg=1.5, repeats=2, n_targets=2)
+    res = calibrate(rec, travel_mm=0.6, travel_deg=1.5, n_targets=2)
     cmds = np.array(rec.commands)
-    assert len(cmds) == res.moves == 9 + 4 * 2 * (2 * 2 + 1)
+    assert len(cmds) == res.moves == 9 + 4 * (2 * 2 + 1)
     assert np.all(np.abs(cmds[:, :2] - start[:2]) <= 0.6 + 1e-12)
     assert np.all(np.abs(cmds[:, 2] - start[2]) <= 1.5 + 1e-12)
     assert res.start == start
@@ -101,13 +101,12 @@ def test_every_command_within_travel_of_start(expose_position):
 
 def test_iso_reversal_values_over_targets():
     st = SimulatedStage(backlash_x_mm=0.006, backlash_y_mm=0.002, rng=np.random.default_rng(11))
-    res = calibrate(st, repeats=2, n_targets=3)
-    assert res.reversals_x_mm.size == 6
+    res = calibrate(st, n_targets=3)
+    assert res.reversals_x_mm.size == 3
     assert res.iso_reversal_x_mm == pytest.approx(0.006, abs=XY_TOL_MM)
     assert res.iso_mean_reversal_x_mm == pytest.approx(-0.006, abs=XY_TOL_MM)
     assert res.iso_reversal_y_mm == pytest.approx(0.002, abs=XY_TOL_MM)
     assert res.spread_x_mm < 0.1e-3
-    assert res.spread_theta_deg < 5e-4
 
 
 def test_positioning_scatter_shows_in_spread():
@@ -156,3 +155,62 @@ def test_backlash_near_excursion_warns():
         warnings.simplefilter("always")
         calibrate(st, travel_mm=0.4)
     assert any("X backlash" in str(w.message) and "increase travel_mm" in str(w.message) for w in caught)
+
+
+class PerfectCameraStage(SimulatedStage):
+    """Simulated stage whose 'image' is the exact fiducial position (no rendering, no locator error)."""
+
+    def grab(self):
+        return self.fiducial_px()
+
+
+class ClockwiseThetaStage(PerfectCameraStage):
+    """θ turns clockwise seen from above (the other sense than the calibration's centre fit assumes)."""
+
+    def fiducial_mm(self):
+        x, y, th = self.actual
+        c = np.array(self.theta_centre_mm)
+        t = np.radians(-th)
+        rot = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+        return np.array([x, y]) + c + rot @ (-c)
+
+
+def _exact(image, what=""):
+    return float(image[0]), float(image[1])
+
+
+@pytest.mark.parametrize("kwargs", [
+    dict(pixel_mm=0.005, camera_angle_deg=7.0, theta_centre_mm=(-12.0, 8.0)),
+    dict(pixel_mm=(0.0047, 0.0053), camera_angle_deg=-31.0, mirror=False, theta_centre_mm=(20.0, 3.0),
+         backlash_x_mm=0.0, backlash_y_mm=0.02, backlash_theta_deg=0.05),
+])
+def test_exact_on_noiseless_positions(kwargs):
+    st = PerfectCameraStage(rng=np.random.default_rng(0), **kwargs)
+    res = calibrate(st, repeats=2, n_targets=2, locate=_exact)
+    assert res.pixel_mm_x == pytest.approx(st.true_pixel_mm_along((1, 0)), rel=1e-12)
+    assert res.pixel_mm_y == pytest.approx(st.true_pixel_mm_along((0, 1)), rel=1e-12)
+    assert res.backlash_x_mm == pytest.approx(st.backlash_x_mm, abs=1e-12)
+    assert res.backlash_y_mm == pytest.approx(st.backlash_y_mm, abs=1e-12)
+    assert res.backlash_theta_deg == pytest.approx(st.backlash_theta_deg, abs=1e-10)
+    # The centre is reported relative to the fiducial in the first "up" photo, taken at θ = -B/2.
+    t = np.radians(-st.backlash_theta_deg / 2)
+    expected = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]]) @ np.array(st.theta_centre_mm)
+    assert res.theta_centre_mm == pytest.approx(expected, abs=1e-9)
+    assert res.matrix.matrix == pytest.approx(np.linalg.inv(st.machine_to_pixel_matrix()), rel=1e-10)
+    assert res.spread_x_mm == pytest.approx(0.0, abs=1e-12)
+
+
+def test_clockwise_theta_gives_same_backlash():
+    st = ClockwiseThetaStage(rng=np.random.default_rng(0), backlash_theta_deg=0.02, theta_centre_mm=(3.0, -14.0))
+    res = calibrate(st, locate=_exact)
+    # The centre is fitted in the wrong (mirrored) place; the gap angle is still right to first order.
+    assert res.backlash_theta_deg == pytest.approx(0.02, rel=1e-3)
+    assert res.theta_radius_mm == pytest.approx(np.hypot(3.0, -14.0), rel=1e-3)
+
+
+def test_fiducial_on_theta_centre_warns_and_gives_nan():
+    st = PerfectCameraStage(rng=np.random.default_rng(0), theta_centre_mm=(0.001, 0.0))
+    with pytest.warns(UserWarning, match="too close to the θ rotation centre"):
+        res = calibrate(st, locate=_exact)
+    assert np.isnan(res.backlash_theta_deg)
+    assert res.backlash_x_mm == pytest.approx(st.backlash_x_mm, abs=1e-12)

@@ -71,6 +71,13 @@ def test_locator_accuracy_on_rendered_disk(locator):
     assert rms < 0.02
 
 
+def test_locator_small_fiducial_in_large_image():
+    # A 20 px disk covers 0.4 % of the image; locate_fiducial falls back to the centroid if needed.
+    rng = np.random.default_rng(8)
+    im = render_disk((480, 640), (205.62, 239.48), 20.0, noise_sigma=2.0, rng=rng)
+    assert locate_fiducial(im) == pytest.approx((205.62, 239.48), abs=0.03)
+
+
 def test_locator_finds_light_disk_on_dark():
     im = render_disk((200, 200), (90.3, 110.7), 30.0, low=230, high=20, noise_sigma=1.0,
                      rng=np.random.default_rng(1))

@@ -17,6 +17,13 @@ def _truth_residual_um(g, comp, positions, y0=0.0, head0=HEAD0):
     return np.array(out)
 
 
+class _Nominal:
+    """No compensation: the head follows the camera's Y move only."""
+
+    def head_move(self, ps_mm, pe_mm):
+        return 0.0, pe_mm - ps_mm
+
+
 @pytest.fixture(scope="module")
 def calibrated():
     g = SimulatedGantry(rng=np.random.default_rng(7))
@@ -47,9 +54,10 @@ def test_table_vertices_match_the_true_correction(calibrated):
 def test_held_out_positions_within_2um_truth_and_camera(calibrated):
     g, p2m, table = calibrated
     held = table.y_mm[:-1] + 5.0
-    before = _truth_residual_um(g, fit_smooth(table, 1).__class__(0.0, 1.0, np.zeros(1), np.zeros(1),
-                                                                  np.zeros(2), 0.0, 0.0), held)
+    before = _truth_residual_um(g, _Nominal(), held)
     assert np.abs(before).max() > 10.0  # without compensation the plate is far off
+    # the camera measures the same displacement (sign and size) as the kinematic truth
+    np.testing.assert_allclose(verify(g, _Nominal(), 0.0, HEAD0, held, p2m), before, atol=0.3)
     truth = _truth_residual_um(g, table, held)
     assert np.hypot(*truth.T).max() < 2.0
     measured = verify(g, table, 0.0, HEAD0, held, p2m)
@@ -77,6 +85,14 @@ def test_random_gantries_converge_and_hold_2um(seed):
     held = table.y_mm[:-1] + 6.25
     truth = _truth_residual_um(g, table, held, y0, head0)
     assert np.hypot(*truth.T).max() < 2.0
+
+
+def test_perfect_axes_give_a_zero_table_in_one_round():
+    g = SimulatedGantry((), noise_sigma=1.0, rng=np.random.default_rng(9))
+    table = calibrate(g, 0.0, HEAD0, 25.0, 4, g.true_pixel_to_mm, 0.5)
+    assert table.rounds == 1 and table.converged
+    assert np.abs(table.offset_mm).max() < 0.05e-3  # 0.05 µm: image noise only
+    np.testing.assert_allclose(table.head_move(0.0, 100.0), (0.0, 100.0), atol=0.05e-3)
 
 
 def test_parallelism_only_gantry_gives_its_angle_and_a_straight_table():
@@ -157,9 +173,28 @@ class _LosesPlate:
 
 def test_plate_not_found_is_an_image_error(gantry):
     with pytest.raises(ImageError, match=r"round 1, step 2 \(camera Y 20 mm\): plate not found"):
-        calibrate(_LosesPlate(gantry, 3), 0.0, HEAD0, 10.0, 5, gantry.true_pixel_to_mm, 1.0)
+        calibrate(_LosesPlate(gantry, 2), 0.0, HEAD0, 10.0, 5, gantry.true_pixel_to_mm, 1.0)
+
+
+def test_blank_start_image_is_an_image_error(gantry):
+    with pytest.raises(ImageError, match=r"start image: plate not found"):
+        calibrate(_LosesPlate(gantry, 0), 0.0, HEAD0, 10.0, 5, gantry.true_pixel_to_mm, 1.0)
+
+
+def test_bad_roi_is_a_data_error(gantry):
+    with pytest.raises(DataError, match=r"roi \(150, 100, 100, 100\) is not inside"):
+        calibrate(gantry, 0.0, HEAD0, 10.0, 2, gantry.true_pixel_to_mm, 1.0, roi=(150, 100, 100, 100))
 
 
 def test_move_outside_travel_is_a_stage_error(gantry):
     with pytest.raises(StageError, match=r"axis Y target 510.* outside its travel \[-50, 500\] mm"):
         calibrate(gantry, 460.0, (0.0, 460.0), 10.0, 5, gantry.true_pixel_to_mm, 1.0)
+
+
+def test_simulator_rejects_bad_moves_and_unknown_error_joints(gantry):
+    with pytest.raises(StageError, match=r"axis X target nan mm is outside its travel"):
+        gantry.move(0.0, float("nan"), 0.0)
+    with pytest.raises(StageError, match=r"axis V target must be a number, got 'a'"):
+        gantry.move(0.0, 0.0, "a")
+    with pytest.raises(DataError, match=r"error profile 'EXZ' is not an error joint of the machine"):
+        SimulatedGantry((ErrorProfile("EXZ", "Z", poly=(1.0,)),))

@@ -3,9 +3,10 @@
 Two refinements of a threshold blob are provided:
 
 * ``method="fit"`` (default): least-squares fit of a blurred elliptical disk,
-  ``I = bg + amp * erfc(R0 (rho - 1) / (s sqrt 2)) / 2`` with
-  ``rho = sqrt(q^T M q)``, ``q = (x - cx, y - cy)``, over a window around the
-  mark. Centrally symmetric, so it returns the centre of the imaged ellipse.
+  ``I = (bg + amp * erfc(R0 (rho - 1) / (s sqrt 2)) / 2) * (1 + gx x' + gy y')``
+  with ``rho = sqrt(q^T M q)``, ``q = (x - cx, y - cy)`` and a linear
+  illumination gradient (marks of radius >= 8 px), over an edge band.
+  Centrally symmetric, so it returns the centre of the imaged ellipse.
 * ``method="centroid"``: background-subtracted intensity-weighted centroid on an
   elliptical window, iterated so the window is centred.
 
@@ -24,7 +25,7 @@ import numpy as np
 from identification.errors import ImageError
 
 __all__ = ["CircleResult", "locate_disk", "locate_hole", "locate_sphere", "offset_from_image_centre",
-           "fit_disk_model", "weighted_centroid"]
+           "fit_disk_model", "weighted_centroid", "as_gray", "noise_sigma"]
 
 
 @dataclass(frozen=True)
@@ -59,15 +60,31 @@ def _not_found(reason):
 
 
 def as_gray(image) -> np.ndarray:
-    """A float32 2-D grey image from a 2-D array or a 3-channel (BGR) array; ImageError otherwise."""
+    """A float32 2-D grey image in grey levels 0..255; ImageError for anything else.
+
+    Accepts a 2-D array or a 3/4-channel (BGR/BGRA) array. 8-bit images keep
+    their levels; other types (uint16, float in [0, 1], ...) are stretched
+    linearly from their minimum to their maximum onto 0..255, which changes no
+    position.
+    """
     arr = np.asarray(image)
+    if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)) \
+            or np.issubdtype(arr.dtype, np.bool_):
+        raise ImageError(f"expected a numeric image, got dtype {arr.dtype}")
+    was_u8 = arr.dtype == np.uint8
     if arr.ndim == 3 and arr.shape[2] in (3, 4):
         arr = arr[..., :3].astype(np.float32) @ np.array([0.114, 0.587, 0.299], np.float32)
     if arr.ndim != 2 or arr.size == 0:
         raise ImageError(f"expected a 2-D grey image (or H x W x 3), got an array of shape {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.number):
-        raise ImageError(f"expected a numeric image, got dtype {arr.dtype}")
-    return arr.astype(np.float32, copy=False)
+    out = arr.astype(np.float32)
+    if not was_u8:
+        finite = np.isfinite(out)
+        if not finite.all():
+            raise ImageError("image holds NaN or infinite values")
+        mn, mx = float(out.min()), float(out.max())
+        if mx > mn:
+            out = (out - mn) * np.float32(255.0 / (mx - mn))
+    return out
 
 
 def noise_sigma(img) -> float:
@@ -78,9 +95,25 @@ def noise_sigma(img) -> float:
     return float(np.median(np.abs(d - np.median(d))) / 0.6745 / np.sqrt(2.0))
 
 
+def _extremes(img):
+    """Robust darkest and lightest levels: the k-th extreme values with k = max(12, 2e-5 N).
+
+    A small feature (a few dozen pixels in a large image) still sets the level; single
+    noisy pixels do not. Large images are 2 x 2 box-averaged first (faster, less noise).
+    """
+    if img.size > 1_000_000:
+        h, w = img.shape
+        img = img[: h // 2 * 2, : w // 2 * 2].reshape(h // 2, 2, w // 2, 2).mean(axis=(1, 3))
+    flat = img.ravel()
+    k = int(min(flat.size - 1, max(12, 2e-5 * flat.size)))
+    lo = float(np.partition(flat, k)[k])
+    hi = float(np.partition(flat, flat.size - 1 - k)[flat.size - 1 - k])
+    return lo, hi
+
+
 def _levels(img, polarity):
     """(sign, bg, ink, threshold): sign=+1 for light marks on dark, -1 for dark marks on light."""
-    lo, hi = np.percentile(img, [0.5, 99.5])
+    lo, hi = _extremes(img)
     border = np.concatenate([img[0], img[-1], img[:, 0], img[:, -1]])
     bg = float(np.median(border))
     if polarity == "auto":
@@ -129,7 +162,7 @@ def _blob_shape(labels, blob):
     return float(cx), float(cy), cov, float(fill), ratio
 
 
-def fit_disk_model(img, x0, y0, M0, *, window_px=None, max_nfev=50, tol_px=1e-5):
+def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=50, tol_px=1e-5):
     """Least-squares fit of a blurred elliptical disk around an initial guess.
 
     Parameters
@@ -143,6 +176,11 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, max_nfev=50, tol_px=1e-5)
     window_px : float or None
         Pixels with ``-1.5 window_px <= R0 (rho - 1) <= window_px`` (``R0`` the
         geometric-mean radius) are used; default ``max(4, min(0.6 R0, 12))``.
+    gradient : bool or None
+        Fit a linear multiplicative illumination gradient (vignetting, uneven
+        lighting). ``None``: only for marks of radius >= 8 px, where the window
+        determines it well; on smaller marks it costs more precision than the
+        gradient's bias.
     max_nfev : int
         Iteration limit of the Levenberg-Marquardt loop.
     tol_px : float
@@ -172,46 +210,58 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, max_nfev=50, tol_px=1e-5)
     ya, yb = int(np.floor(y0 - ey)), int(np.ceil(y0 + ey)) + 1
     if xa < 0 or ya < 0 or xb > w or yb > h:
         return {"ok": False, "message": "mark too close to the image border"}
-    sub = img[ya:yb, xa:xb].astype(float)
+    sub = img[ya:yb, xa:xb]
     ys, xs = np.mgrid[ya:yb, xa:xb]
     qx, qy = xs - x0, ys - y0
     rho0 = np.sqrt(M0[0, 0] * qx * qx + 2 * M0[0, 1] * qx * qy + M0[1, 1] * qy * qy)
     rho_in = max(0.0, 1.0 - 1.5 * window_px / R0)  # interior far from the edge carries no centre information
     sel = (rho0 <= rho_out) & (rho0 >= rho_in)
-    X, Y, I = xs[sel].astype(float), ys[sel].astype(float), sub[sel]
-    inner = rho0[sel] < 1.0 - 0.6 * (1.0 - rho_in)
-    outer = rho0[sel] > 1.0 + 0.6 * (rho_out - 1.0)
-    if inner.sum() < 1 or outer.sum() < 4:
+    X, Y, I = xs[sel].astype(float), ys[sel].astype(float), sub[sel].astype(float)
+    rs = rho0[sel]
+    inner = I[rs < 1.0 - 0.6 * (1.0 - rho_in)]
+    outer = I[rs > 1.0 + 0.6 * (rho_out - 1.0)]
+    if inner.size < 1 or outer.size < 4:
         return {"ok": False, "message": "window too small"}
-    amp0 = float(np.median(I[inner]) - np.median(I[outer]))
-    bg0 = float(np.median(I[outer]))
+    bg0 = float(np.median(outer))
+    amp0 = float(np.median(inner)) - bg0
     sq2 = np.sqrt(2.0)
     rsqpi = 1.0 / np.sqrt(np.pi)
 
+    Xr, Yr = (X - x0) / R0, (Y - y0) / R0  # for the illumination gradient
+
     def evaluate(p, with_jac):
-        cx, cy, a11, a12, a22, bg, amp, ls = p
+        cx, cy, a11, a12, a22, bg, amp, ls, gx, gy = p
         s = np.exp(ls)
         qx, qy = X - cx, Y - cy
         rho = np.sqrt(np.maximum(a11 * qx * qx + 2 * a12 * qx * qy + a22 * qy * qy, 1e-12))
         u = (R0 / (s * sq2)) * (rho - 1.0)
         g = 0.5 * erfc(u)
-        r = bg + amp * g - I
+        L = 1.0 + gx * Xr + gy * Yr  # multiplicative illumination (vignetting, uneven lighting)
+        base = bg + amp * g
+        r = base * L - I
         if not with_jac:
             return r, None
         dgdu = np.exp(-u * u) * (-rsqpi)
-        k = (amp * R0 / (s * sq2)) * dgdu / rho  # dI/drho / rho
-        J = np.empty((X.size, 8))
+        k = (amp * R0 / (s * sq2)) * dgdu * L / rho  # dI/drho / rho
+        J = np.empty((X.size, 10))
         J[:, 0] = -k * (a11 * qx + a12 * qy)
         J[:, 1] = -k * (a12 * qx + a22 * qy)
         J[:, 2] = (0.5 * k) * qx * qx
         J[:, 3] = k * qx * qy
         J[:, 4] = (0.5 * k) * qy * qy
-        J[:, 5] = 1.0
-        J[:, 6] = g
-        J[:, 7] = -amp * dgdu * u  # d/d(log s)
-        return r, J
+        J[:, 5] = L
+        J[:, 6] = g * L
+        J[:, 7] = -amp * dgdu * u * L  # d/d(log s)
+        J[:, 8] = base * Xr
+        J[:, 9] = base * Yr
+        return r, J[:, :npar]
 
-    p = np.array([x0, y0, M0[0, 0], M0[0, 1], M0[1, 1], bg0, amp0, np.log(1.0)])
+    p = np.array([x0, y0, M0[0, 0], M0[0, 1], M0[1, 1], bg0, amp0, np.log(1.0), 0.0, 0.0])
+    if gradient is None:
+        gradient = R0 >= 8.0
+    if not gradient:
+        Xr, Yr = np.zeros_like(Xr), np.zeros_like(Yr)
+    npar = 10 if gradient else 8
     # Levenberg-Marquardt (small dense problem: a plain loop beats a general solver's overhead)
     r, J = evaluate(p, True)
     cost = float(r @ r)
@@ -227,7 +277,8 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, max_nfev=50, tol_px=1e-5)
         except np.linalg.LinAlgError:
             lam *= 10.0
             continue
-        p_new = p + step
+        p_new = p.copy()
+        p_new[:npar] += step
         r_new, J_new = evaluate(p_new, True)
         cost_new = float(r_new @ r_new)
         if np.isfinite(cost_new) and cost_new <= cost:
@@ -245,7 +296,7 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, max_nfev=50, tol_px=1e-5)
     detM = np.linalg.det(M)
     if not (detM > 0 and M[0, 0] > 0):
         return {"ok": False, "message": "fit diverged (ellipse not positive definite)"}
-    dof = max(X.size - 8, 1)
+    dof = max(X.size - npar, 1)
     s2 = cost / dof
     try:
         cov = np.linalg.pinv(J.T @ J) * s2
@@ -412,9 +463,9 @@ def locate_sphere(image, *, polarity="auto", roi=None, n_rays=180) -> CircleResu
     nsig = noise_sigma(img)
     if abs(ink - bg) < max(10.0, 8.0 * nsig):
         return _not_found("no contrast between sphere and background")
-    u8 = np.clip(img, 0, 255).astype(np.uint8)
-    thr, _ = cv2.threshold(cv2.GaussianBlur(u8, (5, 5), 1.0), 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
-    blobs, labels = _blobs(img, sign, thr)
+    # a threshold near the background keeps the whole (shaded) sphere in one blob
+    thr = bg + sign * max(8.0 * nsig, 0.2 * abs(ink - bg))
+    blobs, labels = _blobs(cv2.GaussianBlur(img, (5, 5), 1.0), sign, thr)
     h, w = img.shape
     cands = []
     for b in blobs:
@@ -427,10 +478,10 @@ def locate_sphere(image, *, polarity="auto", roi=None, n_rays=180) -> CircleResu
         return _not_found("no round blob fully inside the image")
     cands.sort(key=lambda c: (c[1] - (w - 1) / 2) ** 2 + (c[2] - (h - 1) / 2) ** 2)
     b, cx, cy, cov = cands[0]
-    r0 = float(np.sqrt(2 * np.sqrt(np.linalg.det(cov))))
+    r0 = float(2.0 * np.linalg.det(cov) ** 0.25)  # a uniform disk has cov = r^2/4 I
     sm = cv2.GaussianBlur(img, (0, 0), 1.0)
     ang = np.linspace(0, 2 * np.pi, int(n_rays), endpoint=False)
-    t = np.arange(-0.35 * r0, 0.35 * r0 + 0.5, 0.5)
+    t = np.arange(-0.15 * r0 - 3.0, 0.15 * r0 + 3.5, 0.5)
     rr = r0 + t
     px = cx + np.cos(ang)[:, None] * rr[None, :]
     py = cy + np.sin(ang)[:, None] * rr[None, :]

@@ -213,7 +213,8 @@ def pixel_equivalent(moves_mm, shifts_px, *, axes=None, axis_tol=1e-6) -> ScaleR
     dist = np.hypot(shifts[:, 0], shifts[:, 1])
     if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
         i = int(np.flatnonzero(~(lengths > 0))[0])
-        raise DataError(f"move {i} has length {float(lengths[i])!r} mm; every move must be non-zero", column="moves_mm")
+        raise DataError(f"move {i} has length {float(lengths[i])!r} mm; every move must be non-zero",
+                        column="moves_mm")
     if np.any(dist <= 0):
         i = int(np.flatnonzero(dist <= 0)[0])
         raise DataError(f"move {i}: the feature did not move in the image (shift 0 px); "

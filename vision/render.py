@@ -74,9 +74,12 @@ def render_pattern(coverage, image_shape, image_to_plane, *, low=30, high=220, s
     Notes
     -----
     Sampling is adaptive: coverage is first evaluated at pixel centres and only
-    pixels whose 5 x 5 neighbourhood is not uniformly 0 or 1 are supersampled.
-    Features narrower than about two pixels that fall between pixel centres
-    may therefore be missed.
+    pixels whose 3 x 3 neighbourhood is not uniformly 0 or 1 are supersampled.
+    This is exact for edges whose radius of curvature is large against a pixel
+    (a straight edge that crosses a pixel always separates its centre from one
+    of the 8 neighbours' centres); features thinner than a pixel that fall
+    between pixel centres may be missed. Pixels on the image border are always
+    supersampled.
     """
     h, w = _check_shape(image_shape)
     s = int(supersample)
@@ -91,9 +94,9 @@ def render_pattern(coverage, image_shape, image_to_plane, *, low=30, high=220, s
 
         inked = (cov0 >= 1.0).astype(np.uint8)
         blank = (cov0 <= 0.0).astype(np.uint8)
-        kernel = np.ones((5, 5), np.uint8)
-        uniform = (cv2.erode(inked, kernel, borderType=cv2.BORDER_REPLICATE) > 0) | (
-            cv2.erode(blank, kernel, borderType=cv2.BORDER_REPLICATE) > 0)
+        kernel = np.ones((3, 3), np.uint8)
+        uniform = (cv2.erode(inked, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0) | (
+            cv2.erode(blank, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0)
         idx = np.flatnonzero(~uniform.ravel())
         if idx.size:
             offs = (np.arange(s) + 0.5) / s - 0.5
@@ -135,11 +138,19 @@ def homography_image_to_plane(H_plane_to_image):
     if H.shape != (3, 3):
         raise ValueError(f"H_plane_to_image must be 3x3, got shape {H.shape}")
     Hinv = np.linalg.inv(H)
+    Hinv = Hinv / Hinv[2, 2] if Hinv[2, 2] != 0 else Hinv
+    affine = Hinv[2, 0] == 0 and Hinv[2, 1] == 0 and Hinv[2, 2] == 1
 
     def image_to_plane(xy_px):
         xy = np.asarray(xy_px, float).reshape(-1, 2)
-        q = xy @ Hinv[:, :2].T + Hinv[:, 2]
-        return q[:, :2] / q[:, 2:3]
+        x, y = xy[:, 0], xy[:, 1]
+        u = Hinv[0, 0] * x + Hinv[0, 1] * y + Hinv[0, 2]
+        v = Hinv[1, 0] * x + Hinv[1, 1] * y + Hinv[1, 2]
+        if not affine:
+            w = Hinv[2, 0] * x + Hinv[2, 1] * y + Hinv[2, 2]
+            u /= w
+            v /= w
+        return np.column_stack([u, v])
 
     return image_to_plane
 

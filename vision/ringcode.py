@@ -7,11 +7,13 @@ over all cyclic rotations of the ``n`` bits read clockwise as seen in the image
 
 Detection (:func:`detect_markers`):
 
-1. threshold a downsampled copy (Otsu) and keep blobs whose shape matches
-   their moment ellipse (candidate centre circles);
+1. threshold a downsampled copy midway between the background (histogram
+   median) and the ink level, and keep blobs whose shape matches their moment
+   ellipse (candidate centre circles);
 2. affine-normalise each candidate with its ellipse and sample the full-
    resolution image on a polar grid (so perspective and anisotropic scale are
-   undone): locate the ring band radially, read the angular profile;
+   undone): locate the ring band radially, read the angular profile (per
+   angle the most inked radius of the band);
 3. find the element phase from the profile's edges, read each element's mean
    ink; an element that is not clearly printed or clearly blank, a ring band
    that is not where a ring belongs, or ink in the gap between circle and ring
@@ -28,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .circles import as_gray, fit_disk_model, weighted_centroid
+from .circles import as_gray, fit_disk_model, noise_sigma, weighted_centroid
 
 __all__ = ["Marker", "canonical_code", "decode_from_segments", "detect_markers", "read_ring"]
 
@@ -138,7 +140,7 @@ def _sqrt_inv(M):
     return (V / np.sqrt(w)) @ V.T
 
 
-def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
+def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     """Read the bits of the ring around a centre circle ``q^T M q <= 1`` at (x, y).
 
     Parameters
@@ -155,13 +157,16 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
         Ring elements.
     n_angles : int or None
         Angular samples; default ``max(360, 30 n)``.
+    band : tuple of float or None
+        Known (inner, outer) ring radii in centre radii (from an earlier read): only the band is
+        sampled, the radial search and the gap check are skipped.
 
     Returns
     -------
     tuple
-        ``(value, reason)``: the n-bit value read clockwise from the element
-        phase origin (MSB first) and ``""``, or ``(None, reason)`` when the ring
-        cannot be read with confidence.
+        ``(value, "", (inner, outer))``: the n-bit value read clockwise from the
+        element phase origin (MSB first) and the ring band in centre radii, or
+        ``(None, reason, None)`` when the ring cannot be read with confidence.
     """
     import cv2
 
@@ -169,8 +174,11 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
         n_angles = max(360, 30 * n)
     A = _sqrt_inv(np.asarray(M, float))  # unit circle -> centre ellipse
     R = np.linalg.det(A) ** 0.5
-    step = max(0.5 / R, 0.02)  # half-pixel radial steps, at most 100 rows
-    rho = np.arange(_RHO_MIN, _RHO_MAX, step)
+    if band is None:
+        step = max(0.5 / R, 0.04)  # half-pixel radial steps, at most 50 rows
+        rho = np.arange(_RHO_MIN, _RHO_MAX, step)
+    else:
+        rho = np.linspace(band[0], band[1], min(16, max(5, int(np.ceil((band[1] - band[0]) * R)) + 1)))
     th = (np.arange(n_angles) + 0.5) * (2 * np.pi / n_angles)
     u = np.stack([np.cos(th), np.sin(th)])  # (2, n_angles)
     d = A @ u  # (2, n_angles)
@@ -182,25 +190,51 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
     P[outside] = np.nan
     W = (P - bg) / (ink - bg)  # ink fraction, (n_rho, n_angles)
     valid = ~np.isnan(W)
+    if band is not None:
+        if not valid.all():
+            return None, "ring cut by the image border", None
+        return (*_read_profile(_band_profile(W), n, n_angles), tuple(band))
     f = (np.nan_to_num(W, nan=0.0) > 0.5).sum(axis=1) / np.maximum(valid.sum(axis=1), 1)
     fmax = f.max()
     if fmax < 0.5 / n:
-        return None, "no ring around the centre circle"
-    band = np.flatnonzero(f > 0.5 * fmax)
-    r_in, r_out = rho[band[0]], rho[band[-1]]
+        return None, "no ring around the centre circle", None
+    # the band: the run of radii around the most inked one (ink further out, e.g. a neighbour's
+    # ring on a tight board, is not part of it)
+    strong = f > 0.5 * fmax
+    i0 = i1 = int(np.argmax(f))
+    while i0 > 0 and strong[i0 - 1]:
+        i0 -= 1
+    while i1 < len(f) - 1 and strong[i1 + 1]:
+        i1 += 1
+    r_in, r_out = rho[i0], rho[i1]
     if not (1.4 < r_in < 2.3 and 2.1 < r_out < 3.2 and r_out - r_in > 0.35):
-        return None, f"ring band {r_in:.2f}-{r_out:.2f} (centre radii) is not where a ring belongs"
+        return None, f"ring band {r_in:.2f}-{r_out:.2f} (centre radii) is not where a ring belongs", None
     if not valid[rho <= r_out + 2.0 / R].all():
-        return None, "ring cut by the image border"
+        return None, "ring cut by the image border", None
     # the gap between centre circle and ring must be empty
-    inside = rho < r_in - 0.15
-    if np.any(inside) and W[inside].mean(axis=1).max() > 0.15:
-        return None, "ink between the centre circle and the ring"
-    width = r_out - r_in
-    core = (rho > r_in + 0.25 * width) & (rho < r_out - 0.25 * width)
-    if core.sum() < 1:
-        core = (rho >= r_in) & (rho <= r_out)
-    prof = W[core].mean(axis=0)  # angular profile, clockwise as seen in the image
+    # (away from both blurred edges; at least one clean circle must separate them)
+    margin = max(0.1, 1.5 / R)
+    inside = (rho > 1.0 + margin) & (rho < r_in - margin)
+    if np.any(inside) and W[inside].mean(axis=1).min() > 0.15:
+        return None, "ink between the centre circle and the ring", None
+    in_band = (rho >= r_in) & (rho <= r_out)
+    value, reason = _read_profile(_band_profile(W[in_band]), n, n_angles)
+    return value, reason, ((float(r_in), float(r_out)) if value is not None else None)
+
+
+def _band_profile(Wb):
+    """Angular ink profile of a ring band: per angle, the largest ink of a 3-row running mean.
+
+    The maximum over the band (rather than the mean of its core) keeps a printed element at
+    full ink where perspective shifts the ring radially against the centre circle's ellipse.
+    """
+    if Wb.shape[0] >= 3:
+        Wb = (Wb[:-2] + Wb[1:-1] + Wb[2:]) / 3.0
+    return Wb.max(axis=0)
+
+
+def _read_profile(prof, n, n_angles):
+    """Bits from an angular ink profile (clockwise as seen in the image): ``(value, "")`` or ``(None, reason)``."""
     # element phase from the edges of the profile
     b = prof > 0.5
     edges = np.flatnonzero(b != np.roll(b, 1))
@@ -214,15 +248,15 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
     if abs(z.mean()) < 0.9:
         return None, "ring edges do not fall on an element grid"
     phase = np.angle(z.mean()) / n  # element boundaries at phase + k 2pi/n
-    bits = []
     per = n_angles / n
-    for k in range(n):
-        a0 = phase + (k + 0.2) * 2 * np.pi / n
-        idx = (np.floor(a0 / (2 * np.pi) * n_angles + np.arange(int(0.6 * per))).astype(int)) % n_angles
-        v = prof[idx].mean()
-        if 0.25 < v < 0.75:
-            return None, f"element {k} is neither printed nor blank (ink {v:.2f})"
-        bits.append(1 if v >= 0.75 else 0)
+    a0 = phase + (np.arange(n) + 0.2) * (2 * np.pi / n)  # the central 60 % of each element
+    idx = (np.floor(a0 / (2 * np.pi) * n_angles)[:, None].astype(int) + np.arange(int(0.6 * per))) % n_angles
+    v = prof[idx].mean(axis=1)
+    unclear = np.flatnonzero((v > 0.25) & (v < 0.75))
+    if unclear.size:
+        k = int(unclear[0])
+        return None, f"element {k} is neither printed nor blank (ink {v[k]:.2f})"
+    bits = [1 if x >= 0.75 else 0 for x in v]
     value = int("".join(map(str, bits)), 2)
     if value == 0 or value == (1 << n) - 1:
         return None, "ring is uniform"
@@ -230,7 +264,7 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None):
 
 
 def _candidates(small, sign, thr, scale, min_area):
-    """Round blobs in the downsampled image: list of (cx, cy, M) in full-resolution pixels."""
+    """Round blobs in the downsampled image: list of (x, y, M, area) in full-resolution pixels."""
     import cv2
 
     mask = ((small < thr) if sign < 0 else (small > thr)).astype(np.uint8)
@@ -243,20 +277,25 @@ def _candidates(small, sign, thr, scale, min_area):
             continue
         if max(bw, bh) > 3 * min(bw, bh) or area < 0.5 * bw * bh:
             continue
-        sub = labels[y:y + bh, x:x + bw] == k
-        ys, xs = np.nonzero(sub)
-        cx, cy = xs.mean(), ys.mean()  # relative to the bbox corner
-        cov = np.cov(np.vstack([xs - cx, ys - cy]), bias=True) + np.eye(2) / 12.0
+        if area > 0.95 * bw * bh:  # a filled rectangle (e.g. a cut-off corner of something): not a circle
+            continue
+        sub = (labels[y:y + bh, x:x + bw] == k).astype(np.uint8)
+        mo = cv2.moments(sub, binaryImage=True)
+        cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]  # relative to the bbox corner
+        cov = np.array([[mo["mu20"], mo["mu11"]], [mo["mu11"], mo["mu02"]]]) / mo["m00"] + np.eye(2) / 12.0
         det = np.linalg.det(cov)
         if not det > 0:
             continue
         M = np.linalg.inv(4 * cov)
-        # overlap of the blob with its moment ellipse (a disk: ~1; a bar or an arc: clearly less)
-        gy, gx = np.mgrid[y:y + bh, x:x + bw]
-        qx = gx - (cx + x)
-        qy = gy - (cy + y)
+        # overlap of the blob with its moment ellipse (a disk: ~1; a bar or an arc: clearly less),
+        # on a grid of at most ~48 x 48 points
+        st = max(1, max(bw, bh) // 48)
+        gy, gx = np.mgrid[0:bh:st, 0:bw:st]
+        qx = gx - cx
+        qy = gy - cy
         ell = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.0
-        inter = np.count_nonzero(ell & sub)
+        inb = sub[::st, ::st].astype(bool)
+        inter = np.count_nonzero(ell & inb) * st * st
         ell_area = np.pi / np.sqrt(np.linalg.det(M))  # the ellipse may extend past the bbox
         union = area + ell_area - inter
         if inter / union < 0.85:
@@ -304,25 +343,76 @@ def detect_markers(image, bits=12, *, polarity="auto", refine="fit") -> list:
     scale = max(1, int(max(h, w) // 1024))
     small = cv2.resize(img, (w // scale, h // scale), interpolation=cv2.INTER_AREA) if scale > 1 else img
     small = np.ascontiguousarray(small)
-    lo, hi = np.percentile(small[:: max(1, small.shape[0] // 256), :: max(1, small.shape[1] // 256)], [1, 99])
-    if hi - lo < 10:
-        return []
-    u8 = np.clip((small - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
-    thr_u8, _ = cv2.threshold(u8, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
-    thr = lo + thr_u8 * (hi - lo) / 255.0
-    med = float(np.median(small[:: max(1, small.shape[0] // 256), :: max(1, small.shape[1] // 256)]))
-    guess = -1 if med > thr else 1
-    signs = {"dark": [-1], "light": [1], "auto": [guess, -guess]}[polarity]
+    if small.dtype != np.uint8:
+        small = np.clip(np.rint(small), 0, 255).astype(np.uint8)  # as_gray put it on 0..255
+    # levels from the histogram: background = median (marks cover well under half of any view), ink =
+    # the extreme reached by at least k pixels (a single small mark in a large image still counts)
+    hist = cv2.calcHist([small], [0], None, [256], [0, 256]).ravel()
+    cum = np.cumsum(hist)
+    total = cum[-1]
+    k_min = max(12.0, 2e-5 * total)
+    bg = int(np.searchsorted(cum, total / 2))
+    lo = int(np.searchsorted(cum, k_min))
+    hi = int(np.searchsorted(cum, total - k_min))
+    noise = noise_sigma(small.astype(np.float32))
+    need = max(10.0, 6.0 * noise)
+    options = []
+    if bg - lo >= need:
+        options.append((bg - lo, -1, 0.5 * (bg + lo)))
+    if hi - bg >= need:
+        options.append((hi - bg, 1, 0.5 * (bg + hi)))
+    options.sort(reverse=True)  # the stronger contrast first
+    wanted = {"dark": -1, "light": 1}.get(polarity)
+    signs = [(sg, t) for _, sg, t in options if wanted is None or sg == wanted]
     markers = []
-    for sign in signs:
+    for sign, thr in signs:
         for X, Y, M, area in _candidates(small, sign, thr, scale, min_area=12):
-            m = _decode_one(img, X, Y, M, sign, n, refine)
+            m = _decode_one(img, X, Y, M, sign, n, refine, scale)
             if m is not None:
                 markers.append(m)
         if markers:
             break
-    markers.sort(key=lambda m: (round(m.y_px), m.x_px))
-    return markers
+    # a ring element mistaken for a centre circle lies inside a real mark's ring: keep the larger mark
+    markers.sort(key=lambda m: -m.radius_px)
+    kept = []
+    for m in markers:
+        if all(np.hypot(m.x_px - k.x_px, m.y_px - k.y_px) > _RHO_MAX * k.radius_px for k in kept):
+            kept.append(m)
+    kept.sort(key=lambda m: (m.y_px, m.x_px))
+    return kept
+
+
+def _refine_moments(img, X, Y, M, bg, ink, iterations=2):
+    """Centre and ellipse of the centre circle from grey-level moments (ink fraction clipped to [0, 1]).
+
+    Uses the pixels within 1.4 radii of the current ellipse (the ring starts at 1.8), so the
+    result is far better than the moments of a thresholded, downsampled blob. Returns
+    ``(x, y, M)`` or None when the window leaves the image or holds no ink.
+    """
+    h, w = img.shape
+    for _ in range(iterations):
+        Minv = np.linalg.inv(M)
+        ex, ey = 1.4 * np.sqrt(Minv[0, 0]) + 1, 1.4 * np.sqrt(Minv[1, 1]) + 1
+        xa, xb = int(np.floor(X - ex)), int(np.ceil(X + ex)) + 1
+        ya, yb = int(np.floor(Y - ey)), int(np.ceil(Y + ey)) + 1
+        if xa < 0 or ya < 0 or xb > w or yb > h:
+            return None
+        ys, xs = np.mgrid[ya:yb, xa:xb]
+        qx, qy = xs - X, ys - Y
+        inwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.96
+        wgt = np.clip((img[ya:yb, xa:xb] - bg) / (ink - bg), 0.0, 1.0) * inwin
+        tot = wgt.sum()
+        if not tot > 3:
+            return None
+        X = float((wgt * xs).sum() / tot)
+        Y = float((wgt * ys).sum() / tot)
+        dx, dy = xs - X, ys - Y
+        cov = np.array([[(wgt * dx * dx).sum(), (wgt * dx * dy).sum()],
+                        [(wgt * dx * dy).sum(), (wgt * dy * dy).sum()]]) / tot
+        if not np.linalg.det(cov) > 0:
+            return None
+        M = np.linalg.inv(4 * cov)
+    return X, Y, M
 
 
 def _local_levels(img, X, Y, M, sign):
@@ -351,13 +441,13 @@ def _local_levels(img, X, Y, M, sign):
 
 
 #: Marks are decoded and refined on a box-filtered copy in which the centre radius is about this (px).
-_WORK_RADIUS_PX = 40.0
+_WORK_RADIUS_PX = 30.0
 
 #: Outer half-width of the edge band used by the centre refinement, work pixels.
 _WINDOW_PX = 6.0
 
 
-def _decode_one(img, X, Y, M, sign, n, refine):
+def _decode_one(img, X, Y, M, sign, n, refine, scale=1):
     """Decode and refine one candidate (full-resolution guess X, Y, M); returns a Marker or None."""
     import cv2
 
@@ -383,9 +473,15 @@ def _decode_one(img, X, Y, M, sign, n, refine):
     bg, ink = lv
     if abs(ink - bg) < 10:
         return None
-    value, _ = read_ring(work, Xw, Yw, Mw, bg, ink, n)
-    if value is None:
+    if R_full / scale < 15:  # a small thresholded blob gives a poor ellipse: use grey-level moments
+        rough = _refine_moments(work, Xw, Yw, Mw, bg, ink)
+        if rough is None:
+            return None
+        Xw, Yw, Mw = rough
+    first = read_ring(work, Xw, Yw, Mw, bg, ink, n)
+    if first[0] is None:
         return None
+    value, band = first[0], first[2]
     R0 = np.linalg.det(Mw) ** -0.25
     # the ring's inner edge is at ~1.8 R: keep the window clear of it
     win = max(2.0, min(0.45 * R0, _WINDOW_PX))
@@ -397,7 +493,8 @@ def _decode_one(img, X, Y, M, sign, n, refine):
         if abs(r["amp"]) < 0.5 * abs(ink - bg) or np.hypot(x - Xw, y - Yw) > 0.5 * R0:
             return None
         # re-read the ring with the refined ellipse: must agree
-        value2, _ = read_ring(work, x, y, Mf, r["bg"], r["bg"] + r["amp"], n)
+        k = R0 / r["radius"]  # the band was measured in radii of the rough (threshold) ellipse
+        value2 = read_ring(work, x, y, Mf, r["bg"], r["bg"] + r["amp"], n, band=(band[0] * k, band[1] * k))[0]
         if value2 is None or canonical_code(value2, n) != canonical_code(value, n):
             return None
         radius = r["radius"]

@@ -13,7 +13,7 @@ Two stages:
 
    - ``"lk"`` (the default, ``"auto"``): Gauss-Newton (Lucas-Kanade) fit of
      ``image(x + d) = a * template(x) + b`` for the shift ``d`` and a linear
-     grey-level change, with cubic-spline interpolation of the image. The
+     grey-level change, with quintic-spline interpolation of the image. The
      least-squares estimate under Gaussian noise;
    - ``"ncc"``: 2-D quadratic fit of the 3 x 3 correlation peak;
    - ``"gauss"``: separable Gaussian (log-parabola) fit of the peak;
@@ -23,9 +23,14 @@ Two stages:
      (Guizar-Sicairos et al. 2008), factor :data:`UPSAMPLE_FACTOR`;
    - ``"phase"``: ``cv2.phaseCorrelate`` of the template against the matched patch.
 
-``benchmarks/bench_template.py`` measures all of them on rendered plates with
-known sub-pixel shifts; ``"lk"`` is the most accurate and is what ``"auto"``
-uses.
+``benchmarks/bench_template.py`` measures all of them on rendered plates
+(96 x 96 px template, shifts up to 3 px, blur 0.8 px, noise sigma 2 grey levels
+in both the reference and the later image). RMS shift error, smooth texture /
+printed discs and bars: ``lk`` 0.004 / 0.003 px, ``ecc`` 0.009 / 0.008,
+``upsampled`` 0.006 / 0.022, ``ncc`` 0.009 / 0.014, ``gauss`` 0.027 / 0.093,
+``phase`` 0.16 / 0.12 and ``cv2.phaseCorrelate`` on the whole frame
+0.18 / 0.10 px. ``"lk"`` is the most accurate and is what ``"auto"`` uses
+(about 5-10 ms per call; ``"ncc"`` takes 0.2 ms where 0.01-0.02 px will do).
 
 References
 ----------
@@ -51,6 +56,12 @@ MIN_TEMPLATE_PX = 8
 #: Gauss-Newton stopping rule of ``"lk"``: step below this (px) or this many iterations.
 LK_TOL_PX = 1e-5
 LK_MAX_ITER = 30
+#: Order of the spline that interpolates the image in "lk".
+SPLINE_ORDER = 5
+#: Extra image border around the matched patch that the "lk" spline sees, px.
+LK_MARGIN_PX = 8
+#: Largest sub-pixel correction "lk" accepts from the integer peak before it gives up, px.
+LK_MAX_SHIFT_PX = 2.0
 #: Upsampling factor of ``"upsampled"`` (resolution 1/factor px).
 UPSAMPLE_FACTOR = 200
 #: Default lowest accepted NCC peak.
@@ -89,6 +100,10 @@ class TemplateMatch:
         and offset); nan if not computed.
     reason : str
         Empty when found, otherwise why not.
+    sigma_dx_px, sigma_dy_px : float
+        Standard deviations of ``dx_px, dy_px`` from the residual scatter of
+        the ``"lk"`` fit (image noise, and noise of the template, which is
+        common to every match with the same template); nan for other methods.
     """
 
     found: bool
@@ -96,6 +111,8 @@ class TemplateMatch:
     dy_px: float
     score: float
     reason: str = ""
+    sigma_dx_px: float = float("nan")
+    sigma_dy_px: float = float("nan")
 
 
 def _as_gray(image, name):
@@ -185,11 +202,11 @@ def _lk_refine(image, tmpl, x0, y0):
     from scipy import ndimage
 
     h, w = tmpl.shape
-    margin = 3
+    margin = LK_MARGIN_PX
     ih, iw = image.shape
     xa, ya = max(x0 - margin, 0), max(y0 - margin, 0)
     xb, yb = min(x0 + w + margin, iw), min(y0 + h + margin, ih)
-    coeffs = ndimage.spline_filter(image[ya:yb, xa:xb].astype(np.float64), order=3, mode="mirror")
+    coeffs = ndimage.spline_filter(image[ya:yb, xa:xb].astype(np.float64), order=SPLINE_ORDER, mode="mirror")
     t = tmpl.astype(np.float64)
     gy, gx = np.gradient(t)
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -197,22 +214,30 @@ def _lk_refine(image, tmpl, x0, y0):
     # unknowns: shift (dx, dy), gain a, offset b; residual image(x + d) - a t - b
     d = np.zeros(2)
     a, b = 1.0, 0.0
-    ones = np.ones(t.size)
+    # linear model of the residual: a grad(t) . delta_d - t delta_a - delta_b; its pseudo-inverse
+    # does not change between iterations once the gain a is divided out of the shift columns
+    jac = np.column_stack([gx.ravel(), gy.ravel(), -t.ravel(), -np.ones(t.size)])
+    pinv = np.linalg.pinv(jac)
     for _ in range(LK_MAX_ITER):
-        warped = ndimage.map_coordinates(coeffs, [base_y + d[1], base_x + d[0]], order=3, prefilter=False,
+        warped = ndimage.map_coordinates(coeffs, [base_y + d[1], base_x + d[0]], order=SPLINE_ORDER, prefilter=False,
                                          mode="mirror")
-        r = (warped - a * t - b).ravel()
-        jac = np.column_stack([a * gx.ravel(), a * gy.ravel(), -t.ravel(), -ones])
-        step = np.linalg.lstsq(jac, -r, rcond=None)[0]
-        # linear model of the residual: a grad(t) . delta_d - t delta_a - delta_b
-        d += step[:2]
+        step = -(pinv @ (warped - a * t - b).ravel())
+        d += step[:2] / a
         a += step[2]
         b += step[3]
-        if abs(d[0]) > margin - 1 or abs(d[1]) > margin - 1:
+        if a <= 0 or abs(d[0]) > LK_MAX_SHIFT_PX or abs(d[1]) > LK_MAX_SHIFT_PX:
             return None
-        if np.max(np.abs(step[:2])) < LK_TOL_PX:
+        if np.max(np.abs(step[:2])) < LK_TOL_PX * a:
             break
-    return d[0], d[1]
+    else:
+        return None
+    # standard deviations of the shift from the residual scatter: cov(u) = s^2 (J^T J)^-1 = s^2 pinv pinv^T
+    warped = ndimage.map_coordinates(coeffs, [base_y + d[1], base_x + d[0]], order=SPLINE_ORDER, prefilter=False,
+                                     mode="mirror")
+    res = (warped - a * t - b).ravel()
+    s2 = (res @ res) / max(res.size - 4, 1)
+    var_u = s2 * np.einsum("ij,ij->i", pinv[:2], pinv[:2])
+    return d[0], d[1], float(np.sqrt(var_u[0]) / a), float(np.sqrt(var_u[1]) / a)
 
 
 def _ecc_refine(image, tmpl, x0, y0):
@@ -354,7 +379,8 @@ def locate_template(image, template, *, search_px=None, method="auto", min_score
         sub = _phase_refine(img, tmpl, x0, y0)
     else:
         sub = _lk_refine(img, tmpl, x0, y0)
-    if sub is None or not np.all(np.isfinite(sub)):
+    if sub is None or not np.all(np.isfinite(sub[:2])):
         return _not_found(f"sub-pixel refinement ({name}) did not converge", score)
+    sigma = sub[2:] if len(sub) == 4 else (np.nan, np.nan)
     return TemplateMatch(True, float(x0 + sub[0] - template.origin_px[0]), float(y0 + sub[1] - template.origin_px[1]),
-                         score, "")
+                         score, "", float(sigma[0]), float(sigma[1]))

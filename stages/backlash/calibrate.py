@@ -3,10 +3,16 @@
 Stage protocol (INTERFACES.md §5): ``move_to(x_mm, y_mm, theta_deg)`` (absolute)
 and ``grab() -> 2-D uint8`` of a camera looking down on one round fiducial.
 
-Start position: if the stage has a ``position`` attribute (commanded
-``(x_mm, y_mm, theta_deg)``), the plan is centred on it; otherwise the stage is
-assumed to stand at (0, 0, 0). Every command stays within ``±travel_mm`` /
-``±travel_deg`` of the start.
+Start position: if the stage has a ``position`` attribute (or method) giving
+the commanded ``(x_mm, y_mm, theta_deg)``, the plan is centred on it;
+otherwise the stage is assumed to stand at (0, 0, 0). Every command stays
+within ``±travel_mm`` / ``±travel_deg`` of the start.
+
+θ sense: the rotation centre is fitted assuming θ turns counter-clockwise
+seen from above (from machine X towards machine Y). When the stage turns the
+other way, ``theta_centre_mm`` / ``theta_centre_px`` come out mirrored across
+the chord of the photos, while the θ backlash keeps its sign and its value to
+first order (1e-4 relative at the defaults).
 """
 from __future__ import annotations
 
@@ -24,6 +30,9 @@ from .locate import locate_fiducial
 from .plan import plan_moves
 
 __all__ = ["BacklashResult", "MoveRecord", "calibrate", "analyse"]
+
+#: Minimum image arc (pixels) of the fiducial over the θ excursion for the θ backlash to be measured.
+MIN_THETA_ARC_PX = 2.0
 
 
 @dataclass(frozen=True)
@@ -159,15 +168,20 @@ class BacklashResult:
 
 
 def _start_of(stage):
+    """Commanded start position: ``stage.position`` when usable, else (0, 0, 0)."""
     pos = getattr(stage, "position", None)
+    if callable(pos):
+        pos = pos()
     if pos is None:
         return (0.0, 0.0, 0.0)
     try:
         start = tuple(float(v) for v in pos)
     except (TypeError, ValueError):
-        raise DataError(f"stage.position must be (x_mm, y_mm, theta_deg), got {pos!r}") from None
+        start = ()
     if len(start) != 3 or not np.all(np.isfinite(start)):
-        raise DataError(f"stage.position must be three finite numbers (x_mm, y_mm, theta_deg), got {pos!r}")
+        warnings.warn(f"stage.position is not (x_mm, y_mm, theta_deg) ({pos!r}); assuming the stage starts "
+                      "at (0, 0, 0)", stacklevel=3)
+        return (0.0, 0.0, 0.0)
     return start
 
 
@@ -318,6 +332,14 @@ def analyse(log, *, start=(0.0, 0.0, 0.0), travel_mm=None) -> BacklashResult:
     theta_gaps = np.degrees(np.angle(np.exp(1j * (phi_d - phi_u))))
     chord = backlash_from_reversals(_pixels(ups), _pixels(downs), scale.mm_per_px)
     theta_patent = np.degrees(chord.backlash_mm / radius)
+    centres = [r for r in log if r.axis == "theta" and r.role == "centre"]
+    arc_px = float(np.median(np.hypot(*(_pixels(centres) - _pixels(ups)[:len(centres)]).T))) if centres else 0.0
+    if arc_px < MIN_THETA_ARC_PX:
+        warnings.warn(f"the fiducial moved only {arc_px:.2f} px over the θ excursion: it is too close to the θ "
+                      "rotation centre (or θ did not move); θ backlash not measured (NaN). Put the fiducial far "
+                      "from the θ centre or increase travel_deg", stacklevel=2)
+        theta_gaps = np.full_like(theta_gaps, np.nan)
+        theta_patent = float("nan")
     # Centre in pixels: solve matrix @ (px - ref) = centre.
     centre_px = ref_px + np.linalg.solve(matrix.matrix, centre)
 

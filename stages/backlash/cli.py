@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import io
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -62,6 +63,13 @@ def _run(args) -> int:
         if not (np.isfinite(v) and v >= 0):
             flag = "--" + name.replace("_", "-")
             raise DataError(f"{flag} must be >= 0, got {v!r}", column=flag)
+    for flag, vals in (("--camera-angle-deg", [args.camera_angle_deg]), ("--theta-centre-mm", args.theta_centre_mm)):
+        if not np.all(np.isfinite(vals)):
+            raise DataError(f"{flag} must be finite, got {' '.join(map(str, vals))}", column=flag)
+    if args.plot:
+        folder = Path(args.plot).parent
+        if not folder.is_dir():
+            raise DataError(f"output folder {str(folder)!r} does not exist", path=args.plot, column="--plot")
     stage = SimulatedStage(
         pixel_mm=args.pixel_um * 1e-3, camera_angle_deg=args.camera_angle_deg,
         backlash_x_mm=args.backlash_x_um * 1e-3, backlash_y_mm=args.backlash_y_um * 1e-3,

@@ -1,7 +1,8 @@
 """Sub-pixel location of the one round fiducial in a stage image.
 
-Uses :func:`vision.circles.locate_disk` when that module is available, otherwise
-a background-subtracted intensity-weighted centroid (both polarities). An image
+Uses :func:`vision.circles.locate_disk` (blurred-disk model fit) when that
+module is available and finds the disk, otherwise a background-subtracted
+intensity-weighted centroid (both polarities). An image
 that does not show one complete fiducial raises :class:`ImageError`.
 """
 from __future__ import annotations
@@ -118,10 +119,17 @@ def locate_fiducial(image, *, what="image"):
         from vision.circles import locate_disk
     except ImportError:
         locate_disk = None
+    reason = None
     if locate_disk is not None:
         res = locate_disk(np.asarray(image))
-        if not res.found:
-            raise ImageError(f"{what}: no fiducial found ({res.reason})")
-        return float(res.x_px), float(res.y_px)
-    x, y, _ = centroid_locate(image, what=what)
+        if res.found:
+            return float(res.x_px), float(res.y_px)
+        reason = res.reason
+    try:
+        x, y, _ = centroid_locate(image, what=what)
+    except ImageError as exc:
+        if reason is None:
+            raise
+        raise ImageError(f"{what}: no fiducial found ({reason}; centroid: "
+                         f"{exc.message.removeprefix(what + ': ')})") from None
     return x, y

@@ -122,8 +122,8 @@ class SimulatedStage:
 
     def __init__(self, *, pixel_mm=0.005, camera_angle_deg=7.0, mirror=True, backlash_x_mm=0.004,
                  backlash_y_mm=0.003, backlash_theta_deg=0.01, theta_centre_mm=(-12.0, 8.0),
-                 fiducial_radius_mm=0.2, image_shape=(480, 640), principal_px=None, camera_at_mm=(0.0, 0.0), noise_sigma=2.0,
-                 blur_px=0.8, repeatability_mm=0.0, limits_mm=((-50.0, 50.0), (-50.0, 50.0)),
+                 fiducial_radius_mm=0.2, image_shape=(480, 640), principal_px=None, camera_at_mm=(0.0, 0.0),
+                 noise_sigma=2.0, blur_px=0.8, repeatability_mm=0.0, limits_mm=((-50.0, 50.0), (-50.0, 50.0)),
                  limits_deg=(-180.0, 180.0), initial_command=(0.0, 0.0, 0.0), initial_side=1, rng=None):
         p = np.broadcast_to(np.asarray(pixel_mm, dtype=float), (2,))
         self.pixel_mm = (_positive("pixel_mm", p[0]), _positive("pixel_mm", p[1]))

@@ -1,1 +1,16 @@
-"""kinid package."""
+"""Planar contour error of a machine from image sequences of a ring-coded board (patent 002, issue 6).
+
+``process_frame`` (per frame, pure) -> ``TrackBuilder`` (rotation and scale once
+from all frames, then the reference mark's track) -> ``contour_error`` /
+``circular_test`` (ISO 230-4 G, F, H). ``kinid contour`` is the command line.
+"""
+from .frames import FrameSource, map_frames, open_frames
+from .measure import ContourMeasurement, measure_contour, track_csv
+from .paths import (CirclePath, CircularTest, ContourError, LinePath, PolylinePath, circular_test, contour_error,
+                    fit_circle, fit_line, load_polyline)
+from .track import FrameResult, FrameSettings, Track, TrackBuilder, consistent_marks, estimate_track, process_frame
+
+__all__ = ["FrameSource", "map_frames", "open_frames", "ContourMeasurement", "measure_contour", "track_csv",
+           "CirclePath", "CircularTest", "ContourError", "LinePath", "PolylinePath", "circular_test",
+           "contour_error", "fit_circle", "fit_line", "load_polyline", "FrameResult", "FrameSettings", "Track",
+           "TrackBuilder", "consistent_marks", "estimate_track", "process_frame"]

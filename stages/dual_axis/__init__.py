@@ -8,7 +8,7 @@ for a camera-Y move, INTERFACES.md §5); :func:`fit_smooth` fits a parallelism
 angle plus straightness polynomial instead. :class:`SimulatedGantry` is
 ``urdf/gantry_dual_y.urdf`` with error values set.
 """
-from .calibrate import calibrate, default_roi, measure_pixel_to_mm, verify
+from .calibrate import calibrate, check_plan, default_roi, measure_pixel_to_mm, verify
 from .simulate import (ErrorProfile, SimulatedGantry, default_error_profiles, random_error_profiles,
                        random_texture)
 from .smooth import SmoothModel, fit_smooth
@@ -16,6 +16,7 @@ from .table import OffsetTable, RoundRecord, head_move_from
 
 __all__ = [
     "calibrate",
+    "check_plan",
     "measure_pixel_to_mm",
     "verify",
     "default_roi",

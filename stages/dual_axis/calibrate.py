@@ -12,7 +12,10 @@ The patent's steps, as implemented by :func:`calibrate`:
 3. Both Y axes step together by ``step_mm`` (``n_steps`` steps); after each
    step the head makes the compensation move of the current table (so the
    head move is :meth:`OffsetTable.head_move`), and the camera grabs an image.
-4. Template matching gives the plate's shift from the start image (px);
+4. Template matching gives the plate's shift from where the template was
+   in the start image (px; the template and its start position are recorded
+   once, so the start's repeatability error is common to every round and
+   cancels in the rounds' comparison);
    ``pixel_to_mm`` turns it into a head X/Y displacement (mm). Because the
    round ran with the current table applied, the measured residual, taken as
    the head move that cancels it (``-pixel_to_mm @ shift``), ADDS to the
@@ -22,12 +25,17 @@ The patent's steps, as implemented by :func:`calibrate`:
 """
 from __future__ import annotations
 
+import warnings
+from dataclasses import replace
+
 import numpy as np
 
 from identification.errors import DataError, ImageError
+from vision.motion_scale import pixel_to_machine_matrix
+from vision.template import locate_template, make_template
 from .table import OffsetTable, RoundRecord
 
-__all__ = ["calibrate", "measure_pixel_to_mm", "verify", "default_roi"]
+__all__ = ["calibrate", "check_plan", "measure_pixel_to_mm", "verify", "default_roi"]
 
 
 def default_roi(image_shape) -> tuple:
@@ -75,18 +83,18 @@ class _Locator:
     """Template made once from a reference image; shifts of the plate in later images (px)."""
 
     def __init__(self, reference_image, roi, search_px):
-        from vision.template import make_template
-
         image = np.asarray(reference_image)
         if image.ndim != 2:
             raise ImageError(f"grab() must return a 2-D grey image, got shape {image.shape}")
-        self.roi = tuple(int(v) for v in (default_roi(image.shape) if roi is None else roi))
-        self.template = make_template(image, self.roi)
+        self.roi = default_roi(image.shape) if roi is None else roi  # make_template validates it
+        try:
+            self.template = make_template(image, self.roi)
+        except ImageError as exc:
+            raise ImageError(f"start image: plate not found, no template can be made in region {self.roi} "
+                             f"(x, y, width, height px): {exc.message}") from None
         self.search_px = search_px
 
     def shift_px(self, image, where: str) -> np.ndarray:
-        from vision.template import locate_template
-
         image = np.asarray(image)
         if image.ndim != 2:
             raise ImageError(f"{where}: grab() must return a 2-D grey image, got shape {image.shape}")
@@ -95,6 +103,33 @@ class _Locator:
             raise ImageError(f"{where}: plate not found in the image ({m.reason}); check the plate is under the "
                              "camera and lit, or enlarge search_px")
         return np.array([m.dx_px, m.dy_px], float)
+
+
+def check_plan(y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um, max_rounds=1):
+    """Validate the arguments of :func:`calibrate` before any move.
+
+    Returns
+    -------
+    tuple
+        ``(y_start_mm, head_start_mm (2,), step_mm, spec_um, pixel_to_mm (2, 2))`` as floats / arrays.
+
+    Raises
+    ------
+    DataError
+        The first bad argument, named, with what was expected and received.
+    """
+    y0 = _number("y_start_mm", y_start_mm)
+    head0 = _head(head_start_mm)
+    step = _number("step_mm", step_mm)
+    if not step > 0:
+        raise DataError(f"step_mm must be positive (the camera steps towards +Y), got {step_mm!r}")
+    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
+        raise DataError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+    spec = _number("spec_um", spec_um, positive=True)
+    if isinstance(max_rounds, bool) or not isinstance(max_rounds, (int, np.integer)) or max_rounds < 1:
+        raise DataError(f"max_rounds must be an integer >= 1, got {max_rounds!r}")
+    m = _check_matrix(pixel_to_mm)
+    return y0, head0, step, spec, m
 
 
 def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um, *,
@@ -154,38 +189,29 @@ def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, 
     >>> t.rounds, t.converged                               # doctest: +SKIP
     (2, True)
     """
-    import warnings
-
-    y0 = _number("y_start_mm", y_start_mm)
-    head0 = _head(head_start_mm)
-    step = _number("step_mm", step_mm)
-    if not step > 0:
-        raise DataError(f"step_mm must be positive (the camera steps towards +Y), got {step_mm!r}")
-    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
-        raise DataError(f"n_steps must be an integer >= 1, got {n_steps!r}")
-    spec = _number("spec_um", spec_um, positive=True)
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, (int, np.integer)) or max_rounds < 1:
-        raise DataError(f"max_rounds must be an integer >= 1, got {max_rounds!r}")
-    m = _check_matrix(pixel_to_mm)
+    y0, head0, step, spec, m = check_plan(y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um,
+                                          max_rounds)
     n = int(n_steps)
 
     y = y0 + step * np.arange(n + 1)
     table = OffsetTable(y, np.zeros((n + 1, 2)), spec_um=spec)
     gantry.move(y0, head0[0], head0[1])
+    # step 2: the template and its centre at the start are recorded once; every shift is measured from it
     locator = _Locator(gantry.grab(), roi, search_px)
+    if progress is not None:
+        progress.update()
     history = []
     for r in range(1, int(max_rounds) + 1):
         gantry.move(y0, head0[0], head0[1])
-        ref = locator.shift_px(gantry.grab(), f"round {r}, start (camera Y {y0:g} mm)")
-        if progress is not None:
-            progress.update()
         head = head0.copy()
         offsets = np.zeros((n + 1, 2))
         for i in range(1, n + 1):
+            # 3.1: both Y axes step together; 3.2: the head makes the table's compensation move
+            gantry.move(y[i], head[0], head[1] + step)
             dx, dy = table.head_move(y[i - 1], y[i])
             head = head + (dx, dy)
             gantry.move(y[i], head[0], head[1])
-            shift = locator.shift_px(gantry.grab(), f"round {r}, step {i} (camera Y {y[i]:g} mm)") - ref
+            shift = locator.shift_px(gantry.grab(), f"round {r}, step {i} (camera Y {y[i]:g} mm)")
             offsets[i] = -(m @ shift)
             if progress is not None:
                 progress.update()
@@ -201,8 +227,6 @@ def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, 
         msg = (f"not converged after {table.rounds} rounds: last round's largest change "
                f"{history[-1].max_change_um:.3f} µm > {spec:g} µm")
         warnings.warn(msg, stacklevel=2)
-    from dataclasses import replace
-
     return replace(table, message=msg)
 
 
@@ -233,8 +257,6 @@ def measure_pixel_to_mm(gantry, cam_y_mm, head_mm, *, move_mm: float = 0.1, roi=
     vision.motion_scale.MatrixResult
         ``.matrix`` is the ``pixel_to_mm`` argument of :func:`calibrate`.
     """
-    from vision.motion_scale import pixel_to_machine_matrix
-
     cy = _number("cam_y_mm", cam_y_mm)
     h0 = _head(head_mm)
     d = _number("move_mm", move_mm, positive=True)

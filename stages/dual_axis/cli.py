@@ -73,19 +73,27 @@ def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max
         ``gantry``, ``pixel_to_mm``, ``table``, ``smooth``, ``held_out_mm`` and
         the summary ``report`` (JSON-ready).
     """
-    from .calibrate import calibrate, measure_pixel_to_mm, verify
+    from .calibrate import calibrate, check_plan, measure_pixel_to_mm, verify
     from .simulate import SimulatedGantry, random_error_profiles
     from .smooth import fit_smooth
 
     for name, v in (("noise", noise_sigma), ("repeat-um", repeat_um)):
         if not np.isfinite(v) or v < 0:
             raise DataError(f"--{name} must be a non-negative number, got {v!r}")
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 1:
+        raise DataError(f"degree must be an integer >= 1, got {degree!r}")
+    # validate the plan before any move (the pixel_to_mm argument is measured later)
+    check_plan(y_start_mm, (0.0, y_start_mm), step_mm, n_steps, np.eye(2), spec_um, max_rounds)
     rng = np.random.default_rng(seed)
     errors = random_error_profiles(rng) if random_errors else None
     g = SimulatedGantry(errors, noise_sigma=noise_sigma, repeat_um=repeat_um, rng=rng)
     head0 = (0.0, float(y_start_mm))  # Y = V, X = 0: the plate is centred under the camera
     mr = measure_pixel_to_mm(g, y_start_mm, head0)
-    table = calibrate(g, y_start_mm, head0, step_mm, n_steps, mr.matrix, spec_um, max_rounds=max_rounds)
+    from identification.progress import Progress
+
+    with Progress(None, "dual-axis images") as progress:
+        table = calibrate(g, y_start_mm, head0, step_mm, n_steps, mr.matrix, spec_um, max_rounds=max_rounds,
+                          progress=progress)
     smooth = fit_smooth(table, degree)
     held = table.y_mm[:-1] + 0.5 * float(step_mm)
     y0 = float(y_start_mm)
@@ -196,6 +204,10 @@ def _format(rep: dict) -> str:
 
 
 def _run(args) -> int:
+    from pathlib import Path
+
+    if args.plot and not Path(args.plot).resolve().parent.is_dir():
+        raise DataError(f"output folder {str(Path(args.plot).parent)!r} does not exist", path=args.plot)
     result = run_simulation(y_start_mm=args.y_start_mm, step_mm=args.step_mm, n_steps=args.steps,
                             spec_um=args.spec_um, max_rounds=args.max_rounds, degree=args.degree,
                             seed=args.seed, random_errors=args.random_errors, noise_sigma=args.noise,

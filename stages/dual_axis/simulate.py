@@ -17,6 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from identification.errors import DataError, StageError
+from identification.machine import load_machine, tool_in_workpiece_mm
+from urdf import path as urdf_path
+from vision.render import render_pattern
 
 __all__ = [
     "ErrorProfile",
@@ -182,9 +185,6 @@ class SimulatedGantry:
     def __init__(self, errors=None, *, pixel_mm: float = 0.005, image_angle_deg: float = 3.0,
                  image_shape=(160, 200), noise_sigma: float = 1.5, repeat_um: float = 0.0,
                  texture=None, machine_path=None, rng=None):
-        from identification.machine import load_machine
-        from urdf import path as urdf_path
-
         self.rng = np.random.default_rng(0) if rng is None else rng
         self.machine = load_machine(urdf_path("gantry_dual_y") if machine_path is None else machine_path)
         self.errors = tuple(default_error_profiles() if errors is None else errors)
@@ -232,8 +232,6 @@ class SimulatedGantry:
         cam_y_mm, head_x_mm, head_y_mm : float
             Actual axis positions Y, X, V, mm.
         """
-        from identification.machine import tool_in_workpiece_mm
-
         axes = {"Y": float(cam_y_mm), "X": float(head_x_mm), "V": float(head_y_mm)}
         return tool_in_workpiece_mm(self.machine, axes, self.joint_errors(axes))[:2]
 
@@ -299,8 +297,6 @@ class SimulatedGantry:
 
     def grab(self) -> np.ndarray:
         """Camera image (uint8, ``image_shape``) of the plate at the current positions."""
-        from vision.render import render_pattern
-
         act = self.actual
         p = self.plate_point_mm(act["Y"], act["X"], act["V"])
         yaw = self.yaw_urad(act) * 1e-6

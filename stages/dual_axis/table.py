@@ -15,7 +15,7 @@ so moves compose: ``head_move(a, b) + head_move(b, c) == head_move(a, c)``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -132,8 +132,6 @@ class OffsetTable:
 
     def with_offsets(self, offsets_mm, **changes) -> "OffsetTable":
         """A copy with ``offsets_mm`` (n + 1, 2) ADDED to the entries (the patent's update rule)."""
-        from dataclasses import replace
-
         add = np.asarray(offsets_mm, float)
         if add.shape != self.offset_mm.shape:
             raise ValueError(f"offsets must have shape {self.offset_mm.shape}, got {add.shape}")

@@ -58,12 +58,29 @@ class DirectionTrackingCompensator:
         return self._state[self._check(actuator)]
 
     def command(self, actuator: str, target_um: float) -> float:
-        """Command (µm from home) that brings ``actuator`` to ``target_um`` (µm from home).
+        """Command that brings ``actuator`` to ``target_um``.
 
         The approach direction is chosen from the current state: moving on in
         the last direction if the target lies ahead, reversing (and taking up
         the backlash) otherwise. The state is updated as if the command were
         sent.
+
+        Parameters
+        ----------
+        actuator : str
+            ``"X1"``, ``"X2"`` or ``"Y"``.
+        target_um : float
+            Wanted table position of the actuator, µm from home.
+
+        Returns
+        -------
+        float
+            Position to command, µm from home.
+
+        Raises
+        ------
+        StageError
+            Unknown or uncalibrated actuator, or a target that is not a finite number.
         """
         self._check(actuator)
         try:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from identification.errors import StageError
 
 __all__ = ["ACTUATORS", "UVWGeometry", "Pose", "Strokes", "inverse_kinematics", "forward_kinematics",
-           "decompose_move", "check_actuator"]
+           "decompose_move", "check_actuator", "check_lead"]
 
 #: Actuator names of the UVW protocol (INTERFACES.md §5).
 ACTUATORS = ("X1", "X2", "Y")
@@ -37,6 +37,17 @@ def check_actuator(actuator) -> str:
     if actuator not in ACTUATORS:
         raise StageError(f"unknown actuator {actuator!r}; expected one of 'X1', 'X2', 'Y'")
     return actuator
+
+
+def check_lead(lead_um) -> float:
+    """Return the screw lead as a float if it is a finite positive number (µm), else raise :class:`StageError`."""
+    try:
+        lead = float(lead_um)
+    except (TypeError, ValueError):
+        lead = float("nan")
+    if not (math.isfinite(lead) and lead > 0):
+        raise StageError(f"lead_um must be a positive number (screw lead, µm), got {lead_um!r}")
+    return lead
 
 
 @dataclass(frozen=True)

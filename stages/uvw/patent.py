@@ -24,7 +24,6 @@ backlash on a forward move that follows a reverse one.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +31,7 @@ import numpy as np
 from identification.errors import StageError
 
 from .compensator import DirectionTrackingCompensator
-from .kinematics import ACTUATORS, check_actuator
+from .kinematics import ACTUATORS, check_actuator, check_lead
 
 __all__ = ["PatentStatistics", "patent_strokes", "patent_statistics", "patent_compensation_um",
            "measure_patent", "PatentCompensator", "calibrate_patent"]
@@ -69,16 +68,6 @@ class PatentStatistics:
         return (self.at_n_um - self.at_m_um) / (self.n_um - self.m_um)
 
 
-def _check_lead(lead_um):
-    try:
-        lead = float(lead_um)
-    except (TypeError, ValueError):
-        raise StageError(f"lead_um must be a positive number (screw lead, µm), got {lead_um!r}") from None
-    if not (math.isfinite(lead) and lead > 0):
-        raise StageError(f"lead_um must be a positive number (screw lead, µm), got {lead_um!r}")
-    return lead
-
-
 def patent_strokes(lead_um: float):
     """The patent's test strokes ``(m₁, mid, n₁) = (0.5a, a, 1.5a)`` for a lead of 2a, µm.
 
@@ -87,7 +76,7 @@ def patent_strokes(lead_um: float):
     >>> patent_strokes(2000.0)
     (500.0, 1000.0, 1500.0)
     """
-    a = 0.5 * _check_lead(lead_um)
+    a = 0.5 * check_lead(lead_um)
     return (0.5 * a, a, 1.5 * a)
 
 
@@ -219,7 +208,7 @@ def calibrate_patent(move, lead_um: float, *, repeats: int = 18, actuators=ACTUA
     The actuators end at home, approached forward, which is the state the
     returned compensator starts from.
     """
-    lead = _check_lead(lead_um)
+    lead = check_lead(lead_um)
     m, _, n = patent_strokes(lead)
     stats = {}
     for name in actuators:

@@ -1,0 +1,173 @@
+"""``kinid contour``: planar contour error from an image sequence of a ring-coded board (INTERFACES.md §6)."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+from identification.errors import DataError
+
+__all__ = ["register"]
+
+
+def register(subparsers) -> None:
+    """Add the ``contour`` verb to the ``kinid`` command line."""
+    p = subparsers.add_parser(
+        "contour",
+        help="track a ring-coded board through an image sequence and report the contour error",
+        description="Patent 002: decode the ring-coded marks of every frame, estimate the board's rotation and "
+                    "the image scale once from all frames, follow the reference mark (the decoded mark nearest "
+                    "the image centre in the first frame) even after it leaves the view, and compare its track "
+                    "with the programmed path. TRACK.csv: frame,t_s,x_mm,y_mm,error_um (camera frame: x right, "
+                    "y down, mm relative to the first frame; frames not located keep their row with empty "
+                    "x_mm, y_mm and error_um).")
+    p.add_argument("--frames", required=True, metavar="DIR",
+                   help="folder of image files (read in name order) or a video file")
+    p.add_argument("--board", required=True, metavar="BOARD.json", help="board description file")
+    scale = p.add_mutually_exclusive_group(required=True)
+    scale.add_argument("--pixel-mm", type=float, metavar="S", help="object-side pixel size, mm per pixel")
+    scale.add_argument("--camera", metavar="CAMERA.json", help="camera calibration (lens distortion is removed)")
+    p.add_argument("--path", choices=("circle", "line", "polyline"), default="circle",
+                   help="programmed path (default circle: least-squares circle through the track)")
+    p.add_argument("--centre", "--center", dest="centre", metavar="X,Y",
+                   help="circle centre in track coordinates, mm (default: fitted)")
+    p.add_argument("--radius", type=float, metavar="R", help="circle radius, mm (default: fitted)")
+    p.add_argument("--start", metavar="X,Y", help="line start, mm (with --end; default: fitted line)")
+    p.add_argument("--end", metavar="X,Y", help="line end, mm")
+    p.add_argument("--path-file", metavar="PATH.csv", help="polyline vertices: CSV with columns x_mm,y_mm")
+    p.add_argument("--fps", type=float, metavar="F",
+                   help="frame rate: t_s = frame / F (default: the video's rate; for a folder t_s is left empty)")
+    p.add_argument("--out", required=True, metavar="TRACK.csv", help="track and contour error per frame")
+    p.add_argument("--json", action="store_true", help="print the JSON summary only")
+    p.add_argument("--plot", metavar="OUT.png", help="polar plot of the radial deviation (circle) or error plot")
+    p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--roi-px", metavar="X0,Y0,W,H", help="decode marks only inside this window of each frame")
+    p.add_argument("--downsample", type=int, default=1, metavar="N",
+                   help="decode on an N-times box-filtered copy of each frame (faster for large marks; default 1)")
+    p.add_argument("--refine", choices=("fit", "centroid"), default="fit",
+                   help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
+    p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
+    p.set_defaults(run=_run)
+
+
+def _pair(text, option):
+    try:
+        vals = [float(v) for v in str(text).split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals):
+        raise DataError(f"{option} expects two numbers X,Y in mm, got {text!r}", column=option)
+    return tuple(vals)
+
+
+def _path_from_args(args):
+    from .paths import CirclePath, LinePath, PolylinePath, load_polyline
+
+    if args.path == "circle":
+        if args.radius is not None and not (math.isfinite(args.radius) and args.radius > 0):
+            raise DataError(f"--radius must be a positive number of mm, got {args.radius}", column="--radius")
+        centre = _pair(args.centre, "--centre") if args.centre else None
+        return CirclePath(centre, args.radius)
+    if args.path == "line":
+        if (args.start is None) != (args.end is None):
+            raise DataError("--path line needs both --start and --end, or neither (fitted line)", column="--start")
+        if args.start is None:
+            return LinePath()
+        return LinePath(_pair(args.start, "--start"), _pair(args.end, "--end"))
+    if not args.path_file:
+        raise DataError("--path polyline needs --path-file PATH.csv with columns x_mm,y_mm", column="--path-file")
+    return PolylinePath(load_polyline(args.path_file))
+
+
+def _run(args) -> int:
+    from identification.atomic import write_text
+    from identification.progress import Progress
+    from vision.board import load_board
+
+    from .frames import open_frames
+    from .measure import measure_contour, track_csv
+    from .track import FrameSettings
+
+    board = load_board(args.board)
+    camera = None
+    if args.camera:
+        from vision.camera import load_camera
+
+        camera = load_camera(args.camera)
+    if args.pixel_mm is not None and not (math.isfinite(args.pixel_mm) and args.pixel_mm > 0):
+        raise DataError(f"--pixel-mm must be a positive number of mm per pixel, got {args.pixel_mm}",
+                        column="--pixel-mm")
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise DataError(f"--fps must be a positive number, got {args.fps}", column="--fps")
+    if args.downsample < 1:
+        raise DataError(f"--downsample must be an integer >= 1, got {args.downsample}", column="--downsample")
+    if args.workers < 1:
+        raise DataError(f"--workers must be >= 1, got {args.workers}", column="--workers")
+    roi = None
+    if args.roi_px:
+        try:
+            roi = tuple(int(v) for v in args.roi_px.split(","))
+        except ValueError:
+            roi = ()
+        if len(roi) != 4 or roi[2] < 1 or roi[3] < 1:
+            raise DataError(f"--roi-px expects four integers X0,Y0,W,H with W,H >= 1, got {args.roi_px!r}",
+                            column="--roi-px")
+    path = _path_from_args(args)
+    settings = FrameSettings(pixel_mm=args.pixel_mm, camera=camera, bits=board.bits, refine=args.refine, roi_px=roi,
+                             downsample=args.downsample)
+    source = open_frames(args.frames)
+    progress = Progress(source.count, "frames", enabled=True if args.progress else None)
+    try:
+        m = measure_contour(source, board, settings, path, fps=args.fps, workers=args.workers, progress=progress)
+    finally:
+        progress.close()
+    write_text(args.out, track_csv(m))
+    if args.plot:
+        from .plot import plot_contour
+
+        plot_contour(m, args.plot)
+    tr = m.track
+    if tr.not_located:
+        shown = ", ".join(str(k) for k in tr.not_located[:20]) + (" ..." if len(tr.not_located) > 20 else "")
+        first = tr.reasons.get(tr.not_located[0], "")
+        print(f"kinid contour: {len(tr.not_located)} of {len(tr.located)} frame(s) not located (empty rows in "
+              f"{args.out}): {shown} (frame {tr.not_located[0]}: {first})", file=sys.stderr)
+    if m.fps is None:
+        print("kinid contour: no --fps given and the frames carry no rate; t_s left empty", file=sys.stderr)
+    if args.json:
+        print(json.dumps(m.summary))
+        return 0
+    print(_report(m, settings))
+    return 0
+
+
+def _report(m, settings) -> str:
+    tr, ce = m.track, m.contour
+    unit = settings.unit
+    lines = [f"frames            {len(tr.located)}  (located {int(tr.located.sum())})",
+             f"reference mark    code {tr.reference_code} at row {tr.reference_rc[0]}, column {tr.reference_rc[1]}",
+             f"board rotation    {tr.angle_deg:.4f} deg (in the image, clockwise as seen)"]
+    if unit == "mm":
+        lines.append(f"pixel size        {settings.pixel_mm * 1e3 / tr.scale:.5f} um from the board's pitch "
+                     f"(given {settings.pixel_mm * 1e3:.5f} um)")
+    else:
+        lines.append(f"pixel size        {1e3 / tr.scale:.5f} um (object side, ideal pixels)")
+    res = tr.residual_rms / tr.scale * 1e3
+    lines.append(f"mark residual     {res:.3f} um RMS per coordinate" if math.isfinite(res) else
+                 "mark residual     n/a (no frame with two marks)")
+    path = ce.path
+    name = type(path).__name__.replace("Path", "").lower()
+    if name == "circle":
+        lines.append(f"path              circle, centre ({path.centre_mm[0]:.4f}, {path.centre_mm[1]:.4f}) mm, "
+                     f"radius {path.radius_mm:.4f} mm")
+    else:
+        lines.append(f"path              {name}")
+    lines.append(f"contour error     RMS {ce.rms_um:.3f} um, max |e| {ce.max_um:.3f} um")
+    c = m.circular
+    if c is not None:
+        h = f"{c.H_um:.3f} um" if math.isfinite(c.H_um) else "n/a (one direction only)"
+        lines += [f"ISO 230-4 G       {c.G_um:.3f} um (circular deviation)",
+                  f"ISO 230-4 F       max {c.F_max_um:+.3f} um, min {c.F_min_um:+.3f} um (radial deviation, "
+                  f"R0 {c.nominal_radius_mm:.4f} mm)",
+                  f"ISO 230-4 H       {h} (circular hysteresis)"]
+    return "\n".join(lines)

@@ -1,0 +1,211 @@
+"""Streaming frame sources and an ordered, bounded 2-process map of :func:`process_frame`.
+
+Frames come from a folder (image files in name order) or a video file (read
+with ``cv2.VideoCapture``), one at a time. :func:`map_frames` keeps at most
+``2 * workers`` batches of frames in flight, so memory stays flat however long the
+sequence, and yields results in frame order.
+
+For a folder the workers read the files themselves (only the path crosses the
+process boundary); video frames are decoded in the parent and sent as arrays.
+"""
+from __future__ import annotations
+
+import os
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from identification.errors import DataError
+
+__all__ = ["IMAGE_SUFFIXES", "FrameSource", "open_frames", "read_image", "map_frames"]
+
+#: File name endings read as frames from a folder (case-insensitive).
+IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg", ".pgm", ".ppm", ".webp")
+
+
+@dataclass(frozen=True)
+class FrameSource:
+    """A sequence of frames.
+
+    Attributes
+    ----------
+    kind : {"folder", "video"}
+    path : str
+        The folder or video file.
+    files : tuple of str
+        Image files in name order (folder), empty for a video.
+    count : int or None
+        Number of frames (a video's count is the container's claim).
+    fps : float or None
+        The video container's frame rate (None for a folder).
+    """
+
+    kind: str
+    path: str
+    files: tuple
+    count: int | None
+    fps: float | None
+
+    def __iter__(self):
+        """Frames one at a time: for a folder the file paths, for a video grey uint8 arrays."""
+        if self.kind == "folder":
+            yield from self.files
+            return
+        import cv2
+
+        cap = cv2.VideoCapture(self.path)
+        try:
+            while True:
+                ok, frame = cap.read()
+                if not ok:
+                    break
+                if frame.ndim == 3:
+                    frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+                yield frame
+        finally:
+            cap.release()
+
+
+def open_frames(path) -> FrameSource:
+    """Open a folder of images or a video file.
+
+    Raises
+    ------
+    DataError
+        The path does not exist, the folder holds no image file, or the video
+        cannot be opened.
+    """
+    p = Path(path)
+    if p.is_dir():
+        files = sorted(str(f) for f in p.iterdir() if f.is_file() and f.suffix.lower() in IMAGE_SUFFIXES)
+        if not files:
+            raise DataError(f"no image files ({', '.join(IMAGE_SUFFIXES)}) in the frames folder", path=p)
+        return FrameSource("folder", str(p), tuple(files), len(files), None)
+    if not p.exists():
+        raise DataError("frames folder or video file does not exist", path=p)
+    import cv2
+
+    cap = cv2.VideoCapture(str(p))
+    try:
+        if not cap.isOpened():
+            raise DataError("cannot open as a video file (expected a folder of images or a video)", path=p)
+        count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        fps = float(cap.get(cv2.CAP_PROP_FPS))
+    finally:
+        cap.release()
+    return FrameSource("video", str(p), (), count if count > 0 else None, fps if fps > 0 else None)
+
+
+def read_image(path):
+    """Grey image from a file (8 or 16 bit kept as stored), or None if it cannot be decoded."""
+    import cv2
+
+    data = np.fromfile(os.fspath(path), np.uint8)  # works with any file name, unlike cv2.imread
+    if data.size == 0:
+        return None
+    return cv2.imdecode(data, cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)
+
+
+def _work(item, board, settings):
+    """Worker: process one frame given as a file path or an array."""
+    from .track import FrameResult, process_frame
+
+    if isinstance(item, str):
+        img = read_image(item)
+        if img is None:
+            empty = np.zeros((0, 2))
+            return FrameResult(0, (0, 0), (), empty, empty, empty, f"cannot read image {item}")
+    else:
+        img = item
+    return process_frame(img, board, settings)
+
+
+_WORKER = {}
+#: Modules the fork server imports once, so that worker start-up is quick.
+_PRELOAD = ("numpy", "cv2", "scipy.special", "vision.board", "vision.ringcode", "stages.contour.track")
+
+
+def _init_worker(board, settings):
+    """Worker start-up: one OpenCV thread; board and settings sent once, not with every frame."""
+    import cv2
+
+    cv2.setNumThreads(1)
+    _WORKER["board"], _WORKER["settings"] = board, settings
+
+
+def _work_batch(items):
+    return [_work(item, _WORKER["board"], _WORKER["settings"]) for item in items]
+
+
+def _batches(source, size):
+    batch = []
+    for item in source:
+        batch.append(item)
+        if len(batch) == size:
+            yield batch
+            batch = []
+    if batch:
+        yield batch
+
+
+def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
+    """Process every frame of ``source`` in order; yields :class:`~stages.contour.track.FrameResult`.
+
+    Parameters
+    ----------
+    source : FrameSource or iterable
+        Frames (file paths or arrays) in time order.
+    board : vision.board.Board
+    settings : stages.contour.track.FrameSettings
+    workers : int
+        Worker processes (1: in this process, no pool).
+    batch : int
+        Frames per task sent to a worker (fewer round trips).
+    progress : identification.progress.Progress or None
+        Updated once per frame.
+
+    Yields
+    ------
+    FrameResult
+        One per frame, in frame order. At most ``(2 * workers + 1) * batch``
+        frames are held at any time.
+    """
+    workers, batch = int(workers), int(batch)
+    if workers < 1:
+        raise DataError(f"workers must be >= 1, got {workers}", column="workers")
+    if batch < 1:
+        raise DataError(f"batch must be >= 1, got {batch}", column="batch")
+    if workers == 1:
+        for item in source:
+            r = _work(item, board, settings)
+            if progress is not None:
+                progress.update()
+            yield r
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # not "fork": forking a parent whose OpenCV / BLAS thread pools are running can deadlock the child
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(_PRELOAD))  # workers fork from a server that has these imported
+    pending = deque()
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                             initargs=(board, settings)) as pool:
+        try:
+            for items in _batches(source, batch):
+                pending.append(pool.submit(_work_batch, items))
+                if len(pending) >= 2 * workers:
+                    for r in pending.popleft().result():
+                        if progress is not None:
+                            progress.update()
+                        yield r
+            while pending:
+                for r in pending.popleft().result():
+                    if progress is not None:
+                        progress.update()
+                    yield r
+        finally:
+            for f in pending:
+                f.cancel()

@@ -1,0 +1,71 @@
+"""Frame sources and the ordered, bounded process-pool map."""
+import pickle
+
+import cv2
+import numpy as np
+import pytest
+
+from identification.errors import DataError
+from stages.contour.frames import map_frames, open_frames
+from stages.contour.simulate import simulation_camera
+from stages.contour.track import FrameSettings, process_frame
+from vision.board import make_board
+
+BOARD = make_board(rows=4, cols=4)
+SETTINGS = FrameSettings(pixel_mm=0.02)
+
+
+def test_folder_in_name_order_and_unreadable_frames_reported(tmp_path):
+    for k in (10, 2, 1):
+        cv2.imwrite(str(tmp_path / f"f{k:02d}.png"), np.full((8, 20 + k), 200, np.uint8))
+    (tmp_path / "notes.txt").write_text("not a frame")
+    (tmp_path / "f99.png").write_bytes(b"garbage")
+    src = open_frames(tmp_path)
+    assert src.kind == "folder" and src.count == 4 and src.fps is None
+    assert [p.rsplit("/", 1)[1] for p in src.files] == ["f01.png", "f02.png", "f10.png", "f99.png"]
+    res = list(map_frames(src, BOARD, SETTINGS, workers=1))
+    assert [r.image_size for r in res[:3]] == [(21, 8), (22, 8), (30, 8)]
+    assert [r.n for r in res] == [0, 0, 0, 0]
+    assert res[0].reason == "no ring-coded mark decoded"
+    assert res[3].reason.startswith("cannot read image") and res[3].reason.endswith("f99.png")
+
+
+def test_pool_keeps_order_and_bounds_frames_in_flight():
+    consumed = []
+    yielded = []
+
+    def frames():
+        for k in range(12):
+            consumed.append(k)
+            assert len(consumed) - len(yielded) <= (2 * 2 + 1) * 3  # (2 x workers + 1) batches of 3
+            yield np.full((6, 10 + k), 100, np.uint8)
+
+    for r in map_frames(frames(), BOARD, SETTINGS, workers=2, batch=3):
+        yielded.append(r.image_size[0])
+    assert yielded == [10 + k for k in range(12)]
+
+
+def test_process_frame_inputs_are_picklable_and_pure():
+    settings = FrameSettings(camera=simulation_camera((64, 64), 0.03), bits=BOARD.bits)
+    clone_board, clone_settings = pickle.loads(pickle.dumps((BOARD, settings)))
+    assert clone_board == BOARD
+    img = np.full((64, 64), 90, np.uint8)
+    a = process_frame(img, BOARD, settings)
+    b = process_frame(img, clone_board, clone_settings)
+    assert a.n == b.n == 0 and a.reason == b.reason
+    assert pickle.loads(pickle.dumps(a)).image_size == (64, 64)
+
+
+def test_bad_sources(tmp_path):
+    with pytest.raises(DataError, match="frames folder or video file does not exist"):
+        open_frames(tmp_path / "nope")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(DataError, match=r"empty: no image files \(\.png"):
+        open_frames(tmp_path / "empty")
+    (tmp_path / "x.avi").write_text("not a video")
+    with pytest.raises(DataError, match="cannot open as a video file"):
+        open_frames(tmp_path / "x.avi")
+    with pytest.raises(DataError, match="workers must be >= 1, got 0"):
+        list(map_frames([], BOARD, SETTINGS, workers=0))
+    with pytest.raises(DataError, match="batch must be >= 1, got 0"):
+        list(map_frames([], BOARD, SETTINGS, batch=0))

@@ -1,0 +1,51 @@
+"""``kinid dual-axis`` in-process: report, JSON, plot, bad input."""
+import json
+
+import pytest
+
+from identification.cli import main
+
+
+def test_json_report(capsys):
+    assert main(["dual-axis", "--steps", "12", "--step-mm", "20", "--seed", "4", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["converged"] and rep["rounds"] <= 3 and len(rep["max_change_um"]) == rep["rounds"]
+    assert rep["max_change_um"][0] > 5.0 and rep["max_change_um"][-1] <= 1.0
+    held = rep["held_out"]
+    assert held["positions"] == 12
+    assert held["uncompensated_truth"]["max_um"] > 5.0
+    assert held["table_truth"]["max_um"] < 2.0 and held["table_measured"]["max_um"] < 2.0
+    assert rep["better"] in ("table", "smooth")
+    assert len(rep["table"]["offset_x_um"]) == 13 and rep["table"]["offset_x_um"][0] == 0.0
+
+
+def test_readable_report_and_plot(tmp_path, capsys):
+    out = tmp_path / "offsets.png"
+    assert main(["dual-axis", "--steps", "6", "--step-mm", "25", "--plot", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "round  max entry change" in text and "converged after" in text
+    assert "table (truth)" in text and "smooth (truth)" in text and "better on held-out positions" in text
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["--steps", "0"], "n_steps must be an integer >= 1, got 0"),
+    (["--step-mm", "-2"], "step_mm must be positive"),
+    (["--spec-um", "0"], "spec_um must be a positive number"),
+    (["--noise", "-1"], "--noise must be a non-negative number"),
+    (["--steps", "60", "--step-mm", "10"], "outside its travel"),
+])
+def test_bad_input_one_line_exit_2(argv, match, capsys):
+    assert main(["dual-axis", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("kinid dual-axis: ") and match in err and err.count("\n") == 1
+
+
+def test_plot_into_missing_folder_is_an_error(tmp_path, capsys):
+    assert main(["dual-axis", "--steps", "3", "--step-mm", "20", "--plot", str(tmp_path / "no" / "x.png")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_bad_degree(capsys):
+    assert main(["dual-axis", "--degree", "0"]) == 2
+    assert "degree must be an integer >= 1, got 0" in capsys.readouterr().err

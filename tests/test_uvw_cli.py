@@ -1,0 +1,47 @@
+"""``kinid uvw``: runs on a simulated stage, prints the patent's and the model's numbers."""
+import json
+
+import pytest
+
+from identification.cli import main
+
+
+def test_json_output(capsys):
+    assert main(["uvw", "--json", "--moves", "60", "--seed", "3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    w = out["worked_example"]
+    assert (w["delta_xn_um"], w["delta_xm_um"], w["delta_x_um"]) == (2.02, 2.62, 2.29)
+    assert w["forward_um"] == pytest.approx(0.96, abs=1e-9)
+    assert w["reverse_um"] == pytest.approx(3.25, abs=1e-9)
+    v = out["validation"]["all"]
+    assert v["model"]["max_um"] < 0.6 < v["patent"]["max_um"] < v["uncompensated"]["max_um"]
+    for name in ("X1", "X2", "Y"):
+        p = out["model"][name]["parameters"]
+        assert abs(p["backlash_um"]["value"] - p["backlash_um"]["truth"]) < 3 * p["backlash_um"]["std"] + 1e-3
+        assert out["patent"][name]["repeats"] == 18
+        assert out["model"][name]["linear_only_rms_um"] > 3 * out["model"][name]["rms_um"]
+    assert out["stage"]["model"]["max_x_um"] < out["stage"]["patent"]["max_x_um"]
+
+
+def test_text_report_and_plot(tmp_path, capsys):
+    png = tmp_path / "uvw.png"
+    assert main(["uvw", "--moves", "30", "--plot", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "forward 0.96 um, reverse 3.25 um" in text
+    assert "uncompensated" in text and "patent" in text and "model" in text
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--lead-um", "0"], "lead-um must be a positive number"),
+    (["--lead-um", "-5"], "lead-um must be a positive number"),
+    (["--noise-um", "-1"], "noise-um must be >= 0"),
+    (["--repeats", "0"], "repeats must be a positive integer"),
+    (["--plot", "/nonexistent/dir/out.png", "--moves", "5"], "output folder"),
+])
+def test_bad_arguments_exit_2_with_one_line(argv, message, capsys):
+    assert main(["uvw", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("kinid uvw: ")
+    assert message in err
