@@ -112,6 +112,12 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
         ax.semilogx(periods, power, lw=0.8)
         for p in LINEAR_PERIODS_MM if a.kind == "prismatic" else ROTARY_PERIODS_DEG:
             ax.axvline(p, color="tab:red", lw=0.5, alpha=0.5)
+        from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+        ticks = [1, 2, 5, 10, 20, 50] if a.kind == "prismatic" else [30, 90, 180, 360]
+        ax.set_xticks([t for t in ticks if lo <= t <= periods[-1]])
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(f"period ({'mm' if a.kind == 'prismatic' else 'deg'}) of {a.name}")
     axs[0, 0].set_ylabel("Lomb–Scargle power (µm²)")
     fig.suptitle("Residual periodogram (red: candidate periods)")
