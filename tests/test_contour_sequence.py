@@ -175,3 +175,22 @@ def test_downsampled_and_windowed_decoding_stay_within_accuracy(seq):
         assert np.sqrt(np.mean(np.sum(err_um ** 2, axis=1))) < 0.5
     with pytest.raises(DataError, match="downsample must be an integer >= 1, got 0"):
         FrameSettings(pixel_mm=PIXEL_MM, downsample=0)
+
+
+def test_auto_downsample_keeps_the_centre_circle_above_20_px(seq):
+    from stages.contour.frames import open_frames
+    from stages.contour.measure import choose_downsample
+
+    root, cam, s = seq
+    source = open_frames(root / "frames")
+    # this board's centre circle is 2 mm: (1 mm / PIXEL_MM) px in radius
+    radius_px = BOARD.center_d_mm / 2 / PIXEL_MM
+    assert choose_downsample(source, BOARD, FrameSettings(camera=cam)) == max(1, min(2, int(radius_px // 20)))
+    # the patent board (5 mm centre circle): radius ~83 px at 30 µm -> 2; 25 px at 100 µm -> 1
+    patent = make_board()
+    assert choose_downsample(source, patent, FrameSettings(pixel_mm=0.03), probe_frames=0) == 2
+    assert choose_downsample(source, patent, FrameSettings(pixel_mm=0.1), probe_frames=0) == 1
+    m = measure_contour(root / "frames", BOARD, FrameSettings(camera=cam, downsample=None), workers=1)
+    ok = m.track.located
+    err_um = (m.track.xy_mm - s.track_mm)[ok] * 1e3
+    assert np.sqrt(np.mean(np.sum(err_um ** 2, axis=1))) < 0.5

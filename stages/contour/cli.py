@@ -42,8 +42,9 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="OUT.png", help="polar plot of the radial deviation (circle) or error plot")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--roi-px", metavar="X0,Y0,W,H", help="decode marks only inside this window of each frame")
-    p.add_argument("--downsample", type=int, default=1, metavar="N",
-                   help="decode on an N-times box-filtered copy of each frame (faster for large marks; default 1)")
+    p.add_argument("--downsample", default="auto", metavar="N|auto",
+                   help="decode on an N-times box-filtered copy of each frame (faster for large marks); "
+                        "default auto: 2 when the centre circle keeps a radius of >= 20 px, else 1")
     p.add_argument("--refine", choices=("fit", "centroid"), default="fit",
                    help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
     p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
@@ -99,8 +100,15 @@ def _run(args) -> int:
                         column="--pixel-mm")
     if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
         raise DataError(f"--fps must be a positive number, got {args.fps}", column="--fps")
-    if args.downsample < 1:
-        raise DataError(f"--downsample must be an integer >= 1, got {args.downsample}", column="--downsample")
+    if args.downsample == "auto":
+        downsample = None
+    else:
+        try:
+            downsample = int(args.downsample)
+        except ValueError:
+            downsample = 0
+        if downsample < 1:
+            raise DataError(f"--downsample must be 'auto' or an integer >= 1, got {args.downsample!r}", column="--downsample")
     if args.workers < 1:
         raise DataError(f"--workers must be >= 1, got {args.workers}", column="--workers")
     roi = None
@@ -114,7 +122,7 @@ def _run(args) -> int:
                             column="--roi-px")
     path = _path_from_args(args)
     settings = FrameSettings(pixel_mm=args.pixel_mm, camera=camera, bits=board.bits, refine=args.refine, roi_px=roi,
-                             downsample=args.downsample)
+                             downsample=downsample)
     source = open_frames(args.frames)
     progress = Progress(source.count, "frames", enabled=True if args.progress else None)
     try:

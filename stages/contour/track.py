@@ -70,8 +70,9 @@ class FrameSettings:
     roi_px : tuple of int or None
         ``(x0, y0, width, height)``: decode only inside this window (e.g. the
         centre of a large frame, as the patent does); None for the whole frame.
-    downsample : int
-        Decode on a ``downsample``-times box-filtered copy (``cv2.INTER_AREA``):
+    downsample : int or None
+        None: chosen per sequence by :func:`stages.contour.measure.choose_downsample`
+        (process_frame then decodes at full resolution). Otherwise decode on a ``downsample``-times box-filtered copy (``cv2.INTER_AREA``):
         faster, and as precise while the centre circle keeps a radius of
         >= ~20 px (box filtering leaves a symmetric blob's centre unbiased);
         centres are mapped back to full-resolution pixels.
@@ -82,7 +83,7 @@ class FrameSettings:
     bits: int = 12
     refine: str = "fit"
     roi_px: tuple | None = None
-    downsample: int = 1
+    downsample: int | None = 1
 
     def __post_init__(self):
         if (self.pixel_mm is None) == (self.camera is None):
@@ -90,7 +91,8 @@ class FrameSettings:
         if self.pixel_mm is not None and not (math.isfinite(self.pixel_mm) and self.pixel_mm > 0):
             raise DataError(f"pixel_mm must be a positive number of mm per pixel, got {self.pixel_mm!r}",
                             column="pixel_mm")
-        if isinstance(self.downsample, bool) or not isinstance(self.downsample, int) or self.downsample < 1:
+        if self.downsample is not None and (isinstance(self.downsample, bool) or not isinstance(self.downsample, int)
+                                            or self.downsample < 1):
             raise DataError(f"downsample must be an integer >= 1, got {self.downsample!r}", column="downsample")
         if self.refine not in ("fit", "centroid"):
             raise DataError(f"refine must be 'fit' or 'centroid', got {self.refine!r}", column="refine")
@@ -168,7 +170,7 @@ def process_frame(image, board, settings) -> FrameResult:
         x0, y0, rw, rh = (int(v) for v in settings.roi_px)
         x0, y0 = max(0, x0), max(0, y0)
         img = img[y0:min(h, y0 + rh), x0:min(w, x0 + rw)]
-    f = settings.downsample
+    f = settings.downsample or 1
     if f > 1 and img.shape[0] >= f and img.shape[1] >= f:
         import cv2
 
