@@ -186,6 +186,7 @@ def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
 
     # not "fork": forking a parent whose OpenCV / BLAS thread pools are running can deadlock the child
     ctx = multiprocessing.get_context("forkserver")
@@ -206,6 +207,12 @@ def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
                     if progress is not None:
                         progress.update()
                     yield r
+        except BrokenProcessPool as exc:
+            raise RuntimeError(
+                "a frame worker process died before it started; a script that calls measure_contour or "
+                "map_frames with workers > 1 must run it under `if __name__ == \"__main__\":` (worker "
+                "processes re-import the main module), or pass workers=1"
+            ) from exc
         finally:
             for f in pending:
                 f.cancel()
