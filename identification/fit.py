@@ -211,6 +211,10 @@ def fit(
         Js = J.reshape(M, P)[:, free] / D
         xs = theta[free] * D
         delta = _lm_step(Js, r.ravel(), lam, lo[free] * D - xs, hi[free] * D - xs)
+        predicted = cost - 0.5 * float(np.sum((r.ravel() + Js @ delta) ** 2))
+        if predicted <= 1e-13 * cost:  # the linearised model promises nothing more: converged
+            success, message = True, f"converged in {it} iterations"
+            break
         trial = theta.copy()
         trial[free] += delta / D
         r_new = residuals(machine, d, obs, trial, jacobian=False)
