@@ -106,6 +106,11 @@ class Diagnosis:
         Leverage of each alignment (sum over its 3 coordinates of the hat matrix diagonal).
     outliers : tuple of int
         Rows whose studentized residual is beyond the Bonferroni χ²₃ quantile.
+    axis_residuals_um : array (N, 3)
+        The same residuals as readings of the prismatic axes: measured minus
+        the readings at which the model puts the tool point on the mark, µm.
+    axis_names : tuple of str
+        The axes of ``axis_residuals_um``.
     """
 
     fit: FitResult
@@ -119,10 +124,25 @@ class Diagnosis:
     studentized: np.ndarray
     leverage: np.ndarray
     outliers: tuple
+    axis_residuals_um: np.ndarray = None
+    axis_names: tuple = ()
 
     @property
     def live(self) -> list:
         return [c for c in self.candidates if c.status == "live"]
+
+    marks: tuple = ()
+
+    def by_mark(self):
+        """(mark, alignments, RMS in the workpiece frame, RMS per solved axis) for each mark, µm."""
+        out = []
+        marks = np.asarray(self.marks)
+        for mark in dict.fromkeys(self.marks):
+            sel = marks == mark
+            rw = float(np.sqrt(np.mean(self.fit.residuals_um[sel] ** 2)))
+            ra = np.sqrt(np.mean(self.axis_residuals_um[sel] ** 2, axis=0))
+            out.append((mark, int(sel.sum()), rw, ra))
+        return out
 
     def summary(self) -> dict:
         """The JSON object of ``kinid diagnose --json`` (INTERFACES.md §4)."""
@@ -166,6 +186,11 @@ class Diagnosis:
                 lines.append(f"  {c.effect}: {why}")
             if len(aliased) > top:
                 lines.append(f"  ... and {len(aliased) - top} more")
+        if self.marks:
+            lines.append("")
+            lines.append(f"residuals by mark (RMS per coordinate, µm; readings {', '.join(self.axis_names)} measured − model):")
+            for mark, n, rw, ra in self.by_mark():
+                lines.append(f"  {mark:<8} {n:4d} alignments   workpiece frame {rw:7.3f}   axes " + "  ".join(f"{v:7.3f}" for v in ra))
         if self.outliers:
             lines.append("")
             lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
@@ -318,7 +343,29 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit
     bound = scipy.stats.chi2.isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
     rms = float(np.sqrt(np.mean(r**2)))
-    return Diagnosis(result, verdict, rms, sigma, source, chi2_p, threshold, tuple(live + rest), stud, lev, outliers)
+    axis_r, axis_names = axis_residuals(machine, obs, result)
+    return Diagnosis(result, verdict, rms, sigma, source, chi2_p, threshold, tuple(live + rest), stud, lev, outliers,
+                     axis_r, axis_names, tuple(obs.marks))
+
+
+def axis_residuals(machine: Machine, obs: Observations, result: FitResult):
+    """Residuals as readings of the prismatic axes (measured − model), µm; and the axes' names.
+
+    To first order, the readings at which the model puts the tool point on the
+    mark differ from the measured ones by A⁻¹ r, with A the Jacobian of the
+    tool point with respect to those axes.
+    """
+    from .machine import evaluate
+    from .residuals import joint_values
+
+    cols = [j for j, a in enumerate(machine.axes) if a.kind == "prismatic"]
+    names = tuple(machine.axes[j].name for j in cols)
+    if len(cols) != 3:
+        return np.full((len(obs), 3), np.nan), names
+    d0 = design(machine, result.effects, obs)
+    _, _, d_ax = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta))
+    A = d_ax[:, :, cols]  # µm per mm
+    return np.linalg.solve(A, result.residuals_um[:, :, None])[:, :, 0] * 1e3, names
 
 
 def _studentized(machine, obs, result, sigma):

@@ -182,11 +182,52 @@ def _page(title, sections) -> str:
     return f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title><style>{style}</style></head><body>{''.join(body)}</body></html>\n"
 
 
+def residuals_csv(diagnosis, obs) -> str:
+    """One row per alignment: pose, residual in the workpiece frame and in axis readings (µm), outlier statistics."""
+    machine = diagnosis.fit.machine
+    axes = [a for a in machine.axes]
+    header = ["row", "mark", *[a.column for a in axes], "r_x_um", "r_y_um", "r_z_um",
+              *[f"d{n.lower()}_um" for n in diagnosis.axis_names], "studentized", "leverage", "outlier"]
+    lines = [",".join(header)]
+    out = set(diagnosis.outliers)
+    for i in range(len(obs)):
+        row = [str(i + 1), obs.marks[i], *(f"{v:.6f}" for v in obs.axes[i])]
+        row += [f"{v:.4f}" for v in diagnosis.fit.residuals_um[i]]
+        row += [f"{v:.4f}" for v in diagnosis.axis_residuals_um[i]]
+        row += [f"{diagnosis.studentized[i]:.3f}", f"{diagnosis.leverage[i]:.4f}", "1" if i in out else "0"]
+        lines.append(",".join(row))
+    return "\n".join(lines) + "\n"
+
+
+def plot_measured_vs_model(diagnosis, obs, path) -> None:
+    """Measured minus model readings of each solved axis, alignment by alignment, coloured by mark."""
+    plt = _pyplot()
+    names = diagnosis.axis_names
+    fig, axs = plt.subplots(len(names), 1, figsize=(9, 1.9 * len(names)), sharex=True, squeeze=False)
+    marks = np.asarray(obs.marks)
+    for k, (ax, n) in enumerate(zip(axs[:, 0], names)):
+        for mark in dict.fromkeys(obs.marks):
+            sel = np.flatnonzero(marks == mark)
+            ax.plot(sel + 1, diagnosis.axis_residuals_um[sel, k], ".", ms=3, label=mark if k == 0 else None)
+        for i in diagnosis.outliers:
+            ax.plot(i + 1, diagnosis.axis_residuals_um[i, k], "o", mfc="none", mec="tab:red", ms=7)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_ylabel(f"{n} (µm)")
+    axs[-1, 0].set_xlabel("alignment (red circles: outliers)")
+    axs[0, 0].legend(fontsize=6, ncol=8, markerscale=3)
+    fig.suptitle("Measured minus model readings")
+    _save(fig, path)
+
+
 def diagnosis_report(diagnosis, obs, folder) -> Path:
-    """Write the plots and ``index.html`` of one diagnosis into ``folder``; returns the page's path."""
+    """Write the plots, ``residuals.csv`` and ``index.html`` of one diagnosis into ``folder``; returns the page's path."""
     folder = _outdir(folder)
     machine = diagnosis.fit.machine
     figs = _figures("", machine, obs, diagnosis.fit, folder)
+    write_text(folder / "residuals.csv", residuals_csv(diagnosis, obs))
+    if diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
+        plot_measured_vs_model(diagnosis, obs, folder / "measured_vs_model.png")
+        figs.append(("Measured minus model readings (table: residuals.csv)", "measured_vs_model.png"))
     page = folder / "index.html"
     write_text(page, _page("kinid diagnosis", [("Diagnosis", diagnosis.text(top=15), figs), ("Fit", diagnosis.fit.table(), [])]))
     return page
@@ -201,6 +242,7 @@ def selection_report(steps, obs, folder, *, preface: str = "") -> Path:
     sections.append(("Default model: where it fails", steps[0].diagnosis.text(top=10), _figures("before_", machine, obs, steps[0].fit, folder)))
     if len(steps) > 1:
         sections.append(("Final model", steps[-1].diagnosis.text(top=5), _figures("after_", machine, obs, steps[-1].fit, folder)))
+    write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, obs))
     sections.append(("Final fit", steps[-1].fit.table(), []))
     page = folder / "index.html"
     write_text(page, _page("kinid: compare, diagnose, add, watch the error fall", sections))

@@ -74,6 +74,9 @@ def test_diagnose_report_and_auto_identify(workdir, capsys, tmp_path):
     out = capsys.readouterr().out
     assert "verdict: missing-effect" in out and "EXX:periodic:10" in out
     assert (tmp_path / "rep" / "index.html").is_file() and (tmp_path / "rep" / "periodogram.png").stat().st_size > 1000
+    rows = (tmp_path / "rep" / "residuals.csv").read_text().splitlines()
+    assert rows[0].startswith("row,mark,") and "dx_um" in rows[0] and len(rows) == 1 + 336
+    assert "residuals by mark" in out
     assert main(["identify", "--machine", BC, "--data", str(d / "obs.csv"), "--noise-um", "1", "--auto", "--out", str(tmp_path / "auto.json")]) == 0
     fit = json.loads((tmp_path / "auto.json").read_text())
     assert "EXX:periodic:10" in fit["effects"]

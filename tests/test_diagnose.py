@@ -132,3 +132,20 @@ def test_pure_noise_false_alarm_rate_below_5_percent(bc):
     """200 seeded trials: the verdict is `noise` in at least 95 % (expected ≈ 98 %: α = 1 % twice)."""
     verdicts = _noise_verdicts(bc, 200, 5000)
     assert verdicts.count("noise") >= 190, verdicts.count("noise")
+
+
+def test_residuals_in_machine_axes_point_at_the_faulty_axis(bc):
+    """With a hidden X lead-screw error, the measured − model readings are largest on X, and they
+    equal the readings the fitted model solves for, to first order."""
+    from identification.alignment import solve_axes
+
+    obs = _data(bc, HIDDEN[0], seed=6)
+    dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert dg.axis_names == tuple(a.name for a in bc.axes if a.kind == "prismatic")
+    rms = np.sqrt(np.mean(dg.axis_residuals_um**2, axis=0))
+    assert dg.axis_names[int(np.argmax(rms))] == "X"
+    model = solve_axes(bc, dg.fit.effects, dg.fit.theta, obs)
+    cols = [j for j, a in enumerate(bc.axes) if a.kind == "prismatic"]
+    np.testing.assert_allclose(dg.axis_residuals_um, (obs.axes - model.axes)[:, cols] * 1e3, atol=1e-3)
+    table = dg.by_mark()
+    assert [t[0] for t in table] == ["M1", "M2", "M3", "M4"] and sum(t[1] for t in table) == len(obs)
