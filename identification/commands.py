@@ -19,7 +19,7 @@ def register(sub) -> None:
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
-    p.add_argument("--report", default=None, metavar="DIR", help="with --auto: write the report (plots, HTML) to DIR")
+    p.add_argument("--report", default=None, metavar="DIR", help="write the report (plots, residuals.csv, HTML) to DIR; with --auto, of every step")
     p.add_argument("--out", required=True, help="fit JSON to write")
     p.set_defaults(run=_identify)
 
@@ -91,6 +91,11 @@ def _identify(args) -> int:
             selection_report(steps, obs, args.report)
     else:
         result = fit(machine, obs, effects, noise_um=args.noise_um)
+        if args.report:
+            from .diagnose import diagnose
+            from .report import diagnosis_report
+
+            diagnosis_report(diagnose(machine, obs, effects, noise_um=args.noise_um, result=result), obs, args.report)
     save_fit(result, args.out)
     print(result.table())
     print(f"fit written to {args.out}")

@@ -154,3 +154,10 @@ def test_bad_fit_file_and_errors_file(tmp_path, capsys, workdir):
 def test_output_folder_missing(tmp_path, capsys, workdir):
     assert main(["identify", "--machine", BC, "--data", str(workdir / "obs.csv"), "--out", str(tmp_path / "nope" / "f.json")]) == 2
     assert "output folder" in _err_line(capsys)
+
+
+def test_identify_report_without_auto(workdir, tmp_path, capsys):
+    assert main(["identify", "--machine", BC, "--data", str(workdir / "obs.csv"), "--noise-um", "1",
+                 "--report", str(tmp_path / "rep"), "--out", str(tmp_path / "f.json")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "verdict: missing-effect" in page and "EXX:periodic:10" in page
