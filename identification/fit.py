@@ -251,14 +251,16 @@ def fit(
     std = np.full(P, np.nan)
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
     final = analyse(J.reshape(M, P) / sigma, names, tol=rank_tol)
+    stats = final  # observability at the solution
     if not np.array_equal(final.identifiable, free):
         message += "; the identifiable set changed at the solution (nonlinear aliasing): check the held parameters"
+        stats = ident
     values = np.where(free, theta, np.nan)
     units = tuple(u for e in effects for u in e.param_units(machine))
     return FitResult(
         machine, effects, tuple(names), units, values, std, free.copy(), ident.aliases, rank,
-        final.condition_number if final.rank == rank else ident.condition_number, ident.o1, ident.o3,
-        r, rms, sigma, source, dof, it, success, message, ident.singular_values,
+        stats.condition_number, stats.o1, stats.o3,
+        r, rms, sigma, source, dof, it, success, message, stats.singular_values,
     )
 
 
