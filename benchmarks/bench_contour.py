@@ -65,7 +65,6 @@ def _sequence(folder, names, count):
 
 
 def bench_speed(quick):
-    import cv2
 
     from stages.contour.frames import map_frames, open_frames, read_image
     from stages.contour.track import FrameSettings, process_frame

@@ -29,6 +29,15 @@ def atomic_write(path, mode: str = "w", **kwargs):
         raise DataError(f"output folder {str(directory)!r} does not exist", path=path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
     try:
+        # mkstemp makes the file private (0600); give it the mode open() would: the existing
+        # file's, else 0666 less the umask
+        try:
+            file_mode = os.stat(path).st_mode & 0o777
+        except FileNotFoundError:
+            umask = os.umask(0)
+            os.umask(umask)
+            file_mode = 0o666 & ~umask
+        os.chmod(tmp, file_mode)
         with os.fdopen(fd, mode, **kwargs) as f:
             yield f
             f.flush()

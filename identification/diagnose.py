@@ -317,7 +317,6 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit
     if result is None:
         result = fit(machine, obs, effects, theta0=theta0)
     r = result.residuals_um
-    M = r.size
     if noise_um is not None:
         sigma, source = float(noise_um), "given"
     else:

@@ -21,7 +21,7 @@ import numpy as np
 from .atomic import write_text
 from .effects import Effect, default_model, parse_effect
 from .errors import DataError
-from .identifiability import RANK_TOL, Alias, Identifiability, analyse
+from .identifiability import RANK_TOL, analyse
 from .machine import Machine, machine_from_urdf
 from .observations import Observations
 from .residuals import design, residuals

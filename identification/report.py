@@ -13,33 +13,16 @@ Plots (PNG, written atomically):
 from __future__ import annotations
 
 import html
-import io
 from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_write, write_text
+from .atomic import write_text
 from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG
 from .errors import DataError
+from .figures import new_figure, save_figure
 
 __all__ = ["diagnosis_report", "selection_report", "plot_residuals_vs_axes", "plot_periodogram", "plot_singular_values", "plot_selection"]
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _save(fig, path: Path) -> None:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    _pyplot().close(fig)
-    with atomic_write(path, "wb") as f:
-        f.write(buf.getvalue())
 
 
 def _outdir(folder) -> Path:
@@ -53,9 +36,9 @@ def _outdir(folder) -> Path:
 
 def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against axis positions") -> None:
     """One panel per axis: residual components (µm) against the reading, coloured by approach direction."""
-    plt = _pyplot()
     n = len(machine.axes)
-    fig, axs = plt.subplots(1, n, figsize=(3.2 * n, 3.2), sharey=True, squeeze=False)
+    fig = new_figure((3.2 * n, 3.2))
+    axs = fig.subplots(1, n, sharey=True, squeeze=False)
     for j, (ax, a) in enumerate(zip(axs[0], machine.axes)):
         q = obs.axes[:, j]
         s = obs.directions.get(a.name)
@@ -72,15 +55,15 @@ def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against ax
     axs[0, 0].set_ylabel("residual (µm), workpiece frame")
     axs[0, 0].legend(fontsize=6, markerscale=2)
     fig.suptitle(title)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def plot_time(obs, r_um, path) -> bool:
     """Residual components against time; False if the data have no ``t_s``."""
     if obs.t_s is None:
         return False
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 3))
+    fig = new_figure((7, 3))
+    ax = fig.subplots()
     for comp in range(3):
         ax.plot(obs.t_s, r_um[:, comp], ".", ms=3, label="xyz"[comp])
     ax.axhline(0, color="k", lw=0.5)
@@ -88,7 +71,7 @@ def plot_time(obs, r_um, path) -> bool:
     ax.set_ylabel("residual (µm)")
     ax.legend(fontsize=7)
     ax.set_title("Residuals against time")
-    _save(fig, path)
+    save_figure(fig, path)
     return True
 
 
@@ -96,9 +79,9 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
     """Lomb–Scargle power of the residuals against the spatial period of each axis."""
     from scipy.signal import lombscargle
 
-    plt = _pyplot()
     n = len(machine.axes)
-    fig, axs = plt.subplots(1, n, figsize=(3.2 * n, 3.0), squeeze=False)
+    fig = new_figure((3.2 * n, 3.0))
+    axs = fig.subplots(1, n, squeeze=False)
     for j, (ax, a) in enumerate(zip(axs[0], machine.axes)):
         q = obs.axes[:, j]
         span = np.ptp(q)
@@ -121,13 +104,13 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
         ax.set_xlabel(f"period ({'mm' if a.kind == 'prismatic' else 'deg'}) of {a.name}")
     axs[0, 0].set_ylabel("Lomb–Scargle power (µm²)")
     fig.suptitle("Residual periodogram (red: candidate periods)")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def plot_singular_values(fit_result, path) -> None:
     """Singular values of the column-scaled Jacobian, and the parameters held fixed."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 3.2))
+    fig = new_figure((7, 3.2))
+    ax = fig.subplots()
     s = np.sort(fit_result.singular_values)[::-1]
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
     ax.set_xlabel("index")
@@ -136,13 +119,13 @@ def plot_singular_values(fit_result, path) -> None:
     if fit_result.aliases:
         text = "\n".join(a.message for a in fit_result.aliases[:8])
         ax.text(1.02, 1.0, "held fixed:\n" + text, transform=ax.transAxes, fontsize=6, va="top")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def plot_selection(steps, path) -> None:
     """Residual RMS per step of forward selection against the noise σ."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 3.4))
+    fig = new_figure((7, 3.4))
+    ax = fig.subplots()
     rms = [s.diagnosis.rms_um for s in steps]
     labels = ["default model"] + [f"+ {s.added}" for s in steps[1:]]
     ax.plot(range(len(rms)), rms, "o-", label="residual RMS")
@@ -153,7 +136,7 @@ def plot_selection(steps, path) -> None:
     ax.set_ylim(0, max(rms) * 1.15)
     ax.legend()
     ax.set_title("The error falls as effects are added")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _figures(prefix, machine, obs, fit_result, folder: Path):
@@ -201,9 +184,9 @@ def residuals_csv(diagnosis, obs) -> str:
 
 def plot_measured_vs_model(diagnosis, obs, path) -> None:
     """Measured minus model readings of each solved axis, alignment by alignment, coloured by mark."""
-    plt = _pyplot()
     names = diagnosis.axis_names
-    fig, axs = plt.subplots(len(names), 1, figsize=(9, 1.9 * len(names)), sharex=True, squeeze=False)
+    fig = new_figure((9, 1.9 * len(names)))
+    axs = fig.subplots(len(names), 1, sharex=True, squeeze=False)
     marks = np.asarray(obs.marks)
     for k, (ax, n) in enumerate(zip(axs[:, 0], names)):
         for mark in dict.fromkeys(obs.marks):
@@ -216,7 +199,7 @@ def plot_measured_vs_model(diagnosis, obs, path) -> None:
     axs[-1, 0].set_xlabel("alignment (red circles: outliers)")
     axs[0, 0].legend(fontsize=6, ncol=8, markerscale=3)
     fig.suptitle("Measured minus model readings")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def diagnosis_report(diagnosis, obs, folder) -> Path:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .effects import Effect, basis_values
+from .effects import basis_values
 from .machine import Machine, evaluate
 from .observations import Observations
 

@@ -1,7 +1,6 @@
 """``kinid backlash``: the backlash calibration on a simulated stage, measured vs truth."""
 from __future__ import annotations
 
-import io
 import json
 from pathlib import Path
 
@@ -133,11 +132,10 @@ def plot_result(res, path, *, truth=None) -> None:
         Simulated truth (keys ``backlash_x_um``, ``backlash_y_um``,
         ``backlash_theta_deg``, ``pixel_um_x``, ``pixel_um_y``) drawn for comparison.
     """
-    from matplotlib.figure import Figure
+    from identification.figures import new_figure, save_figure
 
-    from identification.atomic import atomic_write
 
-    fig = Figure(figsize=(13, 4.2))
+    fig = new_figure((13, 4.2))
     ax0, ax1, ax2 = fig.subplots(1, 3)
     colours = {"scale": "tab:blue", "up": "tab:green", "down": "tab:red", "centre": "tab:purple"}
     for role, col in colours.items():
@@ -199,7 +197,4 @@ def plot_result(res, path, *, truth=None) -> None:
     ax2.set_title(f"pixel equivalent X {res.pixel_mm_x * 1e3:.5f}, Y {res.pixel_mm_y * 1e3:.5f} µm/px", fontsize=9)
     ax2.ticklabel_format(axis="y", useOffset=False)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    with atomic_write(path, "wb") as f:
-        f.write(buf.getvalue())
+    save_figure(fig, path, tight=False)

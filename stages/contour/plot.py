@@ -1,7 +1,6 @@
 """Plots of a contour measurement: a ballbar-like polar plot for circles, error along the path otherwise."""
 from __future__ import annotations
 
-import io
 
 import numpy as np
 
@@ -24,12 +23,7 @@ def plot_contour(measurement, out_png, *, magnification=None):
         Circles only: the deviation, µm, drawn as 0.4 of the plot radius
         (default: the largest absolute deviation).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from identification.atomic import atomic_write
+    from identification.figures import new_figure, save_figure
 
     from .paths import CirclePath
 
@@ -37,50 +31,44 @@ def plot_contour(measurement, out_png, *, magnification=None):
     xy = m.track.xy_mm
     ok = np.all(np.isfinite(xy), axis=1)
     err = m.contour.error_um
-    fig = plt.figure(figsize=(11, 5))
-    try:
-        if isinstance(m.contour.path, CirclePath):
-            c = m.contour.path.centre_mm
-            ax = fig.add_subplot(1, 2, 1, projection="polar")
-            # image axes are y down: angle measured clockwise as seen, draw it that way
-            ang = np.arctan2(xy[ok, 1] - c[1], xy[ok, 0] - c[0])
-            e = err[ok]
-            emax = float(np.max(np.abs(e))) if e.size else 1.0
-            span = emax if magnification is None else float(magnification)
-            span = max(span, 1e-9)
-            ax.plot(np.linspace(0, 2 * np.pi, 361), np.ones(361), "k--", lw=0.8, label="nominal")
-            r = 1.0 + 0.4 * e / span
-            order = np.arange(len(ang))
-            ax.plot(ang[order], r[order], "b.-", lw=1, ms=3, label="measured")
-            ax.set_theta_direction(-1)
-            ax.set_ylim(0, 1.5)
-            ax.set_yticklabels([])
-            title = f"radial deviation (0.4 R = {span:.3g} um)"
-            if m.circular is not None:
-                title += f"\nG {m.circular.G_um:.2f} um"
-                if np.isfinite(m.circular.H_um):
-                    title += f", H {m.circular.H_um:.2f} um"
-            ax.set_title(title, fontsize=9)
-            ax.legend(loc="lower right", fontsize=7)
-        else:
-            ax = fig.add_subplot(1, 2, 1)
-            ax.plot(np.flatnonzero(ok), err[ok], "b.-", ms=3)
-            ax.set_xlabel("frame")
-            ax.set_ylabel("contour error, um")
-            ax.grid(True, alpha=0.3)
-        ax2 = fig.add_subplot(1, 2, 2)
-        ax2.plot(xy[ok, 0], xy[ok, 1], "b.-", ms=2, lw=0.8)
-        ax2.set_aspect("equal")
-        ax2.invert_yaxis()
-        ax2.set_xlabel("x, mm (image right)")
-        ax2.set_ylabel("y, mm (image down)")
-        ax2.set_title(f"track of mark {m.track.reference_code}, {int(ok.sum())}/{len(ok)} frames located",
-                      fontsize=9)
-        ax2.grid(True, alpha=0.3)
-        fig.tight_layout()
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=100)
-    finally:
-        plt.close(fig)
-    with atomic_write(out_png, "wb") as f:
-        f.write(buf.getvalue())
+    fig = new_figure((11, 5))
+    if isinstance(m.contour.path, CirclePath):
+        c = m.contour.path.centre_mm
+        ax = fig.add_subplot(1, 2, 1, projection="polar")
+        # image axes are y down: angle measured clockwise as seen, draw it that way
+        ang = np.arctan2(xy[ok, 1] - c[1], xy[ok, 0] - c[0])
+        e = err[ok]
+        emax = float(np.max(np.abs(e))) if e.size else 1.0
+        span = emax if magnification is None else float(magnification)
+        span = max(span, 1e-9)
+        ax.plot(np.linspace(0, 2 * np.pi, 361), np.ones(361), "k--", lw=0.8, label="nominal")
+        r = 1.0 + 0.4 * e / span
+        order = np.arange(len(ang))
+        ax.plot(ang[order], r[order], "b.-", lw=1, ms=3, label="measured")
+        ax.set_theta_direction(-1)
+        ax.set_ylim(0, 1.5)
+        ax.set_yticklabels([])
+        title = f"radial deviation (0.4 R = {span:.3g} um)"
+        if m.circular is not None:
+            title += f"\nG {m.circular.G_um:.2f} um"
+            if np.isfinite(m.circular.H_um):
+                title += f", H {m.circular.H_um:.2f} um"
+        ax.set_title(title, fontsize=9)
+        ax.legend(loc="lower right", fontsize=7)
+    else:
+        ax = fig.add_subplot(1, 2, 1)
+        ax.plot(np.flatnonzero(ok), err[ok], "b.-", ms=3)
+        ax.set_xlabel("frame")
+        ax.set_ylabel("contour error, um")
+        ax.grid(True, alpha=0.3)
+    ax2 = fig.add_subplot(1, 2, 2)
+    ax2.plot(xy[ok, 0], xy[ok, 1], "b.-", ms=2, lw=0.8)
+    ax2.set_aspect("equal")
+    ax2.invert_yaxis()
+    ax2.set_xlabel("x, mm (image right)")
+    ax2.set_ylabel("y, mm (image down)")
+    ax2.set_title(f"track of mark {m.track.reference_code}, {int(ok.sum())}/{len(ok)} frames located",
+                  fontsize=9)
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, out_png, dpi=100, tight=False)

@@ -130,14 +130,8 @@ def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max
 
 
 def _plot(path, result) -> None:
-    import io
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from identification.atomic import atomic_write
+    
+    from identification.figures import new_figure, save_figure
 
     g, table, smooth = result["gantry"], result["table"], result["smooth"]
     y0 = float(table.y_mm[0])
@@ -152,7 +146,8 @@ def _plot(path, result) -> None:
         return np.array(out)
 
     before, after_t, after_s = offsets(None), offsets(table), offsets(smooth)
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    fig = new_figure((11, 7))
+    axes = fig.subplots(2, 2, sharex=True)
     for col, name in enumerate(("head X", "head Y")):
         ax = axes[0, col]
         ax.plot(ys, before[:, col], "k-", label="before compensation")
@@ -172,11 +167,7 @@ def _plot(path, result) -> None:
         ax.legend(fontsize=8)
     fig.suptitle(f"dual Y axes: {table.message}", fontsize=9)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    with atomic_write(path, "wb") as f:
-        f.write(buf.getvalue())
+    save_figure(fig, path, tight=False)
 
 
 def _format(rep: dict) -> str:

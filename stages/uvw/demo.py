@@ -8,12 +8,10 @@ modulo the lead.
 """
 from __future__ import annotations
 
-import io
 import math
 
 import numpy as np
 
-from identification.atomic import atomic_write
 from identification.errors import StageError
 
 from .calibrate import alignment_targets, calibrate, run_moves, run_stage_moves
@@ -148,10 +146,10 @@ def plot_demo(result: dict, path) -> None:
     model can represent) against position modulo the lead; the residual of
     the full model against the same.
     """
-    from matplotlib.figure import Figure
+    from identification.figures import new_figure, save_figure
 
     arrays = result["_arrays"]
-    fig = Figure(figsize=(15, 4.5))
+    fig = new_figure((15, 4.5))
     axes = fig.subplots(1, 3)
     ax = axes[0]
     colours = {"uncompensated": "tab:gray", "patent": "tab:orange", "model": "tab:blue"}
@@ -175,7 +173,4 @@ def plot_demo(result: dict, path) -> None:
         ax.legend(fontsize=8)
     axes[2].set_ylim(axes[1].get_ylim())
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    with atomic_write(path, "wb") as f:
-        f.write(buf.getvalue())
+    save_figure(fig, path, tight=False)
