@@ -30,9 +30,9 @@ import scipy.stats
 
 from .effects import candidate_library
 from .fit import FitResult, fit
-from .machine import Machine
+from .machine import Machine, evaluate
 from .observations import Observations
-from .residuals import design, effect_columns, residuals
+from .residuals import design, effect_columns, joint_values
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "score_candidates", "forward_select", "SelectionStep", "noise_from_replicates", "ALPHA"]
 
@@ -221,22 +221,39 @@ def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray)
     return (np.sqrt(ss / dof), dof) if dof else None
 
 
-def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool, d_errors=None):
+def _model_pass(machine: Machine, obs: Observations, result: FitResult):
+    """One Pinocchio pass at the fit: error-joint and axis Jacobians, and an orthonormal basis
+    ``Q0`` (3N, rank) of the identifiable model columns — shared by the score test, the
+    leverages and the axis residuals."""
+    d0 = design(machine, result.effects, obs)
+    _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta))
+    J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
+    Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
+    return d_errors, d_axes, Q0
+
+
+def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
+                     d_errors=None, q0=None):
     """Score test of each candidate effect at the fit ``result`` (see module docstring).
+
+    Parameters
+    ----------
+    d_errors : array (N, 3, n_errors), optional
+        Error-joint Jacobian at the fit (computed if not given).
+    q0 : array (3N, rank), optional
+        Orthonormal basis of the identifiable model columns (computed if not given).
 
     Returns
     -------
     list of Candidate, unsorted.
     """
+    if d_errors is None or q0 is None:
+        d_errors, _, q0 = _model_pass(machine, obs, result)
     d0 = design(machine, result.effects, obs)
-    if d_errors is None:
-        _, J0, d_errors = residuals(machine, d0, obs, result.theta)
-    else:
-        J0 = effect_columns(d_errors, d0)
     M = result.residuals_um.size
     r = result.residuals_um.ravel() / sigma
-    J0 = J0.reshape(M, -1)[:, result.identifiable] / sigma
-    Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((M, 0))
+    J0 = effect_columns(d_errors, d0).reshape(M, -1)[:, result.identifiable] / sigma
+    Q0 = q0
     r = r - Q0 @ (Q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
     rss = float(r @ r)
     p0 = result.rank
@@ -329,7 +346,8 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit
             sigma, source = float(np.sqrt(np.sum(r**2) / max(result.dof, 1))), "residuals"
     known = source != "residuals"
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
-    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known)
+    d_errors, d_axes, q0 = _model_pass(machine, obs, result)
+    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
     location = {j.code for j in machine.error_joints if j.location}
     # best first; exact ties (identical columns) go to the location error, the more physical reading
     live = sorted([c for c in scored if c.status == "live"], key=lambda c: (round(c.log10_p, 6), c.effect.split(":")[0] not in location, c.rms_after_um))
@@ -338,45 +356,38 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit
     chi2_p = float(scipy.stats.chi2.sf(np.sum(r**2) / sigma**2, result.dof)) if known else float("nan")
     significant = bool(live) and live[0].p_value < threshold
     verdict = "missing-effect" if significant or (known and chi2_p < alpha) else "noise"
-    stud, lev = _studentized(machine, obs, result, sigma)
+    stud, lev = _studentized(result, q0, sigma)
     bound = scipy.stats.chi2.isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
     rms = float(np.sqrt(np.mean(r**2)))
-    axis_r, axis_names = axis_residuals(machine, obs, result)
+    axis_r, axis_names = axis_residuals(machine, obs, result, d_axes=d_axes)
     return Diagnosis(result, verdict, rms, sigma, source, chi2_p, threshold, tuple(live + rest), stud, lev, outliers,
                      axis_r, axis_names, tuple(obs.marks))
 
 
-def axis_residuals(machine: Machine, obs: Observations, result: FitResult):
+def axis_residuals(machine: Machine, obs: Observations, result: FitResult, *, d_axes=None):
     """Residuals as readings of the prismatic axes (measured − model), µm; and the axes' names.
 
     To first order, the readings at which the model puts the tool point on the
     mark differ from the measured ones by A⁻¹ r, with A the Jacobian of the
-    tool point with respect to those axes.
+    tool point with respect to those axes (``d_axes``: from :func:`evaluate`
+    at the fit, computed if not given).
     """
-    from .machine import evaluate
-    from .residuals import joint_values
-
     cols = [j for j, a in enumerate(machine.axes) if a.kind == "prismatic"]
     names = tuple(machine.axes[j].name for j in cols)
     if len(cols) != 3:
         return np.full((len(obs), 3), np.nan), names
-    d0 = design(machine, result.effects, obs)
-    _, _, d_ax = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta))
-    A = d_ax[:, :, cols]  # µm per mm
+    if d_axes is None:
+        _, d_axes, _ = _model_pass(machine, obs, result)
+    A = d_axes[:, :, cols]  # µm per mm
     return np.linalg.solve(A, result.residuals_um[:, :, None])[:, :, 0] * 1e3, names
 
 
-def _studentized(machine, obs, result, sigma):
-    """Per-alignment studentized residual norm and leverage (hat matrix of the identifiable Jacobian)."""
-    d0 = design(machine, result.effects, obs)
-    _, J, _ = residuals(machine, d0, obs, result.theta)
-    N = len(obs)
-    M = 3 * N
-    Jf = J.reshape(M, -1)[:, result.identifiable]
-    Q = scipy.linalg.qr(Jf, mode="economic")[0] if Jf.shape[1] else np.zeros((M, 0))
-    h = np.sum(Q**2, axis=1).reshape(N, 3)
+def _studentized(result, q0, sigma):
+    """Per-alignment studentized residual norm and leverage (hat matrix Q0 Q0ᵀ of the identifiable Jacobian)."""
     r = result.residuals_um
+    N = r.shape[0]
+    h = np.sum(q0**2, axis=1).reshape(N, 3)
     stud = np.sqrt(np.sum(r**2 / np.maximum(1 - h, 1e-12), axis=1)) / sigma
     return stud, h.sum(axis=1)
 
