@@ -13,9 +13,9 @@ import time
 import cv2
 import numpy as np
 
-from identification.errors import ImageError
-from stages.backlash import SimulatedStage, calibrate
-from stages.backlash.locate import centroid_locate, locate_fiducial
+from kinid.errors import ImageError
+from kinid.stages.backlash import SimulatedStage, calibrate
+from kinid.stages.backlash.locate import centroid_locate, locate_fiducial
 
 
 def binary_centroid(image, what="image"):

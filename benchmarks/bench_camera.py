@@ -31,9 +31,9 @@ SQUARE_MM = 10.0
 def render_views(n, rng):
     import cv2
 
-    from vision.calibration_targets import chessboard_coverage, chessboard_object_points, pinhole_image_to_plane
-    from vision.camera import CameraModel
-    from vision.render import render_pattern
+    from kinid.vision.calibration_targets import chessboard_coverage, chessboard_object_points, pinhole_image_to_plane
+    from kinid.vision.camera import CameraModel
+    from kinid.vision.render import render_pattern
 
     camera = CameraModel(K_TRUE, D_TRUE, SIZE)
     obj = chessboard_object_points(PATTERN, SQUARE_MM)
@@ -62,7 +62,7 @@ def corner_errors(found, truth):
 def main():
     import cv2
 
-    from vision.camera import calibrate_camera, detect_pattern
+    from kinid.vision.camera import calibrate_camera, detect_pattern
 
     rng = np.random.default_rng(20261122)
     start = time.perf_counter()

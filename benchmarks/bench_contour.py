@@ -37,7 +37,7 @@ def _rss_mb():
 
 
 def _render_frames(folder, board, size, pixel_mm, n, rng):
-    from stages.contour.simulate import _PixelMap, render_frame, simulation_camera
+    from kinid.stages.contour.simulate import _PixelMap, render_frame, simulation_camera
 
     cam = simulation_camera((size, size), pixel_mm, k1=-0.05)
     pm = _PixelMap(cam)
@@ -66,9 +66,9 @@ def _sequence(folder, names, count):
 
 def bench_speed(quick):
 
-    from stages.contour.frames import map_frames, open_frames, read_image
-    from stages.contour.track import FrameSettings, process_frame
-    from vision.board import make_board
+    from kinid.stages.contour.frames import map_frames, open_frames, read_image
+    from kinid.stages.contour.track import FrameSettings, process_frame
+    from kinid.vision.board import make_board
 
     patent = make_board()
     fine = make_board(rows=14, cols=14, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
@@ -123,7 +123,7 @@ def bench_speed(quick):
         label, board, size, pix = cases[0]
         src = os.path.join(root, f"{size}_{pix}_{board.pitch_mm}")
         names = sorted(os.path.join(src, f) for f in os.listdir(src) if f.startswith("src_"))
-        from stages.contour.track import TrackBuilder
+        from kinid.stages.contour.track import TrackBuilder
 
         st = FrameSettings(pixel_mm=pix, bits=board.bits, refine="centroid")
         print("\n2. memory of the parent process (resident set, MB) after streaming N frames of", f"{size}x{size}")
@@ -140,8 +140,8 @@ def bench_speed(quick):
 
 def bench_accuracy():
     """Reference mark 100+ mm from the marks in view: two-mark rotation per frame vs joint rotation."""
-    from stages.contour.track import FrameResult, FrameSettings, estimate_track
-    from vision.board import make_board
+    from kinid.stages.contour.track import FrameResult, FrameSettings, estimate_track
+    from kinid.vision.board import make_board
 
     board = make_board()
     rng = np.random.default_rng(3)

@@ -17,12 +17,12 @@ import time
 
 import numpy as np
 
-from identification.diagnose import diagnose, score_candidates
-from identification.effects import candidate_library, default_model
-from identification.fit import fit
-from identification.machine import load_machine
-from identification.simulate import errors_from_mapping, patent_plan, simulate
-from urdf import path
+from kinid.identification.diagnose import diagnose, score_candidates
+from kinid.identification.effects import candidate_library, default_model
+from kinid.identification.fit import fit
+from kinid.identification.machine import load_machine
+from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.urdf import path
 
 
 def main():
@@ -49,7 +49,7 @@ def main():
 
     t = time.perf_counter()
     dg = diagnose(m, obs, base.effects, noise_um=1.0, result=base)
-    from identification.effects import parse_effect
+    from kinid.identification.effects import parse_effect
 
     refit = fit(m, obs, list(base.effects) + [parse_effect(dg.live[0].effect, m)], noise_um=1.0)
     t_round = time.perf_counter() - t

@@ -22,13 +22,13 @@ from pathlib import Path
 import numpy as np
 import scipy.optimize
 
-from identification.effects import default_model
-from identification.fit import fit
-from identification.machine import evaluate, load_machine
-from identification.observations import write_observations
-from identification.residuals import design, residuals
-from identification.simulate import errors_from_mapping, patent_plan, simulate
-from urdf import path
+from kinid.identification.effects import default_model
+from kinid.identification.fit import fit
+from kinid.identification.machine import evaluate, load_machine
+from kinid.identification.observations import write_observations
+from kinid.identification.residuals import design, residuals
+from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.urdf import path
 
 
 def timed(f, repeat=5):
@@ -73,7 +73,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         csv = Path(tmp) / "obs.csv"
         write_observations(csv, obs, m)
-        cmd = [sys.executable, "-m", "identification.cli", "identify", "--machine", str(path("five_axis_bc")), "--data", str(csv), "--noise-um", "1", "--out", str(Path(tmp) / "fit.json")]
+        cmd = [sys.executable, "-m", "kinid.cli", "identify", "--machine", str(path("five_axis_bc")), "--data", str(csv), "--noise-um", "1", "--out", str(Path(tmp) / "fit.json")]
         med_c, best_c, _ = timed(lambda: subprocess.run(cmd, check=True, capture_output=True), repeat=3)
         print(f"kinid identify (command line):    median {med_c*1e3:7.1f} ms, best {best_c*1e3:7.1f} ms (process start and imports included)")
 

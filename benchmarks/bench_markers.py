@@ -21,10 +21,10 @@ import time
 import cv2
 import numpy as np
 
-from vision.board import make_board
-from vision.circles import locate_disk
-from vision.render import board_coverage, homography_image_to_plane, render_pattern, similarity_plane_to_image
-from vision.ringcode import canonical_code, detect_markers
+from kinid.vision.board import make_board
+from kinid.vision.circles import locate_disk
+from kinid.vision.render import board_coverage, homography_image_to_plane, render_pattern, similarity_plane_to_image
+from kinid.vision.ringcode import canonical_code, detect_markers
 
 UP, SHIFT = 8, 4
 

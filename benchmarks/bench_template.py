@@ -18,7 +18,7 @@ import numpy as np
 
 def render_plate(coverage, shift_px, rng, *, shape=(192, 192), pixel_mm=0.05, blur_px=0.8, noise_sigma=2.0):
     """Image of a plate whose content is moved by ``shift_px`` (x right, y down)."""
-    from vision.render import render_pattern
+    from kinid.vision.render import render_pattern
 
     shift = np.asarray(shift_px, dtype=float)
 
@@ -30,7 +30,7 @@ def render_plate(coverage, shift_px, rng, *, shape=(192, 192), pixel_mm=0.05, bl
 
 
 def textures(rng):
-    from vision.calibration_targets import printed_features_coverage, smooth_texture_coverage
+    from kinid.vision.calibration_targets import printed_features_coverage, smooth_texture_coverage
 
     pixel_mm = 0.05
     return {
@@ -43,7 +43,7 @@ def textures(rng):
 def main(n_trials=25):
     import cv2
 
-    from vision.template import locate_template, make_template
+    from kinid.vision.template import locate_template, make_template
 
     rng = np.random.default_rng(20261122)
     methods = ["lk", "ecc", "upsampled", "ncc", "gauss", "phase"]

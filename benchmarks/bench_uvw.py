@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, alignment_targets, calibrate,
+from kinid.stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, alignment_targets, calibrate,
                         calibrate_patent, run_moves)
 
 

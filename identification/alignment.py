@@ -12,7 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import DataError
+from kinid.errors import DataError
 from .machine import Machine, evaluate
 from .observations import Observations
 from .residuals import design, joint_values

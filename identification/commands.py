@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["register"]
 

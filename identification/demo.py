@@ -71,7 +71,7 @@ def run_demo(out=None, *, seed: int = 7, stream=None) -> Path:
     say = (lambda *a: print(*a, file=stream or sys.stdout, flush=True))
     t0 = time.perf_counter()
     folder = Path(out) if out else Path(f"kinid-demo-{time.strftime('%Y%m%d-%H%M%S')}")
-    from urdf import path as urdf_path
+    from kinid.urdf import path as urdf_path
 
     machine = load_machine(urdf_path("five_axis_bc"))
     rng = np.random.default_rng(seed)

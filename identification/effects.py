@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DataError
+from kinid.errors import DataError
 from .machine import Machine
 
 __all__ = ["Effect", "parse_effect", "default_model", "candidate_library", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]

@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .atomic import write_text
+from kinid.files import write_text
 from .effects import Effect, default_model, parse_effect
-from .errors import DataError
+from kinid.errors import DataError
 from .identifiability import RANK_TOL, analyse
 from .machine import Machine, machine_from_urdf
 from .observations import Observations

@@ -19,7 +19,7 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
-from .errors import MachineError
+from kinid.errors import MachineError
 
 __all__ = [
     "Axis",
@@ -411,7 +411,7 @@ def tool_in_workpiece_mm(machine: Machine, axes: Mapping[str, float], joint_erro
 
     Examples
     --------
-    >>> from urdf import path
+    >>> from kinid.urdf import path
     >>> m = load_machine(path("five_axis_bc"))
     >>> tool_in_workpiece_mm(m, {"X": 10.0}).round(6).tolist()
     [10.0, 0.0, 0.0]

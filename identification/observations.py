@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_text
-from .errors import DataError
+from kinid.files import write_text
+from kinid.errors import DataError
 from .machine import Machine
 
 __all__ = ["Observations", "read_observations", "write_observations", "observations_text"]

@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_text
+from kinid.files import write_text
 from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG
-from .errors import DataError
-from .figures import new_figure, save_figure
+from kinid.errors import DataError
+from kinid.figures import new_figure, save_figure
 
 __all__ = ["diagnosis_report", "selection_report", "plot_residuals_vs_axes", "plot_periodogram", "plot_singular_values", "plot_selection"]
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from .alignment import solve_axes
 from .effects import parse_effect
-from .errors import DataError
+from kinid.errors import DataError
 from .machine import Machine
 from .observations import Observations, read_observations
 

@@ -6,6 +6,6 @@
 - :mod:`stages.contour` — planar contour error from image sequences (seed 002)
 
 Each sub-package keeps its own ``calibrate``; import it from there
-(``from stages.uvw import calibrate``). Hardware protocols: INTERFACES.md §5.
+(``from kinid.stages.uvw import calibrate``). Hardware protocols: INTERFACES.md §5.
 """
 __all__ = ["backlash", "uvw", "dual_axis", "contour"]

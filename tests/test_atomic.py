@@ -4,8 +4,8 @@ import stat
 
 import pytest
 
-from identification.atomic import atomic_write, write_text
-from identification.errors import DataError
+from kinid.files import atomic_write, write_text
+from kinid.errors import DataError
 
 
 def test_new_file_gets_the_umask_mode(tmp_path):

@@ -1,11 +1,11 @@
-"""stages.backlash.calibrate: truth recovery on simulated stages (issue 5 'Done when')."""
+"""kinid.stages.backlash.calibrate: truth recovery on simulated stages (issue 5 'Done when')."""
 import warnings
 
 import numpy as np
 import pytest
 
-from identification.errors import DataError, ImageError, StageError
-from stages.backlash import SimulatedStage, calibrate
+from kinid.errors import DataError, ImageError, StageError
+from kinid.stages.backlash import SimulatedStage, calibrate
 
 # Issue 5 acceptance: pixel equivalent within 0.1 %, X/Y backlash within 0.3 um, θ within 0.002 deg,
 # at a pixel near 5 um, camera not square to the axes, fiducial far (>= 10 mm) from the θ centre.

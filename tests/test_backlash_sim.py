@@ -1,11 +1,11 @@
-"""stages.backlash: play operator, simulated stage, fiducial locator, move plan."""
+"""kinid.stages.backlash: play operator, simulated stage, fiducial locator, move plan."""
 import numpy as np
 import pytest
 
-from identification.errors import DataError, ImageError, StageError
-from stages.backlash import SimulatedStage, locate_fiducial, plan_moves, play
-from stages.backlash.locate import centroid_locate
-from vision.render import render_disk
+from kinid.errors import DataError, ImageError, StageError
+from kinid.stages.backlash import SimulatedStage, locate_fiducial, plan_moves, play
+from kinid.stages.backlash.locate import centroid_locate
+from kinid.vision.render import render_disk
 
 
 def test_play_operator_loses_backlash_on_reversal():

@@ -4,10 +4,10 @@ import json
 import numpy as np
 import pytest
 
-from identification.cli import main
-from identification.machine import load_machine
-from identification.observations import read_observations
-from urdf import path
+from kinid.cli import main
+from kinid.identification.machine import load_machine
+from kinid.identification.observations import read_observations
+from kinid.urdf import path
 
 BC = str(path("five_axis_bc"))
 

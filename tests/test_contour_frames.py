@@ -5,11 +5,11 @@ import cv2
 import numpy as np
 import pytest
 
-from identification.errors import DataError
-from stages.contour.frames import map_frames, open_frames
-from stages.contour.simulate import simulation_camera
-from stages.contour.track import FrameSettings, process_frame
-from vision.board import make_board
+from kinid.errors import DataError
+from kinid.stages.contour.frames import map_frames, open_frames
+from kinid.stages.contour.simulate import simulation_camera
+from kinid.stages.contour.track import FrameSettings, process_frame
+from kinid.vision.board import make_board
 
 BOARD = make_board(rows=4, cols=4)
 SETTINGS = FrameSettings(pixel_mm=0.02)

@@ -4,8 +4,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError
-from stages.contour.paths import (CirclePath, LinePath, PolylinePath, circular_test, contour_error, fit_circle,
+from kinid.errors import DataError
+from kinid.stages.contour.paths import (CirclePath, LinePath, PolylinePath, circular_test, contour_error, fit_circle,
                                   fit_line, load_polyline, travel_direction)
 
 

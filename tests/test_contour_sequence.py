@@ -5,15 +5,15 @@ import json
 import numpy as np
 import pytest
 
-from identification.cli import main
-from identification.errors import DataError
-from stages.contour.frames import open_frames
-from stages.contour.measure import measure_contour
-from stages.contour.paths import CirclePath, contour_error
-from stages.contour.simulate import circle_motion, render_sequence, simulation_camera
-from stages.contour.track import FrameSettings
-from vision.board import make_board, save_board
-from vision.camera import save_camera
+from kinid.cli import main
+from kinid.errors import DataError
+from kinid.stages.contour.frames import open_frames
+from kinid.stages.contour.measure import measure_contour
+from kinid.stages.contour.paths import CirclePath, contour_error
+from kinid.stages.contour.simulate import circle_motion, render_sequence, simulation_camera
+from kinid.stages.contour.track import FrameSettings
+from kinid.vision.board import make_board, save_board
+from kinid.vision.camera import save_camera
 
 # 512 x 512 frames, 30 um object-side pixel (15.4 mm field), a fine board (6 mm pitch) so that 2-6 marks are in view
 SIZE, PIXEL_MM, RADIUS_MM, N = (512, 512), 0.03, 8.0, 24
@@ -178,8 +178,8 @@ def test_downsampled_and_windowed_decoding_stay_within_accuracy(seq):
 
 
 def test_auto_downsample_keeps_the_centre_circle_above_20_px(seq):
-    from stages.contour.frames import open_frames
-    from stages.contour.measure import choose_downsample
+    from kinid.stages.contour.frames import open_frames
+    from kinid.stages.contour.measure import choose_downsample
 
     root, cam, s = seq
     source = open_frames(root / "frames")

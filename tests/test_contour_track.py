@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError
-from stages.contour.simulate import circle_motion, simulation_camera
-from stages.contour.track import FrameResult, FrameSettings, TrackBuilder, consistent_marks, estimate_track
-from vision.board import make_board
+from kinid.errors import DataError
+from kinid.stages.contour.simulate import circle_motion, simulation_camera
+from kinid.stages.contour.track import FrameResult, FrameSettings, TrackBuilder, consistent_marks, estimate_track
+from kinid.vision.board import make_board
 
 BOARD = make_board()  # the patent's board: 14 x 14 marks, 16 mm pitch
 PIXEL_MM = 0.025

@@ -4,12 +4,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from identification.diagnose import diagnose, forward_select
-from identification.effects import candidate_library, default_model, parse_effect
-from identification.fit import fit
-from identification.machine import load_machine
-from identification.simulate import errors_from_mapping, patent_plan, simulate
-from urdf import path
+from kinid.identification.diagnose import diagnose, forward_select
+from kinid.identification.effects import candidate_library, default_model, parse_effect
+from kinid.identification.fit import fit
+from kinid.identification.machine import load_machine
+from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.urdf import path
 
 SIGMA = 1.0
 # one hidden effect per basis type; sizes are typical of real machines
@@ -137,7 +137,7 @@ def test_pure_noise_false_alarm_rate_below_5_percent(bc):
 def test_residuals_in_machine_axes_point_at_the_faulty_axis(bc):
     """With a hidden X lead-screw error, the measured − model readings are largest on X, and they
     equal the readings the fitted model solves for, to first order."""
-    from identification.alignment import solve_axes
+    from kinid.identification.alignment import solve_axes
 
     obs = _data(bc, HIDDEN[0], seed=6)
     dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from identification.errors import DataError, ImageError, StageError
-from stages.dual_axis import (ErrorProfile, SimulatedGantry, calibrate, fit_smooth, measure_pixel_to_mm,
+from kinid.errors import DataError, ImageError, StageError
+from kinid.stages.dual_axis import (ErrorProfile, SimulatedGantry, calibrate, fit_smooth, measure_pixel_to_mm,
                               random_error_profiles, verify)
 
 HEAD0 = (0.0, 0.0)

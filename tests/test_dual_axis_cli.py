@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from identification.cli import main
+from kinid.cli import main
 
 
 def test_json_report(capsys):

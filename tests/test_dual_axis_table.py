@@ -4,9 +4,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError, StageError
-from stages.dual_axis.smooth import fit_smooth
-from stages.dual_axis.table import OffsetTable
+from kinid.errors import DataError, StageError
+from kinid.stages.dual_axis.smooth import fit_smooth
+from kinid.stages.dual_axis.table import OffsetTable
 
 
 def _table(seed=0, n=12, step=10.0, y0=-20.0):

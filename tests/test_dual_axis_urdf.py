@@ -5,8 +5,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from identification.machine import load_machine, tool_in_workpiece_mm
-from urdf import path
+from kinid.identification.machine import load_machine, tool_in_workpiece_mm
+from kinid.urdf import path
 
 URDF = path("gantry_dual_y")
 AXES = {"Y", "V", "X"}

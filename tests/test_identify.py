@@ -4,14 +4,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from identification.alignment import solve_axes
-from identification.effects import default_model, parse_effect
-from identification.errors import DataError
-from identification.fit import fit, load_fit, save_fit
-from identification.machine import load_machine
-from identification.residuals import design, residuals
-from identification.simulate import errors_from_mapping, patent_plan, simulate
-from urdf import path
+from kinid.identification.alignment import solve_axes
+from kinid.identification.effects import default_model, parse_effect
+from kinid.errors import DataError
+from kinid.identification.fit import fit, load_fit, save_fit
+from kinid.identification.machine import load_machine
+from kinid.identification.residuals import design, residuals
+from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.urdf import path
 
 MACHINES = ["five_axis_bc", "five_axis_ac", "five_axis_bhead_c"]
 

@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from identification.errors import MachineError
-from identification.machine import evaluate, load_machine, machine_from_urdf, tool_in_workpiece_mm
-from identification.urdf_builder import Axis, Fixed, machine_urdf, setup
-from urdf import names, path
+from kinid.errors import MachineError
+from kinid.identification.machine import evaluate, load_machine, machine_from_urdf, tool_in_workpiece_mm
+from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.urdf import names, path
 
 MACHINES = ["five_axis_bc", "five_axis_ac", "five_axis_bhead_c"]
 

@@ -6,11 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import StageError
-from stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, UVWGeometry, alignment_targets, calibrate,
+from kinid.errors import StageError
+from kinid.stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, UVWGeometry, alignment_targets, calibrate,
                         calibrate_patent, default_truth, fit_actuator_model, phase_residuals, run_moves,
                         run_stage_moves)
-from stages.uvw.kinematics import Pose
+from kinid.stages.uvw.kinematics import Pose
 
 
 def _truth_values(t: ActuatorTruth, harmonics=2):

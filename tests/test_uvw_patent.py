@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from identification.errors import StageError
-from stages.uvw import (ActuatorTruth, PatentCompensator, PatentStatistics, SimulatedUVWStage, calibrate_patent,
+from kinid.errors import StageError
+from kinid.stages.uvw import (ActuatorTruth, PatentCompensator, PatentStatistics, SimulatedUVWStage, calibrate_patent,
                         measure_patent, patent_compensation_um, patent_statistics, patent_strokes)
 
 

@@ -5,9 +5,9 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from identification.errors import DataError
-from vision.board import Board, board_codes, load_board, make_board, match_to_board, save_board
-from vision.ringcode import canonical_code
+from kinid.errors import DataError
+from kinid.vision.board import Board, board_codes, load_board, make_board, match_to_board, save_board
+from kinid.vision.ringcode import canonical_code
 
 
 def test_patent_board_has_distinct_increasing_canonical_codes():

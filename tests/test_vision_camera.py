@@ -9,16 +9,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError, ImageError
-from vision.calibration_targets import (
+from kinid.errors import DataError, ImageError
+from kinid.vision.calibration_targets import (
     chessboard_coverage,
     chessboard_object_points,
     circle_grid_coverage,
     circle_grid_object_points,
     pinhole_image_to_plane,
 )
-from vision.camera import CameraModel, calibrate_camera, detect_pattern, load_camera, save_camera
-from vision.render import render_pattern
+from kinid.vision.camera import CameraModel, calibrate_camera, detect_pattern, load_camera, save_camera
+from kinid.vision.render import render_pattern
 
 # a VGA camera with strong barrel distortion and some decentring (all five coefficients non-zero)
 K_TRUE = np.array([[800.0, 0.0, 322.3], [0.0, 805.0, 241.7], [0.0, 0.0, 1.0]])

@@ -5,9 +5,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import ImageError
-from vision.circles import locate_disk, locate_hole, locate_sphere, offset_from_image_centre
-from vision.render import render_disk
+from kinid.errors import ImageError
+from kinid.vision.circles import locate_disk, locate_hole, locate_sphere, offset_from_image_centre
+from kinid.vision.render import render_disk
 
 UP, SHIFT = 8, 4
 

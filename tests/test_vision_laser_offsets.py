@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError
-from vision.laser_offsets import (
+from kinid.errors import DataError
+from kinid.vision.laser_offsets import (
     axial_offset,
     focus_height,
     focus_measure,

@@ -5,9 +5,9 @@ import cv2
 import numpy as np
 import pytest
 
-from identification.cli import main
-from vision.board import make_board
-from vision.render import board_coverage, homography_image_to_plane, render_pattern, similarity_plane_to_image
+from kinid.cli import main
+from kinid.vision.board import make_board
+from kinid.vision.render import board_coverage, homography_image_to_plane, render_pattern, similarity_plane_to_image
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,11 @@
-"""vision.motion_scale: pixel equivalent, reversal gaps, 2 x 2 pixel-to-machine matrix."""
+"""kinid.vision.motion_scale: pixel equivalent, reversal gaps, 2 x 2 pixel-to-machine matrix."""
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError
-from vision.motion_scale import backlash_from_reversals, pixel_equivalent, pixel_to_machine_matrix
+from kinid.errors import DataError
+from kinid.vision.motion_scale import backlash_from_reversals, pixel_equivalent, pixel_to_machine_matrix
 
 
 def _matrix(scale_x, scale_y, rotation_deg, skew_deg, mirrored):

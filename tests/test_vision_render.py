@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from vision.board import make_board
-from vision.render import (board_coverage, disk_coverage, homography_image_to_plane, render_disk, render_pattern,
+from kinid.vision.board import make_board
+from kinid.vision.render import (board_coverage, disk_coverage, homography_image_to_plane, render_disk, render_pattern,
                            ring_mark_coverage, similarity_plane_to_image)
 
 

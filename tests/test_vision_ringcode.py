@@ -5,10 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vision.board import make_board, match_to_board
-from vision.render import (board_coverage, homography_image_to_plane, render_pattern, ring_mark_coverage,
+from kinid.vision.board import make_board, match_to_board
+from kinid.vision.render import (board_coverage, homography_image_to_plane, render_pattern, ring_mark_coverage,
                            similarity_plane_to_image)
-from vision.ringcode import canonical_code, decode_from_segments, detect_markers
+from kinid.vision.ringcode import canonical_code, decode_from_segments, detect_markers
 
 UP, SHIFT = 8, 4
 CLASSES = sorted({canonical_code(v) for v in range(1, 4095)})

@@ -6,10 +6,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.errors import DataError, ImageError
-from vision.calibration_targets import printed_features_coverage, smooth_texture_coverage
-from vision.render import render_pattern
-from vision.template import Template, locate_template, make_template
+from kinid.errors import DataError, ImageError
+from kinid.vision.calibration_targets import printed_features_coverage, smooth_texture_coverage
+from kinid.vision.render import render_pattern
+from kinid.vision.template import Template, locate_template, make_template
 
 PIXEL_MM = 0.05
 SHAPE = (112, 112)

@@ -2,7 +2,7 @@
 
 The files follow ``INTERFACES.md`` §1. Use :func:`path` to get one by name::
 
-    >>> from urdf import path
+    >>> from kinid.urdf import path
     >>> path("five_axis_bc").name
     'five_axis_bc.urdf'
 """

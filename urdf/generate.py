@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
 
 HERE = Path(__file__).resolve().parent
 PI = 3.141592653589793

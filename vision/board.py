@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["Board", "BoardMatch", "make_board", "load_board", "save_board", "match_to_board", "board_codes"]
 
@@ -211,7 +211,7 @@ def load_board(path) -> Board:
 
 def save_board(board: Board, path) -> None:
     """Write ``board`` as a board description file (JSON, INTERFACES.md §6), atomically."""
-    from identification.atomic import write_text
+    from kinid.files import write_text
 
     data = {"pitch_mm": board.pitch_mm, "rows": board.rows, "cols": board.cols, "center_d_mm": board.center_d_mm,
             "ring_inner_d_mm": board.ring_inner_d_mm, "ring_outer_d_mm": board.ring_outer_d_mm,

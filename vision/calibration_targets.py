@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = [
     "chessboard_coverage",

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.atomic import write_text
-from identification.errors import DataError, ImageError
+from kinid.files import write_text
+from kinid.errors import DataError, ImageError
 
 __all__ = [
     "CameraModel",

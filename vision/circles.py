@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import ImageError
+from kinid.errors import ImageError
 
 __all__ = ["CircleResult", "locate_disk", "locate_hole", "locate_sphere", "offset_from_image_centre",
            "fit_disk_model", "weighted_centroid", "as_gray", "noise_sigma"]

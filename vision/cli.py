@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from identification.errors import DataError, ImageError
+from kinid.errors import DataError, ImageError
 
 __all__ = ["register", "read_image"]
 
@@ -48,7 +48,7 @@ def draw_markers(image, markers):
 def _run(args) -> int:
     import cv2
 
-    from identification.atomic import atomic_write
+    from kinid.files import atomic_write
 
     from .ringcode import detect_markers
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = [
     "OffsetResult",

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = [
     "ScaleResult",

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError, ImageError
+from kinid.errors import DataError, ImageError
 
 __all__ = ["Template", "TemplateMatch", "make_template", "locate_template", "METHODS"]
 

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from identification.errors import DataError
-from identification.progress import Progress
-from vision.motion_scale import (MatrixResult, ScaleResult, backlash_from_reversals, pixel_equivalent,
+from kinid.errors import DataError
+from kinid.progress import Progress
+from kinid.vision.motion_scale import (MatrixResult, ScaleResult, backlash_from_reversals, pixel_equivalent,
                                  pixel_to_machine_matrix)
 
 from .locate import locate_fiducial

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["register", "plot_result"]
 
@@ -132,7 +132,7 @@ def plot_result(res, path, *, truth=None) -> None:
         Simulated truth (keys ``backlash_x_um``, ``backlash_y_um``,
         ``backlash_theta_deg``, ``pixel_um_x``, ``pixel_um_y``) drawn for comparison.
     """
-    from identification.figures import new_figure, save_figure
+    from kinid.figures import new_figure, save_figure
 
 
     fig = new_figure((13, 4.2))

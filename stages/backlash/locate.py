@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from identification.errors import ImageError
+from kinid.errors import ImageError
 
 __all__ = ["locate_fiducial", "centroid_locate"]
 
@@ -116,7 +116,7 @@ def locate_fiducial(image, *, what="image"):
     """
     _check_image(image, what)
     try:
-        from vision.circles import locate_disk
+        from kinid.vision.circles import locate_disk
     except ImportError:
         locate_disk = None
     reason = None

@@ -5,7 +5,7 @@ import json
 import math
 import sys
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["register"]
 
@@ -81,9 +81,9 @@ def _path_from_args(args):
 
 
 def _run(args) -> int:
-    from identification.atomic import write_text
-    from identification.progress import Progress
-    from vision.board import load_board
+    from kinid.files import write_text
+    from kinid.progress import Progress
+    from kinid.vision.board import load_board
 
     from .frames import open_frames
     from .measure import measure_contour, track_csv
@@ -92,7 +92,7 @@ def _run(args) -> int:
     board = load_board(args.board)
     camera = None
     if args.camera:
-        from vision.camera import load_camera
+        from kinid.vision.camera import load_camera
 
         camera = load_camera(args.camera)
     if args.pixel_mm is not None and not (math.isfinite(args.pixel_mm) and args.pixel_mm > 0):

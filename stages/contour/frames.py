@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["IMAGE_SUFFIXES", "FrameSource", "open_frames", "read_image", "map_frames"]
 
@@ -124,7 +124,7 @@ def _work(item, board, settings):
 
 _WORKER = {}
 #: Modules the fork server imports once, so that worker start-up is quick.
-_PRELOAD = ("numpy", "cv2", "scipy.special", "vision.board", "vision.ringcode", "stages.contour.track")
+_PRELOAD = ("numpy", "cv2", "scipy.special", "kinid.vision.board", "kinid.vision.ringcode", "kinid.stages.contour.track")
 
 
 def _init_worker(board, settings):
@@ -163,7 +163,7 @@ def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
         Worker processes (1: in this process, no pool).
     batch : int
         Frames per task sent to a worker (fewer round trips).
-    progress : identification.progress.Progress or None
+    progress : kinid.progress.Progress or None
         Updated once per frame.
 
     Yields

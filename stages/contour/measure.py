@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 from .frames import map_frames, open_frames
 from .paths import CirclePath, circular_test, contour_error
@@ -108,7 +108,7 @@ def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, 
         else unknown (NaN times).
     workers : int
         Worker processes.
-    progress : identification.progress.Progress or None
+    progress : kinid.progress.Progress or None
 
     Returns
     -------

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["CirclePath", "LinePath", "PolylinePath", "ContourError", "CircularTest", "fit_circle", "fit_line",
            "contour_error", "circular_test", "travel_direction", "load_polyline"]

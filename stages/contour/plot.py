@@ -23,7 +23,7 @@ def plot_contour(measurement, out_png, *, magnification=None):
         Circles only: the deviation, µm, drawn as 0.4 of the plot radius
         (default: the largest absolute deviation).
     """
-    from identification.figures import new_figure, save_figure
+    from kinid.figures import new_figure, save_figure
 
     from .paths import CirclePath
 

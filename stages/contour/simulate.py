@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["MachineMotion", "SimulatedSequence", "circle_motion", "simulation_camera", "render_frame",
            "render_sequence"]
@@ -136,7 +136,7 @@ def simulation_camera(image_size=(768, 768), pixel_mm=0.03, *, distance_mm=300.0
     -------
     vision.camera.CameraModel
     """
-    from vision.camera import CameraModel
+    from kinid.vision.camera import CameraModel
 
     w, h = (int(v) for v in image_size)
     f = distance_mm / pixel_mm
@@ -200,7 +200,7 @@ def render_frame(board, camera, distance_mm, board_origin_mm, board_angle_deg, *
     numpy.ndarray
         uint8 image (height, width).
     """
-    from vision.render import board_coverage, render_pattern
+    from kinid.vision.render import board_coverage, render_pattern
 
     a = math.radians(board_angle_deg)
     c, s = math.cos(a), math.sin(a)
@@ -289,7 +289,7 @@ def render_sequence(folder, board, camera, motion, *, distance_mm=300.0, board_a
     """
     import cv2
 
-    from identification.atomic import atomic_write
+    from kinid.files import atomic_write
 
     if rng is None:
         rng = np.random.default_rng(0)

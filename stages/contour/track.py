@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["FrameSettings", "FrameResult", "Track", "TrackBuilder", "process_frame", "estimate_track",
            "consistent_marks"]
@@ -160,8 +160,8 @@ def process_frame(image, board, settings) -> FrameResult:
     FrameResult
         ``n == 0`` with a ``reason`` when nothing usable was decoded.
     """
-    from vision.board import match_to_board
-    from vision.ringcode import detect_markers
+    from kinid.vision.board import match_to_board
+    from kinid.vision.ringcode import detect_markers
 
     img = np.asarray(image)
     h, w = img.shape[:2]

@@ -30,9 +30,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from identification.errors import DataError, ImageError
-from vision.motion_scale import pixel_to_machine_matrix
-from vision.template import locate_template, make_template
+from kinid.errors import DataError, ImageError
+from kinid.vision.motion_scale import pixel_to_machine_matrix
+from kinid.vision.template import locate_template, make_template
 from .table import OffsetTable, RoundRecord
 
 __all__ = ["calibrate", "check_plan", "measure_pixel_to_mm", "verify", "default_roi"]
@@ -164,7 +164,7 @@ def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, 
         default the centre half of the image.
     search_px : float, optional
         Search radius of the template matcher, pixels.
-    progress : identification.progress.Progress, optional
+    progress : kinid.progress.Progress, optional
         Updated once per image.
 
     Returns
@@ -183,7 +183,7 @@ def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, 
 
     Examples
     --------
-    >>> from stages.dual_axis import SimulatedGantry        # doctest: +SKIP
+    >>> from kinid.stages.dual_axis import SimulatedGantry        # doctest: +SKIP
     >>> g = SimulatedGantry()                               # doctest: +SKIP
     >>> t = calibrate(g, 0.0, (0.0, 0.0), 10.0, 30, g.true_pixel_to_mm, 1.0)  # doctest: +SKIP
     >>> t.rounds, t.converged                               # doctest: +SKIP

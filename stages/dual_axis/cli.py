@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 
 __all__ = ["register", "run_simulation"]
 
@@ -89,7 +89,7 @@ def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max
     g = SimulatedGantry(errors, noise_sigma=noise_sigma, repeat_um=repeat_um, rng=rng)
     head0 = (0.0, float(y_start_mm))  # Y = V, X = 0: the plate is centred under the camera
     mr = measure_pixel_to_mm(g, y_start_mm, head0)
-    from identification.progress import Progress
+    from kinid.progress import Progress
 
     with Progress(None, "dual-axis images") as progress:
         table = calibrate(g, y_start_mm, head0, step_mm, n_steps, mr.matrix, spec_um, max_rounds=max_rounds,
@@ -131,7 +131,7 @@ def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max
 
 def _plot(path, result) -> None:
     
-    from identification.figures import new_figure, save_figure
+    from kinid.figures import new_figure, save_figure
 
     g, table, smooth = result["gantry"], result["table"], result["smooth"]
     y0 = float(table.y_mm[0])

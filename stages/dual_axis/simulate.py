@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError, StageError
-from identification.machine import load_machine, tool_in_workpiece_mm
-from urdf import path as urdf_path
-from vision.render import render_pattern
+from kinid.errors import DataError, StageError
+from kinid.identification.machine import load_machine, tool_in_workpiece_mm
+from kinid.urdf import path as urdf_path
+from kinid.vision.render import render_pattern
 
 __all__ = [
     "ErrorProfile",

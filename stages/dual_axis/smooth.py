@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import DataError
+from kinid.errors import DataError
 from .table import head_move_from
 
 __all__ = ["SmoothModel", "fit_smooth"]

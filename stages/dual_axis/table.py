@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 __all__ = ["RoundRecord", "OffsetTable", "head_move_from"]
 

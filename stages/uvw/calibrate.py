@@ -13,8 +13,8 @@ import warnings
 
 import numpy as np
 
-from identification.errors import StageError
-from identification.progress import Progress
+from kinid.errors import StageError
+from kinid.progress import Progress
 
 from .compensator import DirectionTrackingCompensator
 from .kinematics import ACTUATORS, Strokes, check_actuator, check_lead, forward_kinematics, inverse_kinematics
@@ -199,7 +199,7 @@ def calibrate(move, lead_um: float, *, span_um=None, points: int = 37, repeats: 
 
     Examples
     --------
-    >>> from stages.uvw import SimulatedUVWStage
+    >>> from kinid.stages.uvw import SimulatedUVWStage
     >>> stage = SimulatedUVWStage(rng=np.random.default_rng(1))
     >>> comp = calibrate(stage.move, lead_um=2000.0)            # doctest: +SKIP
     >>> stage.move("X1", comp.command("X1", 1234.0))            # doctest: +SKIP

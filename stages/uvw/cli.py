@@ -31,7 +31,7 @@ def register(subparsers) -> None:
 
 
 def _run(args) -> int:
-    from identification.errors import DataError
+    from kinid.errors import DataError
 
     if not (args.lead_um > 0 and math.isfinite(args.lead_um)):
         raise DataError(f"--lead-um must be a positive number (screw lead, um), got {args.lead_um!r}")

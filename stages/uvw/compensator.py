@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 from .kinematics import ACTUATORS, check_actuator
 

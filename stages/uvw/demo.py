@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 from .calibrate import alignment_targets, calibrate, run_moves, run_stage_moves
 from .kinematics import ACTUATORS, Pose, UVWGeometry, check_lead
@@ -146,7 +146,7 @@ def plot_demo(result: dict, path) -> None:
     model can represent) against position modulo the lead; the residual of
     the full model against the same.
     """
-    from identification.figures import new_figure, save_figure
+    from kinid.figures import new_figure, save_figure
 
     arrays = result["_arrays"]
     fig = new_figure((15, 4.5))

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 __all__ = ["ACTUATORS", "UVWGeometry", "Pose", "Strokes", "inverse_kinematics", "forward_kinematics",
            "decompose_move", "check_actuator", "check_lead"]

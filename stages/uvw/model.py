@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 from .kinematics import check_lead
 

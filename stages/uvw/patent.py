@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 from .compensator import DirectionTrackingCompensator
 from .kinematics import ACTUATORS, check_actuator, check_lead

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.errors import StageError
+from kinid.errors import StageError
 
 from .kinematics import ACTUATORS, check_actuator
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import io
 
-from .atomic import atomic_write
+from .files import atomic_write
 
 __all__ = ["new_figure", "save_figure"]
 

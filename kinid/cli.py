@@ -1,0 +1,112 @@
+"""The ``kinid`` command line: the one roof over every package's verbs.
+
+Each verb is listed in :data:`VERBS` with the module that implements it. The
+module is imported only when its verb runs, so ``kinid --help`` and ``kinid
+identify`` do not pay for OpenCV, the stage simulators or matplotlib. A verb
+module provides ``register(subparsers)``, which adds its parsers and sets
+``run=function(args) -> int`` on each. A :class:`~kinid.errors.KinidError`
+raised by a verb becomes one line on stderr and exit status 2; Ctrl-C gives
+one line and exit status 130.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from dataclasses import dataclass
+
+from .errors import KinidError
+
+__all__ = ["main", "build_parser", "VERBS", "Verb"]
+
+
+@dataclass(frozen=True)
+class Verb:
+    """A command-line verb: the module that registers it and its one-line help."""
+
+    module: str
+    help: str
+
+
+#: Every verb of ``kinid``, in the order ``kinid --help`` lists them.
+VERBS = {
+    "demo": Verb("kinid.identification.commands", "the whole five-axis story on the built-in machine with a hidden effect"),
+    "simulate": Verb("kinid.identification.commands", "alignment readings of a machine with a known error set"),
+    "identify": Verb("kinid.identification.commands", "fit the default model plus added effects to alignment observations"),
+    "diagnose": Verb("kinid.identification.commands", "compare a fit with data and rank the effects that may be missing"),
+    "predict": Verb("kinid.identification.commands", "axis readings at which the fitted machine aligns the tool point with each mark"),
+    "markers": Verb("kinid.vision.cli", "detect and decode ring-coded marks in an image"),
+    "backlash": Verb("kinid.stages.backlash.cli", "pixel equivalent and X/Y/θ lead-screw backlash of an X-Y-θ stage from images"),
+    "uvw": Verb("kinid.stages.uvw.cli", "UVW alignment stage: compensation from measured moves"),
+    "dual-axis": Verb("kinid.stages.dual_axis.cli", "offset table between two parallel Y axes of a gantry"),
+    "contour": Verb("kinid.stages.contour.cli", "planar contour error from an image sequence of a ring-coded board"),
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """Argument errors as one line on stderr and exit status 2."""
+
+    def error(self, message):  # noqa: D401 - argparse API
+        self.exit(2, f"{self.prog}: {message}\n")
+
+
+def _version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
+    """The ``kinid`` parser; the full parser of ``verb`` only (others get their help line).
+
+    Importing the module of ``verb`` is the only import this makes.
+    """
+    parser = _Parser(prog="kinid", description="Identify and compensate kinematic errors of machine tools and "
+                                               "precision stages from vision measurements.")
+    parser.add_argument("--version", action="version", version=f"kinid {_version()}")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB", parser_class=_Parser)
+    sub.required = True
+    if verb in VERBS:
+        importlib.import_module(VERBS[verb].module).register(sub)
+        if verb not in sub.choices:  # pragma: no cover - a packaging bug, not a user error
+            raise RuntimeError(f"module {VERBS[verb].module} does not register the verb {verb!r}")
+    for name, v in VERBS.items():
+        if name not in sub.choices:
+            sub.add_parser(name, help=v.help, add_help=False)
+    # list the verbs in VERBS order whatever was registered first
+    sub._choices_actions.sort(key=lambda a: list(VERBS).index(a.dest) if a.dest in VERBS else len(VERBS))
+    return parser
+
+
+def _chosen_verb(argv) -> str | None:
+    for arg in argv:
+        if not arg.startswith("-"):
+            return arg
+    return None
+
+
+def main(argv=None) -> int:
+    """Run ``kinid`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    verb = None
+    try:
+        verb = _chosen_verb(argv)
+        parser = build_parser(verb)
+        args = parser.parse_args(argv)
+        status = args.run(args)
+    except KinidError as exc:
+        print(f"kinid {verb}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"kinid {verb or ''}: interrupted".replace("  ", " "), file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # output piped into `head` and closed early: not an error of kinid
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    return 0 if status is None else int(status)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,44 @@
+"""One BLAS thread around kinid's dense linear algebra.
+
+kinid's matrices are small (a few thousand rows by a few hundred columns at
+most). On them a threaded BLAS costs more than it gives, and far more on a
+loaded machine: a 200-posture fit took 1.5–6.8 s with default threads against
+0.18 s with one thread on the 2-core development machine. The fit and the
+diagnosis therefore run their linear algebra inside :func:`single_blas_thread`,
+so the Python API is as fast as the command line whatever the user's
+environment. A user who sets ``KINID_BLAS_THREADS`` chooses another limit.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+
+__all__ = ["single_blas_thread"]
+
+
+@contextlib.contextmanager
+def single_blas_thread():
+    """Limit BLAS to ``KINID_BLAS_THREADS`` threads (default 1) inside the ``with`` block.
+
+    Nested uses are cheap: only the outermost one talks to the BLAS library.
+    """
+    from threadpoolctl import threadpool_limits
+
+    if getattr(_state, "depth", 0):
+        _state.depth += 1
+        try:
+            yield
+        finally:
+            _state.depth -= 1
+        return
+    limit = int(os.environ.get("KINID_BLAS_THREADS", "1") or 1)
+    _state.depth = 1
+    try:
+        with threadpool_limits(limits=max(limit, 1), user_api="blas"):
+            yield
+    finally:
+        _state.depth = 0
+
+
+_state = threading.local()
