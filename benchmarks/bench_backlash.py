@@ -1,6 +1,6 @@
 """Backlash calibration: accuracy vs truth and run time, side by side for three fiducial locators.
 
-Run: ``/work/venv/bin/python benchmarks/bench_backlash.py [n_seeds]``. Prints, for each locator,
+Run: ``python benchmarks/bench_backlash.py [n_seeds]``. Prints, for each locator,
 the RMS and worst error over seeds of the pixel equivalent (%), X/Y backlash (µm) and θ backlash
 (deg), and the wall time per calibration (21 moves, 13 images rendered and located). Also the bias of
 the patent's norm formula ``r * |p1 - p2|`` against the signed axis component at zero backlash.

@@ -13,7 +13,7 @@ and prints side by side:
    vs ``cv2.undistortPoints`` (5 fixed-point iterations) vs
    ``cv2.undistortPoints`` with 100 iterations (its ``criteria`` argument).
 
-Run: ``/work/venv/bin/python benchmarks/bench_camera.py``
+Run: ``python benchmarks/bench_camera.py``
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Benchmark of ``stages.contour``: frames per second against the patent's 80 fps, memory, and accuracy.
 
-Run: ``/work/venv/bin/python benchmarks/bench_contour.py [--quick]``
+Run: ``python benchmarks/bench_contour.py [--quick]``
 
 Prints, side by side in one run:
 

@@ -1,6 +1,6 @@
 """Benchmark of the ring-coded mark detector and the circle-centre locators (prints figures).
 
-Run: ``/work/venv/bin/python benchmarks/bench_markers.py`` (about a minute).
+Run: ``python benchmarks/bench_markers.py`` (about a minute).
 
 1. Locator accuracy against noise, side by side: blurred-disk model fit, background-subtracted
    weighted centroid, plain binary centroid, ellipse fitted to a threshold contour, OpenCV's

@@ -6,7 +6,7 @@ prints for each refinement method of :func:`vision.template.locate_template`
 (and OpenCV's ``phaseCorrelate`` on the whole frame) the RMS and max shift
 error against truth and the time per call.
 
-Run: ``MPLBACKEND=Agg /work/venv/bin/python benchmarks/bench_template.py [n_trials]``
+Run: ``MPLBACKEND=Agg python benchmarks/bench_template.py [n_trials]``
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ Prints, for stages with random scale error, backlash, periodic lead error (rando
 bow, the largest and RMS true position error over random 50-2000 µm alignment moves: uncompensated,
 the patent's compensation and the model's. Then the time to calibrate (fit) and to compute one command.
 
-Run: /work/venv/bin/python benchmarks/bench_uvw.py
+Run: python benchmarks/bench_uvw.py
 """
 import time
 

@@ -1,4 +1,4 @@
-"""``kinid identify``, ``predict``, ``simulate``, ``diagnose`` and ``demo`` (INTERFACES.md §4)."""
+"""``kinid identify``, ``predict``, ``simulate``, ``diagnose`` and ``demo`` (docs/cli.md)."""
 from __future__ import annotations
 
 import json
@@ -14,8 +14,8 @@ __all__ = ["register"]
 
 def register(sub) -> None:
     p = sub.add_parser("identify", help="fit the default model plus added effects to alignment observations")
-    p.add_argument("--machine", required=True, help="machine URDF (INTERFACES.md §1)")
-    p.add_argument("--data", required=True, help="observations CSV (INTERFACES.md §3)")
+    p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
+    p.add_argument("--data", required=True, help="observations CSV (docs/formats.md, "Observation CSV")")
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
@@ -46,7 +46,7 @@ def register(sub) -> None:
     p.add_argument("--fit", required=True)
     p.add_argument("--data", required=True)
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: replicates, else the fit's)")
-    p.add_argument("--json", action="store_true", help="print one JSON object (INTERFACES.md §4)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
     p.add_argument("--report", default=None, metavar="DIR", help="write plots and an HTML report to DIR")
     p.add_argument("--top", type=int, default=10, help="candidates to show in the readable report")
     p.set_defaults(run=_diagnose)

@@ -145,7 +145,7 @@ class Diagnosis:
         return out
 
     def summary(self) -> dict:
-        """The JSON object of ``kinid diagnose --json`` (INTERFACES.md §4)."""
+        """The JSON object of ``kinid diagnose --json`` (docs/cli.md)."""
         return {
             "verdict": self.verdict,
             "rms_um": float(self.rms_um),

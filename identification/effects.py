@@ -1,4 +1,4 @@
-"""Effects: an error joint plus a basis that says how its value varies (INTERFACES.md §2).
+"""Effects: an error joint plus a basis that says how its value varies (docs/formats.md, "Effects").
 
 =====================  ==============================================  ==========
 name                   value of the error joint                        parameters
@@ -122,7 +122,7 @@ def default_model(machine: Machine) -> list[Effect]:
 
 
 def candidate_library(machine: Machine, model, *, has_directions: bool, has_time: bool) -> list[Effect]:
-    """The default candidate library of INTERFACES.md §2, minus effects already in ``model``.
+    """The default candidate library of docs/formats.md, minus effects already in ``model``.
 
     For every position-dependent joint: poly1, poly2, poly3, periodic at the
     standard periods, reversal (when the data have ``dir_`` columns); drift on

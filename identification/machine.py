@@ -1,4 +1,4 @@
-"""Machines: a URDF with ISO 230-1 error joints, loaded into Pinocchio (INTERFACES.md §1).
+"""Machines: a URDF with ISO 230-1 error joints, loaded into Pinocchio (docs/machines.md).
 
 :func:`load_machine` discovers the motion axes and error joints and checks the
 naming and placement convention. :func:`evaluate` gives the tool point in the
@@ -181,7 +181,7 @@ def _urdf_origins(text: str, path) -> dict:
 
 
 def load_machine(path) -> Machine:
-    """Load a machine URDF and check it against INTERFACES.md §1.
+    """Load a machine URDF and check it against docs/machines.md.
 
     Parameters
     ----------
@@ -274,7 +274,7 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
 
 
 def _check_placement(model, jid, name, zero, k, chain, axis_ids, frames, path):
-    """Check that error joint ``name`` sits where §1 says for axis ``k``."""
+    """Check that error joint ``name`` sits where docs/machines.md says for axis ``k``."""
     is_error = lambda j: model.names[j].startswith("E") and _ERROR_CODE.match(model.names[j])  # noqa: E731
     where = f"joint {name!r}"
     if k in ("W", "T"):

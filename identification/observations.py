@@ -1,4 +1,4 @@
-"""Alignment observations: the CSV of INTERFACES.md §3, read and written.
+"""Alignment observations: the CSV of docs/formats.md, read and written.
 
 One row per alignment: the mark, its coordinates in the workpiece frame (mm)
 and the reading of every motion axis (mm / deg) at which the tool point
@@ -185,7 +185,7 @@ def _ordered_axes(machine: Machine):
 
 
 def observations_text(obs: Observations, machine: Machine, *, extra: dict | None = None) -> str:
-    """CSV text of ``obs`` (INTERFACES.md §3); ``extra`` adds columns name -> array (N,)."""
+    """CSV text of ``obs`` (docs/formats.md, "Observation CSV"); ``extra`` adds columns name -> array (N,)."""
     axes = _ordered_axes(machine)
     header = ["mark", *_MARK_COLUMNS, *[a.column for a in axes]]
     if obs.t_s is not None:

@@ -1,6 +1,6 @@
 """Residuals of alignment observations and their Jacobian with respect to effect parameters.
 
-The model's claim for a row (INTERFACES.md §3): the tool point, expressed in
+The model's claim for a row (docs/formats.md, "Observation CSV"): the tool point, expressed in
 the workpiece frame, equals the mark. The residual is the difference in µm.
 An effect's Jacobian column is its error joint's column (from Pinocchio) times
 the basis value, so every effect, and the whole candidate library, is scored

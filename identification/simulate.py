@@ -4,7 +4,7 @@ A plan lists poses: a mark on the board and the readings of the preset axes
 (the rotary axes); :func:`simulate` solves the remaining axes with the true
 errors (:func:`identification.alignment.solve_axes`) and adds reading noise.
 
-The patent's plan (seed 004): the camera is aligned over each of 4 marks at
+The patent's plan: the camera is aligned over each of 4 marks at
 every combination of 7 tilt angles and 12 table angles — 336 alignments.
 """
 from __future__ import annotations

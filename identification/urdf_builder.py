@@ -1,4 +1,4 @@
-"""Write machine URDFs with ISO 230-1 error joints (INTERFACES.md §1).
+"""Write machine URDFs with ISO 230-1 error joints (docs/machines.md).
 
 A machine is described as two chains from the root: the workpiece chain
 (ending at link ``workpiece``) and the tool chain (ending at link ``tool``).

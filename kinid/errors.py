@@ -45,7 +45,7 @@ class KinidError(Exception):
 
 
 class MachineError(KinidError):
-    """The machine description (URDF) does not follow INTERFACES.md §1."""
+    """The machine description (URDF) does not follow docs/machines.md."""
 
 
 class DataError(KinidError):

@@ -1,4 +1,4 @@
-"""kinid.stages.backlash.calibrate: truth recovery on simulated stages (issue 5 'Done when')."""
+"""kinid.stages.backlash.calibrate: truth recovery on simulated stages ."""
 import warnings
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 from kinid.errors import DataError, ImageError, StageError
 from kinid.stages.backlash import SimulatedStage, calibrate
 
-# Issue 5 acceptance: pixel equivalent within 0.1 %, X/Y backlash within 0.3 um, θ within 0.002 deg,
+# Targets: pixel equivalent within 0.1 %, X/Y backlash within 0.3 um, θ within 0.002 deg,
 # at a pixel near 5 um, camera not square to the axes, fiducial far (>= 10 mm) from the θ centre.
 PIXEL_REL_TOL = 1e-3
 XY_TOL_MM = 0.3e-3

@@ -1,4 +1,4 @@
-"""Patent 003 calibration of two parallel Y axes on the simulated gantry (urdf/gantry_dual_y.urdf)."""
+"""the dual-axis method calibration of two parallel Y axes on the simulated gantry (urdf/gantry_dual_y.urdf)."""
 import numpy as np
 import pytest
 

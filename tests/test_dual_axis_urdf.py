@@ -1,4 +1,4 @@
-"""urdf/gantry_dual_y.urdf: loads in Pinocchio unchanged and follows INTERFACES.md §1."""
+"""urdf/gantry_dual_y.urdf: loads in Pinocchio unchanged and follows docs/machines.md."""
 import xml.etree.ElementTree as ET
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""The patent's UVW test plan and compensation (seed 001), including its worked example."""
+"""The patent's UVW test plan and compensation, including its worked example."""
 import numpy as np
 import pytest
 

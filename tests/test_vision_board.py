@@ -1,4 +1,4 @@
-"""Tests of vision.board: codes, board file (INTERFACES.md §6), matching with geometric checks."""
+"""Tests of vision.board: codes, board file (docs/formats.md, "Board file"), matching with geometric checks."""
 import json
 from dataclasses import dataclass
 

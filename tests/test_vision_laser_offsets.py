@@ -1,4 +1,4 @@
-"""Camera/laser offsets (seed 004) against synthetic truth, exact and with noise."""
+"""Camera/laser offsets against synthetic truth, exact and with noise."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""Tests of ``kinid markers`` (INTERFACES.md §5)."""
+"""Tests of ``kinid markers`` (docs/hardware.md)."""
 import json
 
 import cv2

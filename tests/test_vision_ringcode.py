@@ -18,7 +18,7 @@ def draw_mark(shape, centre_px, code_bits, r_centre_px, *, bits=12, angle_deg=0.
               noise=2.0, rng=None, H=None):
     """Independent renderer: OpenCV drawing at 8x (pie slices, circles), optional warp, INTER_AREA down.
 
-    Ring Ø9-Ø13 around a Ø5 centre circle (patent 002), i.e. 1.8 and 2.6 centre radii. Element k
+    Ring Ø9-Ø13 around a Ø5 centre circle (the monocular contour method), i.e. 1.8 and 2.6 centre radii. Element k
     (bit n-1-k) spans angle_deg + k*360/n .. + (k+1)*360/n, angles clockwise in the image (OpenCV's).
     H (3x3) optionally maps the drawn (low-resolution) pixel positions to image pixels.
     """

@@ -1,6 +1,6 @@
 """Machine descriptions shipped with kinid (URDF with ISO 230-1 error joints).
 
-The files follow ``INTERFACES.md`` §1. Use :func:`path` to get one by name::
+The files follow docs/machines.md. Use :func:`path` to get one by name::
 
     >>> from kinid.urdf import path
     >>> path("five_axis_bc").name

@@ -6,7 +6,7 @@ module                 what it does
 ``render``             anti-aliased renderer of marks, boards and patterns (tests, printing)
 ``circles``            sub-pixel centres of round marks, holes and spheres
 ``ringcode``           ring-coded marks: detection, decoding, centres
-``board``              board files (INTERFACES.md §6) and matching decoded marks to a board
+``board``              board files (docs/formats.md, "Board file") and matching decoded marks to a board
 ``template``           template matching with sub-pixel refinement
 ``camera``             camera calibration (Zhang), distortion and undistortion
 ``motion_scale``       pixel equivalent, backlash from feature positions, pixel-to-machine matrix

@@ -1,4 +1,4 @@
-"""Boards of ring-coded marks (patent 002) and their description file (INTERFACES.md §6).
+"""Boards of ring-coded marks (the monocular contour method) and their description file (docs/formats.md, "Board file").
 
 Board frame: origin at the centre of the mark in row 0, column 0; x along a
 row (increasing column), y along a column (increasing row), as seen by the
@@ -150,7 +150,7 @@ _KEYS = ("pitch_mm", "rows", "cols", "center_d_mm", "ring_inner_d_mm", "ring_out
 
 
 def load_board(path) -> Board:
-    """Read a board description file (JSON, INTERFACES.md §6).
+    """Read a board description file (JSON, docs/formats.md).
 
     Raises
     ------
@@ -210,7 +210,7 @@ def load_board(path) -> Board:
 
 
 def save_board(board: Board, path) -> None:
-    """Write ``board`` as a board description file (JSON, INTERFACES.md §6), atomically."""
+    """Write ``board`` as a board description file (JSON, docs/formats.md), atomically."""
     from kinid.files import write_text
 
     data = {"pitch_mm": board.pitch_mm, "rows": board.rows, "cols": board.cols, "center_d_mm": board.center_d_mm,

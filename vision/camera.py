@@ -1,4 +1,4 @@
-"""Pinhole camera with lens distortion; calibration by Zhang's method (seed 002).
+"""Pinhole camera with lens distortion; calibration by Zhang's method.
 
 The model is OpenCV's: a point ``(X, Y, Z)`` in the camera frame (x right,
 y down, z along the optical axis, mm) has normalised coordinates

@@ -1,4 +1,4 @@
-"""``kinid markers``: detect and decode ring-coded marks in an image (INTERFACES.md §5)."""
+"""``kinid markers``: detect and decode ring-coded marks in an image (docs/hardware.md)."""
 from __future__ import annotations
 
 import json
@@ -78,7 +78,7 @@ def _run(args) -> int:
 def register(subparsers) -> None:
     """Add the ``markers`` verb."""
     p = subparsers.add_parser("markers", help="detect and decode ring-coded marks in an image",
-                              description="Detect ring-coded marks (patent 002) and print each decoded mark's code "
+                              description="Detect ring-coded marks (the monocular contour method) and print each decoded mark's code "
                                           "and the sub-pixel centre of its centre circle (pixels, x right, y down, "
                                           "top-left pixel centre at (0, 0)).")
     p.add_argument("image", metavar="IMAGE", help="image file (PNG, TIFF, BMP, JPEG)")

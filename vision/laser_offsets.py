@@ -1,4 +1,4 @@
-"""Offsets between the camera and the laser displacement sensor on Z (seed 004).
+"""Offsets between the camera and the laser displacement sensor on Z.
 
 The five-axis method aligns the camera's optical centre over a mark for x and
 y, and uses the laser, read at a preset height, for z. Both sit on the Z axis,

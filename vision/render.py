@@ -8,7 +8,7 @@ or lens distortion composes by writing that one function.
 Pixel convention (OpenCV): x right, y down, the centre of the top-left pixel at
 (0, 0); a pixel covers ``[x - 0.5, x + 0.5] x [y - 0.5, y + 0.5]``.
 
-Plane convention for ring-coded marks (INTERFACES.md §5, §6): plane x right,
+Plane convention for ring-coded marks (docs/formats.md, "Board file"): plane x right,
 y down as seen by the camera with the board unrotated; the ring's elements are
 numbered clockwise as seen in the image, element 0 (the most significant bit)
 starting at ``angle_deg`` from the plane x axis.
@@ -221,7 +221,7 @@ def _bit_array(code_bits: int, n: int) -> np.ndarray:
 
 def ring_mark_coverage(centre_mm, code_bits: int, bits=12, center_d_mm=5, ring_inner_d_mm=9,
                        ring_outer_d_mm=13, angle_deg=0.0):
-    """Coverage of one ring-coded mark (patent 002: centre circle + coded ring).
+    """Coverage of one ring-coded mark (the monocular contour method: centre circle + coded ring).
 
     Parameters
     ----------

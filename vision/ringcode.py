@@ -1,4 +1,4 @@
-"""Detection and decoding of ring-coded marks (patent 002, INTERFACES.md §5).
+"""Detection and decoding of ring-coded marks (after the ring-coded target of CN "monocular measurement of planar contour error").
 
 A mark is a centre circle (not coded) surrounded by a ring of ``n`` equal
 angular elements, each printed (1) or not (0). The code is the smallest value
@@ -79,7 +79,7 @@ def canonical_code(bits_value: int, n=12) -> int:
 
 
 def decode_from_segments(segment_elements, gap_angles_deg, n=12) -> int:
-    """Decode a mark from its printed segments, as in patent 002 (formulas 4-5).
+    """Decode a mark from its printed segments, as in the monocular contour method (formulas 4-5).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Sub-pixel template matching (seed 003: a plate tracked by a camera).
+"""Sub-pixel template matching (a plate on a moving head tracked by a camera).
 
 A :class:`Template` is a region cut from a reference image. :func:`locate_template`
 finds it in a later image and returns how far its content moved, ``(dx, dy)``

@@ -1,4 +1,4 @@
-"""Lead-screw backlash of an X-Y-θ stage from images (CN105547173, seed 000).
+"""Lead-screw backlash of an X-Y-θ stage from images (CN105547173).
 
 Public API: :class:`SimulatedStage`, :func:`calibrate`, :class:`BacklashResult`,
 :func:`plan_moves`, :func:`locate_fiducial`. See ``docs/backlash.md``.

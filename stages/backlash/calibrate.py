@@ -1,6 +1,6 @@
 """Drive a stage through the backlash plan and compute pixel equivalent and backlash.
 
-Stage protocol (INTERFACES.md §5): ``move_to(x_mm, y_mm, theta_deg)`` (absolute)
+Stage protocol (docs/hardware.md): ``move_to(x_mm, y_mm, theta_deg)`` (absolute)
 and ``grab() -> 2-D uint8`` of a camera looking down on one round fiducial.
 
 Start position: if the stage has a ``position`` attribute (or method) giving
@@ -226,7 +226,7 @@ def calibrate(stage, travel_mm=0.8, travel_deg=2.0, *, repeats=1, n_targets=1, l
 
     References
     ----------
-    CN105547173 (seed 000): pixel equivalent from non-reversal moves,
+    CN105547173: pixel equivalent from non-reversal moves,
     backlash ``d = r * |p1 - p2|`` across reversals. ISO 230-2:2014, reversal
     value B and mean reversal value.
     """

@@ -1,4 +1,4 @@
-"""Planar contour error of a machine from image sequences of a ring-coded board (patent 002, issue 6).
+"""Planar contour error of a machine from image sequences of a ring-coded board (the monocular contour method).
 
 ``process_frame`` (per frame, pure) -> ``TrackBuilder`` (rotation and scale once
 from all frames, then the reference mark's track) -> ``contour_error`` /

@@ -1,4 +1,4 @@
-"""``kinid contour``: planar contour error from an image sequence of a ring-coded board (INTERFACES.md §6)."""
+"""``kinid contour``: planar contour error from an image sequence of a ring-coded board (docs/formats.md, "Board file")."""
 from __future__ import annotations
 
 import json
@@ -15,7 +15,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "contour",
         help="track a ring-coded board through an image sequence and report the contour error",
-        description="Patent 002: decode the ring-coded marks of every frame, estimate the board's rotation and "
+        description="Monocular contour method: decode the ring-coded marks of every frame, estimate the board's rotation and "
                     "the image scale once from all frames, follow the reference mark (the decoded mark nearest "
                     "the image centre in the first frame) even after it leaves the view, and compare its track "
                     "with the programmed path. TRACK.csv: frame,t_s,x_mm,y_mm,error_um (camera frame: x right, "

@@ -45,7 +45,7 @@ class ContourMeasurement:
 
     @property
     def summary(self) -> dict:
-        """The ``--json`` summary of INTERFACES.md §6."""
+        """The ``--json`` summary of docs/formats.md."""
         return {"frames": int(len(self.t_s)), "located": int(self.track.located.sum()),
                 "rms_error_um": _num(self.contour.rms_um), "max_error_um": _num(self.contour.max_um)}
 
@@ -139,7 +139,7 @@ def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, 
 
 
 def track_csv(measurement) -> str:
-    """TRACK.csv text (INTERFACES.md §6): ``frame,t_s,x_mm,y_mm,error_um``.
+    """TRACK.csv text (docs/formats.md, "Board file"): ``frame,t_s,x_mm,y_mm,error_um``.
 
     Frames that were not located keep their row with empty ``x_mm``, ``y_mm``
     and ``error_um``; ``t_s`` is empty when no frame rate is known.

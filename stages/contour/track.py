@@ -1,4 +1,4 @@
-"""Track of a reference mark from per-frame mark detections (patent 002, step 4, done by least squares).
+"""Track of a reference mark from per-frame mark detections (the monocular contour method, step 4, done by least squares).
 
 Per frame (:func:`process_frame`, pure and picklable, so it runs unchanged in a
 process pool or on Dask): decode the ring-coded marks, match them to the board,

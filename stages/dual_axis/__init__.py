@@ -1,10 +1,10 @@
-"""Two parallel Y axes of a gantry (patent 003): offset table, smooth model, simulated gantry.
+"""Two parallel Y axes of a gantry (the dual-axis method): offset table, smooth model, simulated gantry.
 
 The camera rides on one Y axis, the placement head on a second one (V) with
 its own X axis. :func:`calibrate` steps both Y axes together, images a plate
 on the head and builds the patent's piecewise-linear offset table of camera
 Y (:class:`OffsetTable`, whose ``head_move(ps_mm, pe_mm)`` is the head move
-for a camera-Y move, INTERFACES.md §5); :func:`fit_smooth` fits a parallelism
+for a camera-Y move, docs/hardware.md); :func:`fit_smooth` fits a parallelism
 angle plus straightness polynomial instead. :class:`SimulatedGantry` is
 ``urdf/gantry_dual_y.urdf`` with error values set.
 """

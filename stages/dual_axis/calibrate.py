@@ -1,6 +1,6 @@
-"""Calibration of two parallel Y axes with a camera (patent 003) and its verification.
+"""Calibration of two parallel Y axes with a camera (the dual-axis method) and its verification.
 
-Protocol (INTERFACES.md §5): a gantry with ``move(cam_y_mm, head_x_mm,
+Protocol (docs/hardware.md): a gantry with ``move(cam_y_mm, head_x_mm,
 head_y_mm)`` (absolute) and ``grab() -> 2-D uint8`` of the camera on the
 camera Y axis looking at a plate on the head.
 
@@ -134,13 +134,13 @@ def check_plan(y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um
 
 def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um, *,
               max_rounds: int = 5, roi=None, search_px=None, progress=None) -> OffsetTable:
-    """Calibrate the offset table of two parallel Y axes (patent 003).
+    """Calibrate the offset table of two parallel Y axes (the dual-axis method).
 
     Parameters
     ----------
     gantry : object
         ``move(cam_y_mm, head_x_mm, head_y_mm)`` and ``grab() -> 2-D uint8``
-        (INTERFACES.md §5).
+        (docs/hardware.md).
     y_start_mm : float
         Camera Y at the start, mm.
     head_start_mm : tuple of float
@@ -242,7 +242,7 @@ def measure_pixel_to_mm(gantry, cam_y_mm, head_mm, *, move_mm: float = 0.1, roi=
     Parameters
     ----------
     gantry : object
-        The gantry protocol (INTERFACES.md §5).
+        The gantry protocol (docs/hardware.md).
     cam_y_mm : float
         Camera Y, mm.
     head_mm : tuple of float

@@ -21,7 +21,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "dual-axis",
         help="calibrate two parallel Y axes (camera Y / head Y) on a simulated gantry",
-        description="Patent 003 on the simulated gantry urdf/gantry_dual_y.urdf: both Y axes step together, "
+        description="Dual-axis offset table method on the simulated gantry urdf/gantry_dual_y.urdf: both Y axes step together, "
                     "the camera images the plate on the head, the offset table is refined round by round; "
                     "then a smooth model (parallelism + straightness polynomial) is compared with the table "
                     "at held-out positions.")

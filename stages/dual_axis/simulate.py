@@ -7,7 +7,7 @@ polynomial plus a gentle waviness; yaw with the Abbe offsets of the URDF; the
 parallelism ``EC0V`` and squareness ``EC0X`` as constants), so the plate on the
 head drifts relative to the camera as both Y axes travel.
 
-:class:`SimulatedGantry` implements the protocol of INTERFACES.md §5:
+:class:`SimulatedGantry` implements the protocol of docs/hardware.md:
 ``move(cam_y_mm, head_x_mm, head_y_mm)`` and ``grab() -> uint8 image``.
 """
 from __future__ import annotations

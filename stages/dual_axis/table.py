@@ -4,9 +4,9 @@ The table holds, at each vertex ``y_i`` of camera Y, the head correction
 ``c(y_i) = (cx, cy)`` in mm: how far head X and head Y (axis V) must move
 beyond the nominal move (head Y = camera Y travel) so that the plate stays
 centred under the camera. ``c(y_0) = 0`` at the start of the calibration by
-definition; between vertices ``c`` is piecewise linear (patent 003, Fig. 3).
+definition; between vertices ``c`` is piecewise linear (the dual-axis method, Fig. 3).
 
-The head move for a camera-Y move from ``Ps`` to ``Pe`` (INTERFACES.md §5)::
+The head move for a camera-Y move from ``Ps`` to ``Pe`` (docs/hardware.md)::
 
     dx = cx(Pe) - cx(Ps)
     dy = (Pe - Ps) + cy(Pe) - cy(Ps)

@@ -1,8 +1,8 @@
-"""UVW (X-Y-θ) alignment stage: kinematics, the patent's compensation (seed 001) and a better model.
+"""UVW (X-Y-θ) alignment stage: kinematics, the patent's compensation and a better model.
 
 Public API: :class:`UVWGeometry`, :func:`inverse_kinematics`, :func:`forward_kinematics`,
 :func:`decompose_move`, :class:`SimulatedUVWStage`, :func:`calibrate` (model-based compensator per
-INTERFACES.md §5), :func:`calibrate_patent` and :func:`patent_compensation_um` (the patent's method),
+docs/hardware.md), :func:`calibrate_patent` and :func:`patent_compensation_um` (the patent's method),
 :func:`fit_actuator_model`, :func:`select_actuator_model`, :func:`phase_residuals`. See ``docs/uvw.md``.
 """
 from .calibrate import (UVWCompensator, alignment_targets, calibrate, home_forward, measure_plan, plan_positions,

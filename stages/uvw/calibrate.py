@@ -1,4 +1,4 @@
-"""Calibrate a UVW stage with the model of :mod:`stages.uvw.model` (INTERFACES.md §5).
+"""Calibrate a UVW stage with the model of :mod:`stages.uvw.model` (docs/hardware.md).
 
 Test plan (per actuator, ISO 230-2 style): ``points`` positions evenly spread
 over ``span_um`` (default ± max(1.5 leads, 2000 µm), so the positions fall on many phases of
@@ -165,7 +165,7 @@ def calibrate(move, lead_um: float, *, span_um=None, points: int = 37, repeats: 
     Parameters
     ----------
     move : callable
-        ``move(actuator, target_um) -> measured_um`` (INTERFACES.md §5).
+        ``move(actuator, target_um) -> measured_um`` (docs/hardware.md).
     lead_um : float
         Screw lead of the actuators, µm (> 0).
     span_um : (float, float) or None

@@ -16,7 +16,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "uvw", help="UVW alignment stage: patent compensation vs fitted error model (simulated stage)",
         description="Calibrate a simulated UVW stage (scale error, backlash, periodic lead error, vision noise) "
-                    "with the patent's method (seed 001) and with a fitted per-actuator error model, then drive "
+                    "with the patent's method and with a fitted per-actuator error model, then drive "
                     "random 50-2000 um alignment moves uncompensated and with each compensation.")
     p.add_argument("--seed", type=int, default=0, help="seed of the noise and the random moves (default 0)")
     p.add_argument("--noise-um", type=float, default=0.1, help="vision noise of the simulated stage, um (default 0.1)")
@@ -61,7 +61,7 @@ def _report(r: dict, plot) -> str:
     lines = [
         f"UVW stage, simulated: lead {r['lead_um']:g} um, vision noise {r['noise_um']:g} um, seed {r['seed']}",
         "",
-        "Patent worked example (seed 001, fig. 6):",
+        "Patent worked example (fig. 6):",
         f"  dXn {w['delta_xn_um']:.2f}  dXm {w['delta_xm_um']:.2f}  dX {w['delta_x_um']:.2f} um, "
         f"X1 = X2 = {w['stroke_um']:g} um -> forward {w['forward_um']:.2f} um, reverse {w['reverse_um']:.2f} um",
         "",

@@ -1,4 +1,4 @@
-"""Direction tracking shared by the UVW compensators (INTERFACES.md §5).
+"""Direction tracking shared by the UVW compensators (docs/hardware.md).
 
 A compensator turns a target position of an actuator (µm from home) into the
 command that brings the table there. Backlash makes the answer depend on the

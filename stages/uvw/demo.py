@@ -22,7 +22,7 @@ from .simulate import SimulatedUVWStage, default_truth
 
 __all__ = ["run_demo", "plot_demo", "WORKED_EXAMPLE"]
 
-#: The patent's worked example (seed 001, fig. 6): µm.
+#: The patent's worked example (fig. 6): µm.
 WORKED_EXAMPLE = PatentStatistics(mean_um=2.29, at_m_um=2.02, at_n_um=2.62, m_um=500.0, n_um=1500.0, repeats=18)
 
 

@@ -14,7 +14,7 @@ one scalar equation for θ by Newton's method.
 
 References
 ----------
-CN patent seed 001 ("error compensation method of an alignment platform"):
+The CN patent ("error compensation method of an alignment platform"):
 a rotation of the table decomposes into two first-direction (X) moves and one
 second-direction (Y) move, each compensated separately.
 """
@@ -28,7 +28,7 @@ from kinid.errors import StageError
 __all__ = ["ACTUATORS", "UVWGeometry", "Pose", "Strokes", "inverse_kinematics", "forward_kinematics",
            "decompose_move", "check_actuator", "check_lead"]
 
-#: Actuator names of the UVW protocol (INTERFACES.md §5).
+#: Actuator names of the UVW protocol (docs/hardware.md).
 ACTUATORS = ("X1", "X2", "Y")
 
 

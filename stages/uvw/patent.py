@@ -1,4 +1,4 @@
-"""The patent's test plan and compensation for a UVW alignment stage (seed 001).
+"""The patent's test plan and compensation for a UVW alignment stage.
 
 Test step: for a screw lead of 2a, measure the error of strokes m₁ = 0.5a,
 a and n₁ = 1.5a, 10–30 times each. ΔX is the mean error over all of them
@@ -146,7 +146,7 @@ def measure_patent(move, actuator: str, lead_um: float, *, repeats: int = 18, ov
     Parameters
     ----------
     move : callable
-        ``move(actuator, target_um) -> measured_um`` (INTERFACES.md §5).
+        ``move(actuator, target_um) -> measured_um`` (docs/hardware.md).
     actuator : str
         ``"X1"``, ``"X2"`` or ``"Y"``.
     lead_um : float
