@@ -15,7 +15,7 @@ __all__ = ["register"]
 def register(sub) -> None:
     p = sub.add_parser("identify", help="fit the default model plus added effects to alignment observations")
     p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
-    p.add_argument("--data", required=True, help="observations CSV (docs/formats.md, "Observation CSV")")
+    p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")

@@ -1,6 +1,9 @@
-"""Regenerate the shipped five-axis machine URDFs: ``python -m urdf.generate``.
+"""Write the shipped five-axis machine URDFs: ``python -m kinid.urdf.generate --out DIR``.
 
-The gantry (``gantry_dual_y.urdf``) is written by hand and not touched here.
+The files are written into ``DIR`` (never into the installed package); the
+gantry (``gantry_dual_y.urdf``) is written by hand and not produced here. To
+refresh the files shipped in a source checkout, run it with ``--out urdf``
+from the repository's top folder.
 """
 from __future__ import annotations
 
@@ -99,10 +102,32 @@ def five_axis_bhead_c() -> str:
     return machine_urdf("five_axis_bhead_c", work, tool, BHEAD)
 
 
-def main() -> None:
-    for make in (five_axis_bc, five_axis_ac, five_axis_bhead_c):
-        (HERE / f"{make.__name__}.urdf").write_text(make())
+MACHINES = (five_axis_bc, five_axis_ac, five_axis_bhead_c)
+
+
+def main(argv=None) -> int:
+    """Command-line entry: write each five-axis URDF into ``--out DIR``; returns the exit status."""
+    import argparse
+    import sys
+
+    from kinid.files import write_text
+
+    parser = argparse.ArgumentParser(prog="python -m kinid.urdf.generate",
+                                     description="Write the five-axis machine URDFs shipped with kinid into a folder.")
+    parser.add_argument("--out", required=True, metavar="DIR", help="existing folder to write the .urdf files into")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    if not out.is_dir():
+        print(f"python -m kinid.urdf.generate: {args.out}: not an existing folder", file=sys.stderr)
+        return 2
+    if out.resolve() == HERE and not (HERE.parent / "pyproject.toml").is_file():
+        print(f"python -m kinid.urdf.generate: {args.out}: refusing to write into the installed package", file=sys.stderr)
+        return 2
+    for make in MACHINES:
+        write_text(out / f"{make.__name__}.urdf", make())
+        print(out / f"{make.__name__}.urdf")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -139,7 +139,7 @@ def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, 
 
 
 def track_csv(measurement) -> str:
-    """TRACK.csv text (docs/formats.md, "Board file"): ``frame,t_s,x_mm,y_mm,error_um``.
+    """TRACK.csv text (docs/formats.md, "Contour track"): ``frame,t_s,x_mm,y_mm,error_um``.
 
     Frames that were not located keep their row with empty ``x_mm``, ``y_mm``
     and ``error_um``; ``t_s`` is empty when no frame rate is known.
