@@ -1,1 +1,33 @@
-"""Identification of machine kinematic errors from alignment observations."""
+"""Identification of machine kinematic errors from alignment observations.
+
+The few names a machine builder needs; everything else lives in the modules
+(``kinid.identification.fit``, ``.diagnose``, ...):
+
+- :func:`load_machine` — a URDF with ISO 230-1 error joints (docs/machines.md);
+- :func:`read_observations`, :func:`write_observations` — the observation CSV (docs/formats.md);
+- :func:`parse_effect`, :func:`default_model` — effects (docs/formats.md);
+- :func:`fit`, :func:`save_fit`, :func:`load_fit` — identification and FIT.json;
+- :func:`diagnose`, :func:`forward_select` — where the model fails and what is missing;
+- :func:`solve_axes` — the axis readings that align the fitted machine with each mark;
+- :func:`simulate`, :func:`load_errors` — synthetic data from a known error set;
+- :func:`tool_in_workpiece_mm` — nominal or erroneous kinematics of one pose;
+- :mod:`urdf_builder` — write machine URDFs with error joints (docs/machines.md).
+
+Example
+-------
+>>> from kinid.identification import load_machine, read_observations, fit   # doctest: +SKIP
+>>> machine = load_machine("urdf/five_axis_bc.urdf")                         # doctest: +SKIP
+>>> result = fit(machine, read_observations("obs.csv", machine), noise_um=1.0)  # doctest: +SKIP
+"""
+from .alignment import solve_axes
+from .diagnose import diagnose, forward_select
+from .effects import default_model, parse_effect
+from .fit import fit, load_fit, save_fit
+from . import urdf_builder
+from .machine import load_machine, tool_in_workpiece_mm
+from .observations import read_observations, write_observations
+from .simulate import load_errors, simulate
+
+__all__ = ["load_machine", "read_observations", "write_observations", "parse_effect", "default_model", "fit",
+           "save_fit", "load_fit", "diagnose", "forward_select", "solve_axes", "simulate", "load_errors",
+           "tool_in_workpiece_mm", "urdf_builder"]

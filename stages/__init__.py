@@ -6,6 +6,6 @@
 - :mod:`stages.contour` — planar contour error from image sequences
 
 Each sub-package keeps its own ``calibrate``; import it from there
-(``from kinid.stages.uvw import calibrate``). Hardware protocols: docs/hardware.md.
+(``from kinid.stages.uvw import calibrate``). Hardware protocols: :mod:`kinid.stages.protocols`, docs/hardware.md.
 """
-__all__ = ["backlash", "uvw", "dual_axis", "contour"]
+__all__ = ["backlash", "uvw", "dual_axis", "contour", "protocols"]

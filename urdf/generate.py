@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification import urdf_builder
+
+Axis, Fixed, machine_urdf, setup = urdf_builder.Axis, urdf_builder.Fixed, urdf_builder.machine_urdf, urdf_builder.setup
 
 HERE = Path(__file__).resolve().parent
 PI = 3.141592653589793

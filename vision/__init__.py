@@ -25,16 +25,4 @@ from .render import (board_coverage, disk_coverage, homography_image_to_plane, r
 from .ringcode import Marker, canonical_code, decode_from_segments, detect_markers
 from .template import Template, TemplateMatch, locate_template, make_template
 
-__all__ = [
-    "Board", "BoardMatch", "load_board", "make_board", "match_to_board", "save_board",
-    "CalibrationResult", "CameraModel", "calibrate_camera", "load_camera", "save_camera",
-    "CircleResult", "locate_disk", "locate_hole", "locate_sphere", "offset_from_image_centre",
-    "OffsetResult", "axial_offset", "focus_height", "radial_offset_from_edges", "radial_offset_from_hole",
-    "radial_offset_from_sphere",
-    "MatrixResult", "ReversalResult", "ScaleResult", "backlash_from_reversals", "pixel_equivalent",
-    "pixel_to_machine_matrix",
-    "board_coverage", "disk_coverage", "homography_image_to_plane", "render_disk", "render_pattern",
-    "ring_mark_coverage", "similarity_plane_to_image",
-    "Marker", "canonical_code", "decode_from_segments", "detect_markers",
-    "Template", "TemplateMatch", "locate_template", "make_template",
-]
+__all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "CameraModel", "load_camera", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]

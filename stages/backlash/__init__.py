@@ -8,5 +8,4 @@ from .locate import locate_fiducial
 from .plan import PlannedMove, plan_moves
 from .simulate import SimulatedStage, play
 
-__all__ = ["BacklashResult", "MoveRecord", "PlannedMove", "SimulatedStage", "analyse", "calibrate",
-           "locate_fiducial", "plan_moves", "play"]
+__all__ = ["calibrate", "BacklashResult", "plan_moves", "locate_fiducial", "SimulatedStage"]

@@ -23,8 +23,8 @@ import numpy as np
 
 from kinid.errors import DataError
 from kinid.progress import Progress
-from kinid.vision.motion_scale import (MatrixResult, ScaleResult, backlash_from_reversals, pixel_equivalent,
-                                 pixel_to_machine_matrix)
+from kinid.vision import (MatrixResult, ScaleResult, backlash_from_reversals, pixel_equivalent,
+                          pixel_to_machine_matrix)
 
 from .locate import locate_fiducial
 from .plan import plan_moves

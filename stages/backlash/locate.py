@@ -116,7 +116,7 @@ def locate_fiducial(image, *, what="image"):
     """
     _check_image(image, what)
     try:
-        from kinid.vision.circles import locate_disk
+        from kinid.vision import locate_disk
     except ImportError:
         locate_disk = None
     reason = None

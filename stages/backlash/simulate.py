@@ -217,7 +217,7 @@ class SimulatedStage:
 
     def grab(self) -> np.ndarray:
         """Image of the fiducial at the current actual position (uint8, ``image_shape``)."""
-        from kinid.vision.render import render_disk
+        from kinid.vision import render_disk
 
         radius_px = self.fiducial_radius_mm / np.sqrt(self.pixel_mm[0] * self.pixel_mm[1])
         return render_disk(self.image_shape, tuple(self.fiducial_px()), radius_px, blur_px=self.blur_px,

@@ -10,7 +10,4 @@ from .paths import (CirclePath, CircularTest, ContourError, LinePath, PolylinePa
                     fit_circle, fit_line, load_polyline)
 from .track import FrameResult, FrameSettings, Track, TrackBuilder, consistent_marks, estimate_track, process_frame
 
-__all__ = ["FrameSource", "map_frames", "open_frames", "ContourMeasurement", "measure_contour", "track_csv",
-           "CirclePath", "CircularTest", "ContourError", "LinePath", "PolylinePath", "circular_test",
-           "contour_error", "fit_circle", "fit_line", "load_polyline", "FrameResult", "FrameSettings", "Track",
-           "TrackBuilder", "consistent_marks", "estimate_track", "process_frame"]
+__all__ = ["measure_contour", "ContourMeasurement", "process_frame", "TrackBuilder", "contour_error", "circular_test", "CirclePath", "LinePath", "PolylinePath", "open_frames"]

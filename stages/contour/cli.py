@@ -83,7 +83,7 @@ def _path_from_args(args):
 def _run(args) -> int:
     from kinid.files import write_text
     from kinid.progress import Progress
-    from kinid.vision.board import load_board
+    from kinid.vision import load_board
 
     from .frames import open_frames
     from .measure import measure_contour, track_csv
@@ -92,7 +92,7 @@ def _run(args) -> int:
     board = load_board(args.board)
     camera = None
     if args.camera:
-        from kinid.vision.camera import load_camera
+        from kinid.vision import load_camera
 
         camera = load_camera(args.camera)
     if args.pixel_mm is not None and not (math.isfinite(args.pixel_mm) and args.pixel_mm > 0):

@@ -136,7 +136,7 @@ def simulation_camera(image_size=(768, 768), pixel_mm=0.03, *, distance_mm=300.0
     -------
     vision.camera.CameraModel
     """
-    from kinid.vision.camera import CameraModel
+    from kinid.vision import CameraModel
 
     w, h = (int(v) for v in image_size)
     f = distance_mm / pixel_mm
@@ -200,7 +200,7 @@ def render_frame(board, camera, distance_mm, board_origin_mm, board_angle_deg, *
     numpy.ndarray
         uint8 image (height, width).
     """
-    from kinid.vision.render import board_coverage, render_pattern
+    from kinid.vision import board_coverage, render_pattern
 
     a = math.radians(board_angle_deg)
     c, s = math.cos(a), math.sin(a)

@@ -160,8 +160,8 @@ def process_frame(image, board, settings) -> FrameResult:
     FrameResult
         ``n == 0`` with a ``reason`` when nothing usable was decoded.
     """
-    from kinid.vision.board import match_to_board
-    from kinid.vision.ringcode import detect_markers
+    from kinid.vision import match_to_board
+    from kinid.vision import detect_markers
 
     img = np.asarray(image)
     h, w = img.shape[:2]

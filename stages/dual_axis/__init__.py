@@ -14,20 +14,4 @@ from .simulate import (ErrorProfile, SimulatedGantry, default_error_profiles, ra
 from .smooth import SmoothModel, fit_smooth
 from .table import OffsetTable, RoundRecord, head_move_from
 
-__all__ = [
-    "calibrate",
-    "check_plan",
-    "measure_pixel_to_mm",
-    "verify",
-    "default_roi",
-    "OffsetTable",
-    "RoundRecord",
-    "head_move_from",
-    "SmoothModel",
-    "fit_smooth",
-    "SimulatedGantry",
-    "ErrorProfile",
-    "default_error_profiles",
-    "random_error_profiles",
-    "random_texture",
-]
+__all__ = ["calibrate", "verify", "OffsetTable", "fit_smooth", "SmoothModel", "SimulatedGantry"]

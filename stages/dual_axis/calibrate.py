@@ -31,8 +31,7 @@ from dataclasses import replace
 import numpy as np
 
 from kinid.errors import DataError, ImageError
-from kinid.vision.motion_scale import pixel_to_machine_matrix
-from kinid.vision.template import locate_template, make_template
+from kinid.vision import locate_template, make_template, pixel_to_machine_matrix
 from .table import OffsetTable, RoundRecord
 
 __all__ = ["calibrate", "check_plan", "measure_pixel_to_mm", "verify", "default_roi"]

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.errors import DataError, StageError
-from kinid.identification.machine import load_machine, tool_in_workpiece_mm
+from kinid.identification import load_machine, tool_in_workpiece_mm
 from kinid.urdf import path as urdf_path
-from kinid.vision.render import render_pattern
+from kinid.vision import render_pattern
 
 __all__ = [
     "ErrorProfile",

@@ -14,9 +14,4 @@ from .patent import (PatentCompensator, PatentStatistics, calibrate_patent, meas
                      patent_compensation_um, patent_statistics, patent_strokes)
 from .simulate import ActuatorTruth, SimulatedUVWStage, default_truth
 
-__all__ = ["ACTUATORS", "ActuatorModel", "ActuatorTruth", "PatentCompensator", "PatentStatistics", "Pose",
-           "SimulatedUVWStage", "Strokes", "UVWCompensator", "UVWGeometry", "alignment_targets", "calibrate",
-           "calibrate_patent", "decompose_move", "default_truth", "fit_actuator_model", "forward_kinematics",
-           "home_forward", "inverse_kinematics", "measure_patent", "measure_plan", "parameter_names",
-           "patent_compensation_um", "patent_statistics", "patent_strokes", "phase_residuals", "plan_positions",
-           "run_moves", "run_stage_moves", "select_actuator_model"]
+__all__ = ["UVWGeometry", "inverse_kinematics", "forward_kinematics", "decompose_move", "calibrate", "UVWCompensator", "calibrate_patent", "patent_compensation_um", "SimulatedUVWStage", "ACTUATORS"]
