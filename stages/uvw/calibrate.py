@@ -157,15 +157,17 @@ class UVWCompensator(DirectionTrackingCompensator):
         return m.command_for(target_um, direction, tol_um=self.tol_um, max_iter=self.max_iter)
 
 
-def calibrate(move, lead_um: float, *, span_um=None, points: int = 37, repeats: int = 3, harmonics=None,
+def calibrate(stage, lead_um: float, *, span_um=None, points: int = 37, repeats: int = 3, harmonics=None,
               degree=None, overrun_um: float = 100.0, noise_um=None, actuators=ACTUATORS, progress: bool | None = None
               ) -> UVWCompensator:
     """Measure each actuator, fit its error model and return the compensator.
 
     Parameters
     ----------
-    move : callable
-        ``move(actuator, target_um) -> measured_um`` (docs/hardware.md).
+    stage : ActuatorStage or callable
+        An object with ``move(actuator, target_um) -> measured_um``
+        (:class:`kinid.stages.protocols.ActuatorStage`, docs/hardware.md), or
+        that ``move`` function itself.
     lead_um : float
         Screw lead of the actuators, µm (> 0).
     span_um : (float, float) or None
@@ -201,10 +203,14 @@ def calibrate(move, lead_um: float, *, span_um=None, points: int = 37, repeats: 
     --------
     >>> from kinid.stages.uvw import SimulatedUVWStage
     >>> stage = SimulatedUVWStage(rng=np.random.default_rng(1))
-    >>> comp = calibrate(stage.move, lead_um=2000.0)            # doctest: +SKIP
+    >>> comp = calibrate(stage, lead_um=2000.0)                 # doctest: +SKIP
     >>> stage.move("X1", comp.command("X1", 1234.0))            # doctest: +SKIP
     1234.03...
     """
+    move = getattr(stage, "move", stage)
+    if not callable(move):
+        raise StageError(f"stage must have a move(actuator, target_um) method or be such a function, "
+                         f"got {type(stage).__name__}")
     lead = check_lead(lead_um)
     names = tuple(check_actuator(a) for a in actuators)
     if not names:
