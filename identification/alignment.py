@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from kinid.threads import blas_single_threaded
 from kinid.errors import DataError
 from .machine import Machine, evaluate
 from .observations import Observations
@@ -20,6 +21,7 @@ from .residuals import design, joint_values
 __all__ = ["solve_axes"]
 
 
+@blas_single_threaded
 def solve_axes(machine: Machine, effects, theta, obs: Observations, solve=None, *, tol_mm: float = 1e-10, max_iter: int = 50) -> Observations:
     """Readings of the axes ``solve`` that put the tool point on each mark.
 

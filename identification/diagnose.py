@@ -30,6 +30,8 @@ import scipy.stats
 
 from .effects import candidate_library
 from .fit import FitResult, fit
+from kinid.threads import blas_single_threaded
+
 from .machine import Machine, evaluate
 from .observations import Observations
 from .residuals import design, effect_columns, joint_values
@@ -232,6 +234,7 @@ def _model_pass(machine: Machine, obs: Observations, result: FitResult):
     return d_errors, d_axes, Q0
 
 
+@blas_single_threaded
 def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
                      d_errors=None, q0=None):
     """Score test of each candidate effect at the fit ``result`` (see module docstring).
@@ -315,6 +318,7 @@ def _size(effect, beta, cov, obs, machine):
     return float(beta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
 
 
+@blas_single_threaded
 def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit_noise_um=None, alpha: float = ALPHA, theta0=None, result: FitResult | None = None) -> Diagnosis:
     """Refit ``effects`` on ``obs`` and rank the candidate library.
 
@@ -401,6 +405,7 @@ class SelectionStep:
     diagnosis: Diagnosis
 
 
+@blas_single_threaded
 def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=None, alpha: float = ALPHA, max_steps: int = 8, progress=None) -> list:
     """Add the best candidate, refit the full nonlinear model, rescore; until the verdict is ``noise``.
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from kinid.files import write_text
 from .effects import Effect, default_model, parse_effect
+from kinid.threads import blas_single_threaded
 from kinid.errors import DataError
 from .identifiability import RANK_TOL, analyse
 from .machine import Machine, machine_from_urdf
@@ -147,6 +148,7 @@ def _lm_step(Js, r, lam, lbx, ubx):
     return np.asarray(sol["x"]).ravel()
 
 
+@blas_single_threaded
 def fit(
     machine: Machine,
     obs: Observations,
