@@ -88,6 +88,11 @@ def _chosen_verb(argv) -> str | None:
 def main(argv=None) -> int:
     """Run ``kinid`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    # numpy-heavy verbs work on small matrices, where threaded BLAS costs more than it gives; the
+    # library limits itself around the fit and the diagnosis, this covers the rest of a command
+    import os
+
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     verb = None
     try:
         verb = _chosen_verb(argv)

@@ -1,4 +1,4 @@
-"""Shared test set-up: one BLAS thread (see identification.cli.limit_blas_threads), Agg plots."""
+"""Shared test set-up: one BLAS thread for the numpy work outside kinid.threads (as the command line does), Agg plots."""
 import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
