@@ -20,6 +20,7 @@ import numpy as np
 
 from kinid.files import write_text
 from .effects import Effect, default_model, parse_effect
+from kinid.checks import check_positive
 from kinid.threads import blas_single_threaded
 from kinid.errors import DataError
 from .identifiability import RANK_TOL, analyse
@@ -185,8 +186,8 @@ def fit(
     -------
     FitResult
     """
-    if noise_um is not None and not noise_um > 0:
-        raise DataError(f"--noise-um must be positive, got {noise_um}")
+    if noise_um is not None:
+        noise_um = check_positive("noise_um", noise_um)
     effects = tuple(default_model(machine) if effects is None else effects)
     d = design(machine, effects, obs)
     names = d.param_names()

@@ -78,6 +78,24 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _option_for(parser: argparse.ArgumentParser, args, verb: str | None, parameter: str) -> str | None:
+    """The command-line option that sets the library argument ``parameter``, if the verb has one.
+
+    The one place where argument names become option names: a verb's parser
+    may declare ``parameter_options={"n_targets": "--targets"}`` in its
+    defaults; otherwise an option whose ``dest`` is the argument's name is it.
+    """
+    declared = getattr(args, "parameter_options", None) or {}
+    if parameter in declared:
+        return declared[parameter]
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    verb_parser = sub.choices.get(verb) if sub is not None and verb else None
+    for action in verb_parser._actions if verb_parser is not None else ():
+        if action.dest == parameter and action.option_strings:
+            return max(action.option_strings, key=len)
+    return None
+
+
 def _chosen_verb(argv) -> str | None:
     for arg in argv:
         if not arg.startswith("-"):
@@ -93,13 +111,16 @@ def main(argv=None) -> int:
     import os
 
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    verb = None
+    verb = parser = args = None
     try:
         verb = _chosen_verb(argv)
         parser = build_parser(verb)
         args = parser.parse_args(argv)
         status = args.run(args)
     except KinidError as exc:
+        if exc.parameter is not None and parser is not None:
+            option = _option_for(parser, args, verb, exc.parameter)
+            exc = exc.renamed(option) if option else exc
         print(f"kinid {verb}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

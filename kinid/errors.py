@@ -23,14 +23,24 @@ class KinidError(Exception):
         1-based line number in ``path``.
     column : str or None
         Column name (CSV) or element (URDF) the problem is in.
+    parameter : str or None
+        The argument of the called function that is wrong (``noise_um``);
+        ``message`` then completes a sentence that starts with its name
+        ("must be positive, got -1"). The command line shows the option's
+        name instead (``--noise-um``): see :meth:`renamed`.
     """
 
-    def __init__(self, message: str, *, path=None, line=None, column=None):
+    def __init__(self, message: str, *, path=None, line=None, column=None, parameter=None):
         self.message = message
         self.path = None if path is None else str(path)
         self.line = line
         self.column = column
+        self.parameter = parameter
         super().__init__(str(self))
+
+    def renamed(self, parameter: str) -> "KinidError":
+        """The same error naming the wrong argument ``parameter`` (e.g. the command-line option)."""
+        return type(self)(self.message, path=self.path, line=self.line, column=self.column, parameter=parameter)
 
     def __str__(self) -> str:
         where = []
@@ -41,11 +51,12 @@ class KinidError(Exception):
         if self.column is not None:
             where.append(f"column {self.column!r}")
         prefix = ", ".join(where)
-        return f"{prefix}: {self.message}" if prefix else self.message
+        message = self.message if self.parameter is None else f"{self.parameter} {self.message}"
+        return f"{prefix}: {message}" if prefix else message
 
 
 class MachineError(KinidError):
-    """The machine description (URDF) does not follow docs/machines.md."""
+    """The machine description (URDF) does not follow the convention of docs/machines.md."""
 
 
 class DataError(KinidError):
@@ -57,4 +68,8 @@ class ImageError(KinidError):
 
 
 class StageError(KinidError):
-    """A stage request is invalid (a move outside travel, a non-positive lead)."""
+    """A stage cannot do what was asked (a move outside its travel, an actuator it does not have).
+
+    A wrong argument value (a non-positive lead, too few repeats) is a
+    :class:`DataError`, in every stage method alike.
+    """

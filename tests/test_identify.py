@@ -202,5 +202,5 @@ def test_save_and_load_fit_round_trip(tmp_path):
 def test_fit_rejects_bad_noise():
     m = load_machine(path("five_axis_bc"))
     obs = simulate(m, patent_plan(m), [], np.zeros(0), rng=np.random.default_rng(0))
-    with pytest.raises(DataError, match="noise-um must be positive"):
+    with pytest.raises(DataError, match="noise_um must be a positive number"):
         fit(m, obs, noise_um=-1.0)

@@ -197,3 +197,16 @@ def test_docs_links_and_file_references_resolve():
             if not (ROOT / ref).exists() and not (f.parent / ref).exists():
                 bad.append(f"{f.relative_to(ROOT)}: path {ref}")
     assert not bad, "references that do not resolve inside the repository:\n" + "\n".join(sorted(set(bad)))
+
+
+def test_library_errors_name_the_argument_and_the_cli_names_the_option(tmp_path):
+    """One mapping from argument to option: the library says ``n_targets``, the command line ``--targets``."""
+    from kinid.errors import DataError
+    from kinid.stages.backlash import plan_moves
+
+    with pytest.raises(DataError, match=r"^n_targets must be an integer >= 1, got 0$"):
+        plan_moves(0.8, 2.0, n_targets=0)
+    out = subprocess.run([sys.executable, "-m", "kinid", "backlash", "--targets", "0"],
+                         capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert out.returncode == 2
+    assert out.stderr.strip() == "kinid backlash: --targets must be an integer >= 1, got 0"

@@ -36,7 +36,7 @@ def register(subparsers) -> None:
     p.add_argument("--targets", type=int, default=1, help="target positions per linear axis (default 1)")
     p.add_argument("--plot", metavar="OUT.png", help="write a plot of fiducial positions and reversal gaps")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    p.set_defaults(run=_run)
+    p.set_defaults(run=_run, parameter_options={"n_targets": "--targets"})
 
 
 def _truth(stage) -> dict:
@@ -75,15 +75,8 @@ def _run(args) -> int:
         backlash_theta_deg=args.backlash_theta_deg, theta_centre_mm=tuple(args.theta_centre_mm),
         noise_sigma=args.noise, repeatability_mm=args.repeatability_um * 1e-3,
         rng=np.random.default_rng(args.seed))
-    try:
-        res = calibrate(stage, travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
-                        n_targets=args.targets)
-    except DataError as exc:
-        if exc.column in ("travel_mm", "travel_deg", "repeats", "n_targets"):
-            flag = {"travel_mm": "--travel-mm", "travel_deg": "--travel-deg", "repeats": "--repeats",
-                    "n_targets": "--targets"}[exc.column]
-            raise DataError(exc.message.replace(exc.column, flag), column=flag) from None
-        raise
+    res = calibrate(stage, travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
+                    n_targets=args.targets)
     measured = res.summary()
     truth = _truth(stage)
     if args.plot:

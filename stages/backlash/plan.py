@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinid.checks import check_int, check_positive
 from kinid.errors import DataError
 
 __all__ = ["PlannedMove", "plan_moves"]
@@ -60,20 +61,8 @@ class PlannedMove:
         return self.role != "preload"
 
 
-def _check_positive(name, value):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise DataError(f"{name} must be a positive number, got {value!r}", column=name) from None
-    if not (np.isfinite(v) and v > 0):
-        raise DataError(f"{name} must be a positive number, got {value!r}", column=name)
-    return v
-
-
 def _check_count(name, value):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise DataError(f"{name} must be an integer >= 1, got {value!r}", column=name)
-    return int(value)
+    return check_int(name, value, minimum=1)
 
 
 def plan_moves(travel_mm, travel_deg, *, repeats=1, n_targets=1) -> list:
@@ -116,8 +105,8 @@ def plan_moves(travel_mm, travel_deg, *, repeats=1, n_targets=1) -> list:
     ``t - e`` (preload), ``t`` (photo "up"), ``t + e`` (θ: photo "centre"),
     ``t`` (photo "down").
     """
-    t_mm = _check_positive("travel_mm", travel_mm)
-    t_deg = _check_positive("travel_deg", travel_deg)
+    t_mm = check_positive("travel_mm", travel_mm)
+    t_deg = check_positive("travel_deg", travel_deg)
     repeats = _check_count("repeats", repeats)
     n_targets = _check_count("n_targets", n_targets)
     a = 0.5 * t_mm

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from kinid.checks import check_nonnegative, check_positive
 from kinid.errors import DataError, StageError
 
 __all__ = ["SimulatedStage", "play"]
@@ -50,20 +51,6 @@ def play(actual: float, command: float, backlash: float) -> float:
     if command + half < actual:
         return command + half
     return actual
-
-
-def _positive(name, value):
-    v = float(value)
-    if not (np.isfinite(v) and v > 0):
-        raise DataError(f"{name} must be a positive number, got {value!r}", column=name)
-    return v
-
-
-def _non_negative(name, value):
-    v = float(value)
-    if not (np.isfinite(v) and v >= 0):
-        raise DataError(f"{name} must be a number >= 0, got {value!r}", column=name)
-    return v
 
 
 class SimulatedStage:
@@ -126,22 +113,22 @@ class SimulatedStage:
                  noise_sigma=2.0, blur_px=0.8, repeatability_mm=0.0, limits_mm=((-50.0, 50.0), (-50.0, 50.0)),
                  limits_deg=(-180.0, 180.0), initial_command=(0.0, 0.0, 0.0), initial_side=1, rng=None):
         p = np.broadcast_to(np.asarray(pixel_mm, dtype=float), (2,))
-        self.pixel_mm = (_positive("pixel_mm", p[0]), _positive("pixel_mm", p[1]))
+        self.pixel_mm = (check_positive("pixel_mm", p[0]), check_positive("pixel_mm", p[1]))
         self.camera_angle_deg = float(camera_angle_deg)
         self.mirror = bool(mirror)
-        self.backlash_x_mm = _non_negative("backlash_x_mm", backlash_x_mm)
-        self.backlash_y_mm = _non_negative("backlash_y_mm", backlash_y_mm)
-        self.backlash_theta_deg = _non_negative("backlash_theta_deg", backlash_theta_deg)
+        self.backlash_x_mm = check_nonnegative("backlash_x_mm", backlash_x_mm)
+        self.backlash_y_mm = check_nonnegative("backlash_y_mm", backlash_y_mm)
+        self.backlash_theta_deg = check_nonnegative("backlash_theta_deg", backlash_theta_deg)
         self.theta_centre_mm = tuple(float(v) for v in theta_centre_mm)
-        self.fiducial_radius_mm = _positive("fiducial_radius_mm", fiducial_radius_mm)
+        self.fiducial_radius_mm = check_positive("fiducial_radius_mm", fiducial_radius_mm)
         self.image_shape = (int(image_shape[0]), int(image_shape[1]))
         h, w = self.image_shape
         self.principal_px = ((w - 1) / 2.0, (h - 1) / 2.0) if principal_px is None else tuple(
             float(v) for v in principal_px)
         self.camera_at_mm = tuple(float(v) for v in camera_at_mm)
-        self.noise_sigma = _non_negative("noise_sigma", noise_sigma)
-        self.blur_px = _non_negative("blur_px", blur_px)
-        self.repeatability_mm = _non_negative("repeatability_mm", repeatability_mm)
+        self.noise_sigma = check_nonnegative("noise_sigma", noise_sigma)
+        self.blur_px = check_nonnegative("blur_px", blur_px)
+        self.repeatability_mm = check_nonnegative("repeatability_mm", repeatability_mm)
         self.limits_mm = tuple(tuple(float(v) for v in lim) for lim in limits_mm)
         self.limits_deg = tuple(float(v) for v in limits_deg)
         if initial_side not in (1, -1):

@@ -1,0 +1,102 @@
+"""Argument checks at the public entry points; every message names the argument.
+
+Each check returns the value converted (a float, an int, an array) or raises
+:class:`~kinid.errors.DataError` with ``parameter`` set to the argument's
+name, so the message reads "noise_um must be positive, got -1" in Python and
+"--noise-um must be positive, got -1" on the command line (the ``kinid`` roof
+maps argument names to option names in one place).
+
+Examples
+--------
+>>> check_positive("noise_um", 1)
+1.0
+>>> check_positive("noise_um", -1)
+Traceback (most recent call last):
+...
+kinid.errors.DataError: noise_um must be a positive number, got -1
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from .errors import DataError
+
+__all__ = ["check_number", "check_positive", "check_nonnegative", "check_int", "check_array", "check_choice"]
+
+
+def check_number(name: str, value, *, error=DataError) -> float:
+    """``value`` as a finite float."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise error(f"must be a number, got {value!r} ({type(value).__name__})", parameter=name)
+    v = float(value)
+    if not math.isfinite(v):
+        raise error(f"must be a finite number, got {value!r}", parameter=name)
+    return v
+
+
+def check_positive(name: str, value, *, error=DataError) -> float:
+    """``value`` as a finite float > 0."""
+    v = float(value) if _is_number(value) else math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise error(f"must be a positive number, got {value!r}", parameter=name)
+    return v
+
+
+def check_nonnegative(name: str, value, *, error=DataError) -> float:
+    """``value`` as a finite float >= 0."""
+    v = float(value) if _is_number(value) else math.nan
+    if not (math.isfinite(v) and v >= 0):
+        raise error(f"must be a number >= 0, got {value!r}", parameter=name)
+    return v
+
+
+def check_int(name: str, value, *, minimum: int | None = None, maximum: int | None = None, error=DataError) -> int:
+    """``value`` as an int within [minimum, maximum]."""
+    if minimum is not None and maximum is not None:
+        wanted = f"an integer in {minimum}..{maximum}"
+    elif minimum is not None:
+        wanted = f"an integer >= {minimum}"
+    elif maximum is not None:
+        wanted = f"an integer <= {maximum}"
+    else:
+        wanted = "an integer"
+    integral = not isinstance(value, bool) and isinstance(value, (numbers.Integral, np.integer))
+    if not integral or (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
+        raise error(f"must be {wanted}, got {value!r}", parameter=name)
+    return int(value)
+
+
+def check_array(name: str, value, *, shape: tuple | None = None, finite: bool = True, dtype=float,
+                error=DataError) -> np.ndarray:
+    """``value`` as an array of ``dtype``; ``shape`` entries of None match any length.
+
+    ``check_array("axes", a, shape=(None, 5))`` accepts an (N, 5) array.
+    """
+    try:
+        arr = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError):
+        raise error(f"must be an array of numbers, got {type(value).__name__}", parameter=name) from None
+    if shape is not None:
+        ok = arr.ndim == len(shape) and all(s is None or s == n for s, n in zip(shape, arr.shape))
+        if not ok:
+            want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+            raise error(f"must have shape {want}, got {arr.shape}", parameter=name)
+    if finite and arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        where = ", ".join(map(str, bad)) if arr.ndim else ""
+        raise error(f"must be finite; element [{where}] is {arr[tuple(bad)]}", parameter=name)
+    return arr
+
+
+def check_choice(name: str, value, choices, *, error=DataError):
+    """``value`` if it is one of ``choices``."""
+    if value not in choices:
+        raise error(f"must be one of {', '.join(map(repr, choices))}, got {value!r}", parameter=name)
+    return value
+
+
+def _is_number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (numbers.Real, np.floating, np.integer))
