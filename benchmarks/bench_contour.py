@@ -66,7 +66,8 @@ def _sequence(folder, names, count):
 
 def bench_speed(quick):
 
-    from kinid.stages.contour.frames import map_frames, open_frames, read_image
+    from kinid.files import read_image
+    from kinid.stages.contour.frames import map_frames, open_frames
     from kinid.stages.contour.track import FrameSettings, process_frame
     from kinid.vision.board import make_board
 

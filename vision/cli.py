@@ -6,22 +6,7 @@ from pathlib import Path
 
 from kinid.errors import DataError, ImageError
 
-__all__ = ["register", "read_image"]
-
-
-def read_image(path):
-    """Read an image file as 8-bit grey; :class:`ImageError` naming the file if it cannot be read."""
-    import cv2
-    import numpy as np
-
-    p = Path(path)
-    if not p.is_file():
-        raise ImageError("image file does not exist", path=str(path))
-    data = np.fromfile(str(p), dtype=np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
-    if img is None:
-        raise ImageError("cannot decode the file as an image (expected PNG, TIFF, BMP, JPEG, ...)", path=str(path))
-    return img
+__all__ = ["register"]
 
 
 def draw_markers(image, markers):
@@ -54,6 +39,8 @@ def _run(args) -> int:
 
     if not 3 <= args.bits <= 30:
         raise DataError(f"--bits must be in 3..30, got {args.bits}", column="--bits")
+    from kinid.files import read_image
+
     img = read_image(args.image)
     markers = detect_markers(img, bits=args.bits, polarity=args.polarity)
     if args.draw:

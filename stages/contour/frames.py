@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from kinid.errors import DataError
+from kinid.errors import DataError, ImageError
+from kinid.files import read_image
 
-__all__ = ["IMAGE_SUFFIXES", "FrameSource", "open_frames", "read_image", "map_frames"]
+__all__ = ["IMAGE_SUFFIXES", "FrameSource", "open_frames", "map_frames"]
 
 #: File name endings read as frames from a folder (case-insensitive).
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg", ".pgm", ".ppm", ".webp")
@@ -98,25 +99,16 @@ def open_frames(path) -> FrameSource:
     return FrameSource("video", str(p), (), count if count > 0 else None, fps if fps > 0 else None)
 
 
-def read_image(path):
-    """Grey image from a file (8 or 16 bit kept as stored), or None if it cannot be decoded."""
-    import cv2
-
-    data = np.fromfile(os.fspath(path), np.uint8)  # works with any file name, unlike cv2.imread
-    if data.size == 0:
-        return None
-    return cv2.imdecode(data, cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)
-
-
 def _work(item, board, settings):
     """Worker: process one frame given as a file path or an array."""
     from .track import FrameResult, process_frame
 
     if isinstance(item, str):
-        img = read_image(item)
-        if img is None:
+        try:
+            img = read_image(item)
+        except ImageError as exc:
             empty = np.zeros((0, 2))
-            return FrameResult(0, (0, 0), (), empty, empty, empty, f"cannot read image {item}")
+            return FrameResult(0, (0, 0), (), empty, empty, empty, f"cannot read image: {exc.message}: {item}")
     else:
         img = item
     return process_frame(img, board, settings)

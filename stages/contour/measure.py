@@ -68,7 +68,9 @@ def choose_downsample(source, board, settings, *, probe_frames=5) -> int:
     """
     from dataclasses import replace
 
-    from .frames import read_image
+    from kinid.errors import ImageError
+    from kinid.files import read_image
+
     from .track import process_frame
 
     probe = replace(settings, downsample=1)
@@ -76,8 +78,9 @@ def choose_downsample(source, board, settings, *, probe_frames=5) -> int:
     for k, frame in enumerate(source):
         if k >= probe_frames:
             break
-        image = read_image(frame) if isinstance(frame, str) else frame
-        if image is None:
+        try:
+            image = read_image(frame) if isinstance(frame, str) else frame
+        except ImageError:
             continue
         r = process_frame(image, board, probe)
         if r.n >= 2:
