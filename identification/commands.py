@@ -142,12 +142,14 @@ def _simulate(args) -> int:
 def _diagnose(args) -> int:
     from .diagnose import diagnose
     from .fit import load_fit
+    from .noise import Noise
     from .observations import read_observations
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
     obs = read_observations(args.data, loaded.machine)
-    result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, fit_noise_um=loaded.noise_um if loaded.noise_source == "given" else None)
+    carried = Noise(loaded.noise_um, "fit") if loaded.noise.known else None
+    result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, carried_noise=carried)
     if args.report:
         from .report import diagnosis_report
 

@@ -28,9 +28,12 @@ import numpy as np
 import scipy.linalg
 import scipy.stats
 
+from kinid.checks import check_positive
+from kinid.threads import blas_single_threaded
+
 from .effects import candidate_library
 from .fit import FitResult, fit
-from kinid.threads import blas_single_threaded
+from .noise import Noise, resolve_noise
 
 from .machine import Machine, evaluate
 from .observations import Observations
@@ -93,9 +96,10 @@ class Diagnosis:
     fit : FitResult
         The current model refitted on these data.
     verdict : {"missing-effect", "noise"}
-    rms_um, noise_um : float
-        Residual RMS per coordinate and σ, µm.
-    noise_source : {"given", "replicates", "fit", "residuals"}
+    rms_um : float
+        Residual RMS per coordinate, µm.
+    noise : Noise
+        σ and its source (``noise_um``, ``noise_source``).
     chi2_p : float
         P-value of the residual sum of squares against σ (NaN if σ was estimated from the residuals).
     threshold : float
@@ -118,8 +122,7 @@ class Diagnosis:
     fit: FitResult
     verdict: str
     rms_um: float
-    noise_um: float
-    noise_source: str
+    noise: Noise
     chi2_p: float
     threshold: float
     candidates: tuple
@@ -128,6 +131,16 @@ class Diagnosis:
     outliers: tuple
     axis_residuals_um: np.ndarray = None
     axis_names: tuple = ()
+
+    @property
+    def noise_um(self) -> float:
+        """σ of one residual coordinate, µm."""
+        return self.noise.value_um
+
+    @property
+    def noise_source(self) -> str:
+        """Where σ came from: given, replicates, fit or residuals."""
+        return self.noise.source
 
     @property
     def live(self) -> list:
@@ -319,36 +332,35 @@ def _size(effect, beta, cov, obs, machine):
 
 
 @blas_single_threaded
-def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit_noise_um=None, alpha: float = ALPHA, theta0=None, result: FitResult | None = None) -> Diagnosis:
+def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, carried_noise: Noise | None = None,
+             alpha: float = ALPHA, theta0=None, result: FitResult | None = None) -> Diagnosis:
     """Refit ``effects`` on ``obs`` and rank the candidate library.
 
     Parameters
     ----------
     machine, obs, effects
     noise_um : float, optional
-        σ per coordinate, µm. Default: from replicate alignments in the data,
-        else ``fit_noise_um``, else estimated from the residuals.
-    fit_noise_um : float, optional
-        The σ the fit was made with, if it was given.
+        σ per coordinate given by the user, µm. Default: from replicate
+        alignments in the data, else ``carried_noise``, else estimated from
+        the residuals (:func:`~kinid.identification.noise.resolve_noise`).
+    carried_noise : Noise, optional
+        The σ an earlier fit carried (a saved fit's, or the previous step of a
+        selection); used when it was not itself estimated from residuals.
     alpha : float
         Family-wise significance level.
     result : FitResult, optional
         An existing fit of ``effects`` on ``obs`` (skips the refit).
     """
+    if noise_um is not None:
+        noise_um = check_positive("noise_um", noise_um)
     if result is None:
         result = fit(machine, obs, effects, theta0=theta0)
     r = result.residuals_um
-    if noise_um is not None:
-        sigma, source = float(noise_um), "given"
-    else:
-        rep = noise_from_replicates(machine, obs, r)
-        if rep is not None:
-            sigma, source = float(rep[0]), "replicates"
-        elif fit_noise_um is not None:
-            sigma, source = float(fit_noise_um), "fit"
-        else:
-            sigma, source = float(np.sqrt(np.sum(r**2) / max(result.dof, 1))), "residuals"
-    known = source != "residuals"
+    rep = None if noise_um is not None else noise_from_replicates(machine, obs, r)
+    noise = resolve_noise(given_um=noise_um, replicates_um=None if rep is None else rep[0], carried=carried_noise,
+                          residual_um=float(np.sqrt(np.sum(r**2) / max(result.dof, 1))))
+    result = result.with_noise(noise)
+    sigma, known = noise.value_um, noise.known
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
     d_errors, d_axes, q0 = _model_pass(machine, obs, result)
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
@@ -365,8 +377,9 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, fit
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
     rms = float(np.sqrt(np.mean(r**2)))
     axis_r, axis_names = axis_residuals(machine, obs, result, d_axes=d_axes)
-    return Diagnosis(result, verdict, rms, sigma, source, chi2_p, threshold, tuple(live + rest), stud, lev, outliers,
-                     axis_r, axis_names, tuple(obs.marks))
+    return Diagnosis(fit=result, verdict=verdict, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
+                     candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
+                     axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks))
 
 
 def axis_residuals(machine: Machine, obs: Observations, result: FitResult, *, d_axes=None):
@@ -398,11 +411,16 @@ def _studentized(result, q0, sigma):
 
 @dataclass(frozen=True)
 class SelectionStep:
-    """One step of forward selection: the model, its fit and its diagnosis, and what was added to reach it."""
+    """One step of forward selection: the model, its fit and its diagnosis, and what was added to reach it.
+
+    ``stopped`` is empty but on the last step, where it says in words why the
+    selection ended there.
+    """
 
     added: str | None
     fit: FitResult
     diagnosis: Diagnosis
+    stopped: str = ""
 
 
 @blas_single_threaded
@@ -423,20 +441,34 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     added = None
     steps = []
     theta0 = None
+    carried = None
     for _ in range(max_steps + 1):
-        dg = diagnose(machine, obs, effects, noise_um=noise_um, alpha=alpha, theta0=theta0)
+        dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0)
         steps.append(SelectionStep(added, dg.fit, dg))
         if progress is not None:
             what = "start" if added is None else f"+ {added}"
             print(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}", file=progress, flush=True)
         best = dg.live[0] if dg.live else None
-        if dg.verdict == "noise" or best is None or best.p_value >= dg.threshold:
+        stop = ""
+        if dg.verdict == "noise":
+            stop = f"the residual is explained by noise of σ = {dg.noise}"
+        elif best is None:
+            stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
+                    "from the model: see the aliased candidates")
+        elif best.p_value >= dg.threshold:
+            stop = (f"no candidate is significant: the best, {best.effect}, has p = {best.p_value:.2g} above the "
+                    f"threshold {dg.threshold:.2g}")
+        elif len(steps) > max_steps:
+            stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
+        if stop:
+            steps[-1] = SelectionStep(added, dg.fit, dg, stopped=stop)
+            if progress is not None:
+                print(f"  stopped: {stop}", file=progress, flush=True)
             break
         from .effects import parse_effect
 
         effects.append(parse_effect(best.effect, machine))
         theta0 = np.r_[dg.fit.theta, np.zeros(effects[-1].n_params)]
         added = best.effect
-        if noise_um is None and dg.noise_source in ("given", "replicates", "fit"):
-            noise_um = dg.noise_um
+        carried = dg.noise if dg.noise.known else None
     return steps

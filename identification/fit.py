@@ -13,29 +13,34 @@ from __future__ import annotations
 
 import functools
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
 
-from kinid.files import write_text
-from .effects import Effect, default_model, parse_effect
 from kinid.checks import check_positive
+from kinid.errors import DataError, KinidError
+from kinid.files import write_text
 from kinid.threads import blas_single_threaded
-from kinid.errors import DataError
-from .identifiability import RANK_TOL, analyse
+
+from .effects import Effect, default_model, parse_effect
+from .identifiability import RANK_TOL, Alias, analyse
 from .machine import Machine, machine_from_urdf
+from .noise import Noise
 from .observations import Observations
 from .residuals import design, residuals
 
-__all__ = ["FitResult", "fit", "save_fit", "load_fit", "model_effects", "FIT_FORMAT"]
+__all__ = ["FitResult", "Noise", "fit", "save_fit", "load_fit", "model_effects", "FIT_FORMAT"]
 
 FIT_FORMAT = "kinid-fit/1"
 
 
 @dataclass(frozen=True)
 class FitResult:
-    """An identified model.
+    """An identified model: fresh from :func:`fit`, or read back by :func:`load_fit`.
+
+    Build it with keywords. A loaded fit has every field the file holds; its
+    ``residuals_um`` is None (the data are not in the file).
 
     Attributes
     ----------
@@ -52,13 +57,15 @@ class FitResult:
     rank : int
     condition_number, o1, o3 : float
         Of the whitened, column-scaled Jacobian of the identifiable parameters.
-    residuals_um : array (N, 3)
-        Tool point − mark in the workpiece frame, µm.
+    residuals_um : array (N, 3) or None
+        Tool point − mark in the workpiece frame, µm (None for a loaded fit).
+    n_observations : int
+        N, the alignments fitted.
     rms_um : float
         RMS over all residual components, µm (comparable with a per-axis σ).
-    noise_um : float
-        σ used for the standard deviations (given, or estimated from the residuals).
-    noise_source : {"given", "residuals"}
+    noise : Noise
+        σ used for the standard deviations, and its source (``noise_um`` and
+        ``noise_source`` give the two parts).
     dof : int
         Residual degrees of freedom, 3N − rank.
     iterations : int
@@ -78,15 +85,32 @@ class FitResult:
     condition_number: float
     o1: float
     o3: float
-    residuals_um: np.ndarray
+    residuals_um: np.ndarray | None
+    n_observations: int
     rms_um: float
-    noise_um: float
-    noise_source: str
+    noise: Noise
     dof: int
     iterations: int
     success: bool
     message: str
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def noise_um(self) -> float:
+        """σ of one residual coordinate, µm."""
+        return self.noise.value_um
+
+    @property
+    def noise_source(self) -> str:
+        """Where σ came from: given, replicates, fit or residuals."""
+        return self.noise.source
+
+    def with_noise(self, noise: Noise) -> "FitResult":
+        """The same fit with the standard deviations at another σ (they scale with it)."""
+        if noise == self.noise:
+            return self
+        scale = noise.value_um / self.noise.value_um if self.noise.value_um > 0 else float("nan")
+        return replace(self, noise=noise, std=self.std * scale)
 
     @property
     def theta(self) -> np.ndarray:
@@ -108,7 +132,7 @@ class FitResult:
                 lines.append(f"{n:<{w}}  {'held':>12}  {'':>10}  {u}")
         lines.append("")
         lines.append(
-            f"residual RMS {self.rms_um:.4f} µm per coordinate over {self.residuals_um.shape[0]} alignments; "
+            f"residual RMS {self.rms_um:.4f} µm per coordinate over {self.n_observations} alignments; "
             f"σ = {self.noise_um:.4f} µm ({self.noise_source}); rank {self.rank}/{len(self.param_names)}; "
             f"condition {self.condition_number:.3g}; O1 {self.o1:.3g}; O3 {self.o3:.3g}"
         )
@@ -155,7 +179,7 @@ def fit(
     obs: Observations,
     effects=None,
     *,
-    noise_um: float | None = None,
+    noise_um: float | Noise | None = None,
     bounds: dict | None = None,
     rank_tol: float = RANK_TOL,
     max_iter: int = 100,
@@ -169,8 +193,9 @@ def fit(
     machine : Machine
     obs : Observations
     effects : sequence of Effect, optional
-    noise_um : float, optional
-        σ of one residual coordinate, µm. Default: estimated from the residuals.
+    noise_um : float or Noise, optional
+        σ of one residual coordinate, µm (a float is σ given by the user; a
+        :class:`Noise` keeps its source). Default: estimated from the residuals.
     bounds : dict name -> (low, high), optional
         Box bounds on parameters, in their units.
     rank_tol : float
@@ -186,8 +211,9 @@ def fit(
     -------
     FitResult
     """
-    if noise_um is not None:
-        noise_um = check_positive("noise_um", noise_um)
+    noise = noise_um if isinstance(noise_um, Noise) else (
+        None if noise_um is None else Noise(check_positive("noise_um", noise_um), "given"))
+    noise_um = None if noise is None else noise.value_um
     effects = tuple(default_model(machine) if effects is None else effects)
     d = design(machine, effects, obs)
     names = d.param_names()
@@ -243,10 +269,9 @@ def fit(
     rms = float(np.sqrt(np.mean(r**2)))
     rank = int(free.sum())
     dof = M - rank
-    if noise_um is None:
-        sigma, source = (float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan")), "residuals"
-    else:
-        sigma, source = float(noise_um), "given"
+    if noise is None:
+        noise = Noise(float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan"), "residuals")
+    sigma = noise.value_um
     Jf = J.reshape(M, P)[:, free] / sigma
     Df = np.linalg.norm(Jf, axis=0)
     _, s, Vt = np.linalg.svd(Jf / Df, full_matrices=False)
@@ -261,9 +286,10 @@ def fit(
     values = np.where(free, theta, np.nan)
     units = tuple(u for e in effects for u in e.param_units(machine))
     return FitResult(
-        machine, effects, tuple(names), units, values, std, free.copy(), ident.aliases, rank,
-        stats.condition_number, stats.o1, stats.o3,
-        r, rms, sigma, source, dof, it, success, message, stats.singular_values,
+        machine=machine, effects=effects, param_names=tuple(names), units=units, values=values, std=std,
+        identifiable=free.copy(), aliases=ident.aliases, rank=rank, condition_number=stats.condition_number,
+        o1=stats.o1, o3=stats.o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
+        iterations=it, success=success, message=message, singular_values=stats.singular_values,
     )
 
 
@@ -285,10 +311,11 @@ def fit_to_dict(result: FitResult) -> dict:
         "noise_um": result.noise_um,
         "noise_source": result.noise_source,
         "dof": result.dof,
-        "n_observations": int(result.residuals_um.shape[0]),
+        "n_observations": result.n_observations,
         "iterations": result.iterations,
         "success": result.success,
         "message": result.message,
+        "singular_values": [float(v) for v in result.singular_values],
     }
 
 
@@ -297,22 +324,8 @@ def save_fit(result: FitResult, path) -> None:
     write_text(path, json.dumps(fit_to_dict(result), indent=1, ensure_ascii=False) + "\n")
 
 
-@dataclass(frozen=True)
-class LoadedFit:
-    """A fit read back from JSON: enough to predict and to diagnose."""
-
-    machine: Machine
-    effects: tuple
-    param_names: tuple
-    theta: np.ndarray
-    identifiable: np.ndarray
-    noise_um: float
-    noise_source: str
-    data: dict
-
-
-def load_fit(path) -> LoadedFit:
-    """Read a fit written by :func:`save_fit`.
+def load_fit(path) -> FitResult:
+    """Read a fit written by :func:`save_fit` (its ``residuals_um`` is None).
 
     Raises
     ------
@@ -337,11 +350,26 @@ def load_fit(path) -> LoadedFit:
         effects = tuple(parse_effect(n, machine, source="effect") for n in data["effects"])
         params = data["parameters"]
         names = tuple(p["name"] for p in params)
-        ok = np.array([bool(p["identified"]) for p in params])
-        theta = np.array([float(p["value"]) if p["identified"] else 0.0 for p in params])
-        noise = float(data["noise_um"])
-    except (KeyError, TypeError, ValueError) as exc:
+        ok = np.array([bool(p["identified"]) for p in params], dtype=bool)
+        values = np.array([float(p["value"]) if p["identified"] else np.nan for p in params])
+        std = np.array([float(p["std"]) if p["identified"] and p.get("std") is not None else np.nan for p in params])
+        units = tuple(str(p["unit"]) for p in params)
+        aliases = tuple(Alias(str(a["name"]), str(a["kind"]), tuple((str(n), float(c)) for n, c in a.get("partners", ())),
+                              str(a.get("message", ""))) for a in data.get("unidentifiable", ()))
+        noise = Noise(float(data["noise_um"]), str(data.get("noise_source", "given")))
+        result = FitResult(
+            machine=machine, effects=effects, param_names=names, units=units, values=values, std=std, identifiable=ok,
+            aliases=aliases, rank=int(data.get("rank", int(ok.sum()))),
+            condition_number=float(data.get("condition_number", np.nan)), o1=float(data.get("o1", np.nan)),
+            o3=float(data.get("o3", np.nan)), residuals_um=None, n_observations=int(data.get("n_observations", 0)),
+            rms_um=float(data.get("rms_um", np.nan)), noise=noise, dof=int(data.get("dof", 0)),
+            iterations=int(data.get("iterations", 0)), success=bool(data.get("success", True)),
+            message=str(data.get("message", "")),
+            singular_values=np.array([float(v) for v in data.get("singular_values", ())]))
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
+    except KinidError as exc:
+        raise DataError(f"malformed kinid fit: {exc}", path=path) from None
     if sum(e.n_params for e in effects) != len(names):
         raise DataError("malformed kinid fit: the parameters do not match the effects", path=path)
-    return LoadedFit(machine, effects, names, theta, ok, noise, data.get("noise_source", "given"), data)
+    return result

@@ -204,3 +204,35 @@ def test_fit_rejects_bad_noise():
     obs = simulate(m, patent_plan(m), [], np.zeros(0), rng=np.random.default_rng(0))
     with pytest.raises(DataError, match="noise_um must be a positive number"):
         fit(m, obs, noise_um=-1.0)
+
+
+def test_loaded_fit_is_the_same_result_type_with_the_same_numbers(tmp_path):
+    m = load_machine(path("five_axis_bc"))
+    rng = np.random.default_rng(11)
+    effects, theta = errors_from_mapping({"EX0C": 15.0, "EA0B": -30.0}, m)
+    obs = simulate(m, patent_plan(m), effects, theta, noise_um=0.5, rng=rng)
+    result = fit(m, obs, noise_um=0.5)
+    save_fit(result, tmp_path / "fit.json")
+    loaded = load_fit(tmp_path / "fit.json")
+    assert type(loaded) is type(result)
+    assert loaded.residuals_um is None and loaded.n_observations == len(obs)
+    for name in ("param_names", "units", "rank", "dof", "iterations", "success", "message", "noise"):
+        assert getattr(loaded, name) == getattr(result, name), name
+    for name in ("values", "std", "singular_values"):
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(result, name))
+    assert loaded.aliases == result.aliases
+    assert loaded.noise_um == 0.5 and loaded.noise_source == "given"
+
+
+def test_sigma_keeps_its_source_through_selection_into_the_saved_fit(tmp_path):
+    from kinid.identification.diagnose import forward_select
+    from kinid.identification.noise import Noise
+
+    m = load_machine(path("five_axis_bc"))
+    effects, theta = errors_from_mapping({"EX0C": 15.0, "EXX:periodic:10": [2.5, 0.0]}, m)
+    obs = simulate(m, patent_plan(m), effects, theta, noise_um=1.0, rng=np.random.default_rng(5))
+    steps = forward_select(m, obs, default_model(m), noise_um=1.0, max_steps=2)
+    assert len(steps) >= 2
+    assert all(s.fit.noise == Noise(1.0, "given") and s.diagnosis.noise == Noise(1.0, "given") for s in steps)
+    save_fit(steps[-1].fit, tmp_path / "fit.json")
+    assert load_fit(tmp_path / "fit.json").noise == Noise(1.0, "given")

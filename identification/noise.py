@@ -1,0 +1,57 @@
+"""σ, the noise of one residual coordinate: its value and where it came from.
+
+One value travels from the data through the fit, the diagnosis, forward
+selection and the saved FIT.json, always with its source:
+
+- ``given`` — by the user (``noise_um=``, ``--noise-um``);
+- ``replicates`` — pooled from alignments repeated at the same pose;
+- ``fit`` — the σ a saved fit carried (itself given or from replicates);
+- ``residuals`` — estimated from the residuals of the fit (then σ cannot test
+  the fit: the diagnosis uses F tests instead of χ² tests).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from kinid.errors import DataError
+
+__all__ = ["Noise", "SOURCES", "resolve_noise"]
+
+SOURCES = ("given", "replicates", "fit", "residuals")
+
+
+@dataclass(frozen=True)
+class Noise:
+    """σ of one residual coordinate (µm) and its source (one of :data:`SOURCES`)."""
+
+    value_um: float
+    source: str
+
+    def __post_init__(self):
+        if self.source not in SOURCES:
+            raise DataError(f"must be one of {', '.join(SOURCES)}, got {self.source!r}", parameter="noise source")
+        if self.source != "residuals" and not (math.isfinite(self.value_um) and self.value_um > 0):
+            raise DataError(f"must be a positive number, got {self.value_um!r}", parameter="noise_um")
+
+    @property
+    def known(self) -> bool:
+        """True unless σ was estimated from the residuals it is meant to judge."""
+        return self.source != "residuals"
+
+    def __str__(self) -> str:
+        return f"{self.value_um:.3f} µm ({self.source})"
+
+
+def resolve_noise(*, given_um=None, replicates_um=None, carried: Noise | None = None, residual_um=None) -> Noise:
+    """The σ to use, by precedence: given, replicates, a known σ carried by an earlier fit, residuals.
+
+    ``carried`` from the residuals is not used: a new fit re-estimates it.
+    """
+    if given_um is not None:
+        return Noise(float(given_um), "given")
+    if replicates_um is not None and replicates_um > 0:
+        return Noise(float(replicates_um), "replicates")
+    if carried is not None and carried.known:
+        return carried
+    return Noise(float("nan") if residual_um is None else float(residual_um), "residuals")
