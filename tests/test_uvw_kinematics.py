@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from kinid.errors import StageError
+from kinid.errors import DataError, StageError
 from kinid.stages.uvw import Pose, Strokes, UVWGeometry, decompose_move, forward_kinematics, inverse_kinematics
 
 GEOMETRIES = [UVWGeometry(a_mm=50.0, b_mm=50.0),
@@ -61,9 +61,9 @@ def test_unreachable_strokes_and_bad_geometry():
     g = UVWGeometry(a_mm=1.0, b_mm=1.0)
     with pytest.raises(StageError, match="differ by 3000 µm, more than the pivot distance"):
         forward_kinematics(g, Strokes(-1500.0, 1500.0, 0.0))
-    with pytest.raises(StageError, match="a_mm must be positive"):
+    with pytest.raises(DataError, match="a_mm must be positive"):
         UVWGeometry(a_mm=0.0, b_mm=50.0)
-    with pytest.raises(StageError, match="b_mm must be non-zero"):
+    with pytest.raises(DataError, match="b_mm must be non-zero"):
         UVWGeometry(a_mm=50.0, b_mm=0.0)
-    with pytest.raises(StageError, match="x1_offset_mm must be a finite number"):
+    with pytest.raises(DataError, match="x1_offset_mm must be a finite number"):
         UVWGeometry(x1_offset_mm=float("nan"))

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from kinid.errors import StageError
+from kinid.errors import DataError, StageError
 from kinid.stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, UVWGeometry, alignment_targets, calibrate,
                         calibrate_patent, default_truth, fit_actuator_model, phase_residuals, run_moves,
                         run_stage_moves)
@@ -141,9 +141,9 @@ def test_phase_residuals_show_the_periodic_error():
 @pytest.mark.parametrize("lead", [0.0, -1.0, float("inf"), None])
 def test_non_positive_lead(lead):
     stage = SimulatedUVWStage(noise_um=0.0)
-    with pytest.raises(StageError, match="lead_um must be a positive number"):
+    with pytest.raises(DataError, match="lead_um must be a positive number"):
         calibrate(stage.move, lead_um=lead)
-    with pytest.raises(StageError, match="lead_um must be a positive number"):
+    with pytest.raises(DataError, match="lead_um must be a positive number"):
         fit_actuator_model([0.0, 1.0], [1, -1], [0.0, 1.0], lead)
 
 
@@ -166,10 +166,10 @@ def test_plan_that_cannot_separate_parameters():
     c = np.linspace(-4000, 4000, 40)
     with pytest.raises(StageError, match="cannot separate the model parameters"):
         fit_actuator_model(c, np.ones_like(c), c, 2000.0)          # one approach direction only
-    with pytest.raises(StageError, match="directions must be"):
+    with pytest.raises(DataError, match="directions must be"):
         fit_actuator_model(c, np.zeros_like(c), c, 2000.0)
     stage = SimulatedUVWStage(noise_um=0.0)
-    with pytest.raises(StageError, match="shorter than one lead"):
+    with pytest.raises(DataError, match="shorter than one lead"):
         calibrate(stage.move, lead_um=2000.0, span_um=(0.0, 1000.0))
 
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from kinid.errors import StageError
+from kinid.errors import DataError, StageError
 from kinid.stages.uvw import (ActuatorTruth, PatentCompensator, PatentStatistics, SimulatedUVWStage, calibrate_patent,
                         measure_patent, patent_compensation_um, patent_statistics, patent_strokes)
 
@@ -80,9 +80,9 @@ def test_patent_slope_is_blind_to_cosine_but_hit_by_sine_lead_error():
 @pytest.mark.parametrize("lead", [0.0, -2000.0, float("nan"), "abc"])
 def test_non_positive_lead_is_a_clear_error(lead):
     stage = SimulatedUVWStage(noise_um=0.0)
-    with pytest.raises(StageError, match="lead_um must be a positive number"):
+    with pytest.raises(DataError, match="lead_um must be a positive number"):
         calibrate_patent(stage.move, lead)
-    with pytest.raises(StageError, match="lead_um must be a positive number"):
+    with pytest.raises(DataError, match="lead_um must be a positive number"):
         patent_strokes(lead)
 
 
@@ -90,7 +90,7 @@ def test_bad_inputs():
     stage = SimulatedUVWStage(noise_um=0.0)
     with pytest.raises(StageError, match="unknown actuator 'Z'"):
         measure_patent(stage.move, "Z", 2000.0)
-    with pytest.raises(StageError, match="repeats must be a positive integer"):
+    with pytest.raises(DataError, match="repeats must be an integer >= 1"):
         measure_patent(stage.move, "X1", 2000.0, repeats=0)
     with pytest.raises(StageError, match="no measurement at stroke"):
         patent_statistics([1000.0], [1.0], 500.0, 1500.0)

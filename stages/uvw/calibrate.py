@@ -13,7 +13,8 @@ import warnings
 
 import numpy as np
 
-from kinid.errors import StageError
+from kinid.checks import check_int, check_positive
+from kinid.errors import DataError, StageError
 from kinid.progress import Progress
 
 from .compensator import DirectionTrackingCompensator
@@ -28,9 +29,9 @@ def _check_span(span_um, lead):
     half = max(1.5 * lead, 2000.0)
     lo, hi = (-half, half) if span_um is None else (float(span_um[0]), float(span_um[1]))
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-        raise StageError(f"span_um must be (low, high) with high > low, µm, got {span_um!r}")
+        raise DataError(f"span_um must be (low, high) with high > low, µm, got {span_um!r}")
     if hi - lo < lead:
-        raise StageError(f"span_um {lo:g}..{hi:g} µm is shorter than one lead ({lead:g} µm); "
+        raise DataError(f"span_um {lo:g}..{hi:g} µm is shorter than one lead ({lead:g} µm); "
                          "the periodic lead error cannot be separated")
     return lo, hi
 
@@ -54,9 +55,7 @@ def plan_positions(lead_um: float, span_um=None, points: int = 37):
     """
     lead = check_lead(lead_um)
     lo, hi = _check_span(span_um, lead)
-    if not (isinstance(points, (int, np.integer)) and points >= 8):
-        raise StageError(f"points must be an integer >= 8, got {points!r}")
-    n = int(points)
+    n = check_int("points", points, minimum=8)
     # Positions must fall on many phases of the lead; add points until they do (no aliasing).
     for _ in range(64):
         positions = np.linspace(lo, hi, n)
@@ -94,10 +93,8 @@ def measure_plan(move, actuator: str, positions_um, *, repeats: int = 3, overrun
     """
     check_actuator(actuator)
     p = np.sort(np.asarray(positions_um, dtype=float))
-    if not (isinstance(repeats, (int, np.integer)) and repeats >= 1):
-        raise StageError(f"repeats must be a positive integer, got {repeats!r}")
-    if not overrun_um > 0:
-        raise StageError(f"overrun_um must be positive, got {overrun_um!r}")
+    repeats = check_int("repeats", repeats, minimum=1)
+    overrun_um = check_positive("overrun_um", overrun_um)
     cmds, dirs, meas = [], [], []
     for _ in range(repeats):
         for direction, seq in ((1, p), (-1, p[::-1])):

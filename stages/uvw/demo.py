@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from kinid.errors import StageError
+from kinid.checks import check_int
+from kinid.errors import DataError, StageError
 
 from .calibrate import alignment_targets, calibrate, run_moves, run_stage_moves
 from .kinematics import ACTUATORS, Pose, UVWGeometry, check_lead
@@ -63,8 +64,7 @@ def run_demo(*, seed: int = 0, noise_um: float = 0.1, lead_um: float = 2000.0, r
         arrays under ``_arrays`` (not JSON; dropped by the CLI).
     """
     lead = check_lead(lead_um)
-    if not (isinstance(moves, int) and moves >= 1):
-        raise StageError(f"--moves must be a positive integer, got {moves!r}")
+    moves = check_int("moves", moves, minimum=1)
     geometry = UVWGeometry() if geometry is None else geometry
     rng = np.random.default_rng(seed)
     truth = default_truth(lead)

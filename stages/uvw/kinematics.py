@@ -23,7 +23,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from kinid.errors import StageError
+from kinid.checks import check_positive
+from kinid.errors import DataError, StageError
 
 __all__ = ["ACTUATORS", "UVWGeometry", "Pose", "Strokes", "inverse_kinematics", "forward_kinematics",
            "decompose_move", "check_actuator", "check_lead"]
@@ -40,14 +41,8 @@ def check_actuator(actuator) -> str:
 
 
 def check_lead(lead_um) -> float:
-    """Return the screw lead as a float if it is a finite positive number (µm), else raise :class:`StageError`."""
-    try:
-        lead = float(lead_um)
-    except (TypeError, ValueError):
-        lead = float("nan")
-    if not (math.isfinite(lead) and lead > 0):
-        raise StageError(f"lead_um must be a positive number (screw lead, µm), got {lead_um!r}")
-    return lead
+    """Return the screw lead as a float if it is a finite positive number (µm), else raise :class:`DataError`."""
+    return check_positive("lead_um", lead_um)
 
 
 @dataclass(frozen=True)
@@ -77,11 +72,11 @@ class UVWGeometry:
         for name in ("a_mm", "b_mm", "x1_offset_mm", "x2_offset_mm", "y_offset_mm"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise StageError(f"UVWGeometry.{name} must be a finite number, got {value!r}")
+                raise DataError(f"UVWGeometry.{name} must be a finite number, got {value!r}")
         if self.a_mm <= 0:
-            raise StageError(f"UVWGeometry.a_mm must be positive (X pivots at y = ±a), got {self.a_mm!r}")
+            raise DataError(f"UVWGeometry.a_mm must be positive (X pivots at y = ±a), got {self.a_mm!r}")
         if self.b_mm == 0:
-            raise StageError("UVWGeometry.b_mm must be non-zero (Y pivot off the centre along X), got 0")
+            raise DataError("UVWGeometry.b_mm must be non-zero (Y pivot off the centre along X), got 0")
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinid.errors import StageError
+from kinid.checks import check_int
+from kinid.errors import DataError, StageError
 
 from .kinematics import check_lead
 
@@ -187,20 +188,18 @@ def fit_actuator_model(commands_um, directions, measured_um, lead_um: float, *, 
         cannot separate the parameters (e.g. one approach direction only).
     """
     lead = check_lead(lead_um)
-    if not (isinstance(harmonics, (int, np.integer)) and harmonics >= 0):
-        raise StageError(f"harmonics must be an integer >= 0, got {harmonics!r}")
-    if not (isinstance(degree, (int, np.integer)) and degree >= 1):
-        raise StageError(f"degree must be an integer >= 1, got {degree!r}")
+    harmonics = check_int("harmonics", harmonics, minimum=0)
+    degree = check_int("degree", degree, minimum=1)
     c = np.asarray(commands_um, dtype=float)
     d = np.asarray(directions, dtype=float)
     y = np.asarray(measured_um, dtype=float)
     if not (c.ndim == 1 and c.shape == d.shape == y.shape):
-        raise StageError(f"commands_um, directions and measured_um must be 1-D of one length, "
+        raise DataError(f"commands_um, directions and measured_um must be 1-D of one length, "
                          f"got {c.shape}, {d.shape}, {y.shape}")
     if not np.all(np.isin(d, (-1.0, 1.0))):
-        raise StageError("directions must be +1 or -1")
+        raise DataError("directions must be +1 or -1")
     if not (np.all(np.isfinite(c)) and np.all(np.isfinite(y))):
-        raise StageError("commands_um and measured_um must be finite")
+        raise DataError("commands_um and measured_um must be finite")
     names = parameter_names(harmonics, degree)
     A = _design(c, d, lead, harmonics, degree)
     if A.shape[0] <= A.shape[1]:
@@ -248,10 +247,8 @@ def select_actuator_model(commands_um, directions, measured_um, lead_um: float, 
     ActuatorModel
         The chosen model; ``candidates`` lists all fits compared.
     """
-    if not (isinstance(max_harmonics, (int, np.integer)) and max_harmonics >= 1):
-        raise StageError(f"max_harmonics must be an integer >= 1, got {max_harmonics!r}")
-    if not (isinstance(max_degree, (int, np.integer)) and max_degree >= 1):
-        raise StageError(f"max_degree must be an integer >= 1, got {max_degree!r}")
+    max_harmonics = check_int("max_harmonics", max_harmonics, minimum=1)
+    max_degree = check_int("max_degree", max_degree, minimum=1)
     n = np.asarray(commands_um).size
     best, best_bic, table = None, math.inf, []
     degrees = range(1, max_degree + 1) if degree is None else (degree,)

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinid.errors import StageError
+from kinid.checks import check_int, check_positive
+from kinid.errors import DataError, StageError
 
 from .compensator import DirectionTrackingCompensator
 from .kinematics import ACTUATORS, check_actuator, check_lead
@@ -163,10 +164,8 @@ def measure_patent(move, actuator: str, lead_um: float, *, repeats: int = 18, ov
     """
     check_actuator(actuator)
     strokes = patent_strokes(lead_um)
-    if not (isinstance(repeats, (int, np.integer)) and repeats >= 1):
-        raise StageError(f"repeats must be a positive integer (the patent uses 10 to 30), got {repeats!r}")
-    if not overrun_um > 0:
-        raise StageError(f"overrun_um must be positive, got {overrun_um!r}")
+    repeats = check_int("repeats", repeats, minimum=1)
+    overrun_um = check_positive("overrun_um", overrun_um)
     s_out, e_out = [], []
     for _ in range(repeats):
         for s in strokes:
