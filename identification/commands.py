@@ -54,7 +54,7 @@ def register(sub) -> None:
     p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect")
     p.add_argument("--out", default=None, help="report folder (default: a fresh kinid-demo-<time> folder)")
     p.add_argument("--seed", type=int, default=7)
-    p.set_defaults(run=_demo)
+    p.set_defaults(run=_demo, outputs={"out": "folder"})
 
 
 def _positive(value, name):

@@ -12,7 +12,6 @@ Units: parameters in the effects' units (µm, µrad, µm/mm ...), residuals µm.
 from __future__ import annotations
 
 import functools
-import json
 from dataclasses import dataclass, field, replace
 
 import casadi as ca
@@ -20,7 +19,7 @@ import numpy as np
 
 from kinid.checks import check_positive
 from kinid.errors import DataError, KinidError
-from kinid.files import write_text
+from kinid.files import read_json, write_json
 from kinid.threads import blas_single_threaded
 
 from .effects import Effect, default_model, parse_effect
@@ -293,35 +292,49 @@ def fit(
     )
 
 
+def _finite(x):
+    """A float for JSON, or None where it is not finite (JSON has no NaN or infinity)."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
 def fit_to_dict(result: FitResult) -> dict:
+    """The FIT.json object of ``result`` (docs/formats.md); every number finite or null."""
     params = []
     for n, v, s, u, ok in zip(result.param_names, result.values, result.std, result.units, result.identifiable):
-        params.append({"name": n, "value": float(v) if ok else None, "std": float(s) if ok else None, "unit": u, "identified": bool(ok)})
+        params.append({"name": n, "value": _finite(v) if ok else None, "std": _finite(s) if ok else None, "unit": u,
+                       "identified": bool(ok)})
     return {
         "format": FIT_FORMAT,
         "machine": {"path": result.machine.path, "urdf": result.machine.urdf},
         "effects": list(result.effect_names),
         "parameters": params,
-        "unidentifiable": [{"name": a.name, "kind": a.kind, "partners": [list(p) for p in a.partners], "message": a.message} for a in result.aliases],
+        "unidentifiable": [{"name": a.name, "kind": a.kind, "partners": [[p, _finite(c)] for p, c in a.partners],
+                            "message": a.message} for a in result.aliases],
         "rank": result.rank,
-        "condition_number": result.condition_number,
-        "o1": result.o1,
-        "o3": result.o3,
-        "rms_um": result.rms_um,
-        "noise_um": result.noise_um,
+        "condition_number": _finite(result.condition_number),
+        "o1": _finite(result.o1),
+        "o3": _finite(result.o3),
+        "rms_um": _finite(result.rms_um),
+        "noise_um": _finite(result.noise_um),
         "noise_source": result.noise_source,
         "dof": result.dof,
         "n_observations": result.n_observations,
         "iterations": result.iterations,
         "success": result.success,
         "message": result.message,
-        "singular_values": [float(v) for v in result.singular_values],
+        "singular_values": [_finite(v) for v in result.singular_values],
     }
 
 
 def save_fit(result: FitResult, path) -> None:
     """Write a fit as JSON (whole or not at all); it embeds the machine's URDF."""
-    write_text(path, json.dumps(fit_to_dict(result), indent=1, ensure_ascii=False) + "\n")
+    write_json(path, fit_to_dict(result))
+
+
+def _number(data: dict, key: str) -> float:
+    v = data.get(key)
+    return float("nan") if v is None else float(v)
 
 
 def load_fit(path) -> FitResult:
@@ -335,14 +348,7 @@ def load_fit(path) -> FitResult:
     from pathlib import Path
 
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataError("fit file not found", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f"cannot read ({exc})", path=path) from None
-    except json.JSONDecodeError as exc:
-        raise DataError(f"not JSON ({exc.msg})", path=path, line=exc.lineno) from None
+    data = read_json(path, what="fit file")
     if not isinstance(data, dict) or data.get("format") != FIT_FORMAT:
         raise DataError(f"not a kinid fit (expected \"format\": \"{FIT_FORMAT}\")", path=path)
     try:
@@ -356,16 +362,16 @@ def load_fit(path) -> FitResult:
         units = tuple(str(p["unit"]) for p in params)
         aliases = tuple(Alias(str(a["name"]), str(a["kind"]), tuple((str(n), float(c)) for n, c in a.get("partners", ())),
                               str(a.get("message", ""))) for a in data.get("unidentifiable", ()))
-        noise = Noise(float(data["noise_um"]), str(data.get("noise_source", "given")))
+        noise = Noise(_number(data, "noise_um"), str(data.get("noise_source", "given")))
         result = FitResult(
             machine=machine, effects=effects, param_names=names, units=units, values=values, std=std, identifiable=ok,
             aliases=aliases, rank=int(data.get("rank", int(ok.sum()))),
-            condition_number=float(data.get("condition_number", np.nan)), o1=float(data.get("o1", np.nan)),
-            o3=float(data.get("o3", np.nan)), residuals_um=None, n_observations=int(data.get("n_observations", 0)),
-            rms_um=float(data.get("rms_um", np.nan)), noise=noise, dof=int(data.get("dof", 0)),
+            condition_number=_number(data, "condition_number"), o1=_number(data, "o1"), o3=_number(data, "o3"),
+            residuals_um=None, n_observations=int(data.get("n_observations", 0)),
+            rms_um=_number(data, "rms_um"), noise=noise, dof=int(data.get("dof", 0)),
             iterations=int(data.get("iterations", 0)), success=bool(data.get("success", True)),
             message=str(data.get("message", "")),
-            singular_values=np.array([float(v) for v in data.get("singular_values", ())]))
+            singular_values=np.array([np.nan if v is None else float(v) for v in data.get("singular_values", ())]))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

@@ -9,7 +9,6 @@ every combination of 7 tilt angles and 12 table angles — 336 alignments.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,6 +17,7 @@ import numpy as np
 from .alignment import solve_axes
 from .effects import parse_effect
 from kinid.errors import DataError
+from kinid.files import read_json
 from .machine import Machine
 from .observations import Observations, read_observations
 
@@ -92,12 +92,7 @@ def load_errors(path, machine: Machine):
     ``{"EX0C": 12.0, "EA0B": -25.0, "EXX:periodic:10": [1.5, -0.8], "EXX:poly2": [0.01, 2e-5]}``
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataError("error-set file not found", path=path) from None
-    except json.JSONDecodeError as exc:
-        raise DataError(f"not JSON ({exc.msg})", path=path, line=exc.lineno) from None
+    data = read_json(path, what="error-set file")
     if not isinstance(data, dict):
         raise DataError("an error set is a JSON object: effect name -> value or list of values", path=path)
     return errors_from_mapping(data, machine, source=str(path))

@@ -96,6 +96,35 @@ def _option_for(parser: argparse.ArgumentParser, args, verb: str | None, paramet
     return None
 
 
+#: Options that name what a verb writes, and whether each is a file or a folder. A verb whose
+#: options differ declares ``outputs={dest: kind}`` in its parser's defaults.
+DEFAULT_OUTPUTS = {"out": "file", "plot": "file", "draw": "file", "report": "folder"}
+
+
+def _check_files(parser, args, verb) -> None:
+    """Before a verb runs: no output may overwrite an input or another output, or be a device or folder."""
+    import os
+
+    from .files import check_outputs
+
+    outputs = getattr(args, "outputs", None) or DEFAULT_OUTPUTS
+    skip = {"run", "outputs", "parameter_options", "verb"}
+
+    def option(dest):
+        return _option_for(parser, args, verb, dest) or dest
+
+    outs = [(option(dest), getattr(args, dest), kind) for dest, kind in outputs.items()
+            if isinstance(getattr(args, dest, None), str)]
+    ins = []
+    for dest, value in vars(args).items():
+        if dest in outputs or dest in skip:
+            continue
+        for v in value if isinstance(value, list) else [value]:
+            if isinstance(v, str) and v and v != "-" and os.path.exists(v):
+                ins.append((option(dest), v))
+    check_outputs(outs, ins)
+
+
 def _chosen_verb(argv) -> str | None:
     for arg in argv:
         if not arg.startswith("-"):
@@ -116,7 +145,15 @@ def main(argv=None) -> int:
         verb = _chosen_verb(argv)
         parser = build_parser(verb)
         args = parser.parse_args(argv)
-        status = args.run(args)
+        _check_files(parser, args, verb)
+        if "-" in (getattr(args, dest, None) for dest in (getattr(args, "outputs", None) or DEFAULT_OUTPUTS)):
+            # the data go to standard output: the verb's messages go to standard error
+            import contextlib
+
+            with contextlib.redirect_stdout(sys.stderr):
+                status = args.run(args)
+        else:
+            status = args.run(args)
     except KinidError as exc:
         if exc.parameter is not None and parser is not None:
             option = _option_for(parser, args, verb, exc.parameter)

@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write", "write_text", "read_image", "image_size", "MAX_IMAGE_PIXELS"]
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "check_output_target", "check_outputs", "read_image",
+           "image_size", "MAX_IMAGE_PIXELS"]
 
 
 @contextlib.contextmanager
@@ -14,20 +16,29 @@ def atomic_write(path, mode: str = "w", **kwargs):
     """Open a temporary file beside ``path``; on success rename it onto ``path``.
 
     If the body raises, the temporary file is removed and ``path`` is left as
-    it was (absent or with its old content).
+    it was (absent or with its old content). ``path`` must be a regular file
+    or not exist yet: a folder, a device or a FIFO is refused, never replaced.
 
     Examples
     --------
     >>> with atomic_write("fit.json") as f:   # doctest: +SKIP
     ...     f.write("{}")
     """
+    from .errors import DataError
+
+    if str(path) == "-":
+        raise DataError("this output cannot go to standard output ('-'); give a file name")
     path = Path(path)
+    if not str(path) or str(path) == ".":
+        raise DataError("the output path is empty", path=path)
+    check_output_target(path)
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
-        from .errors import DataError
-
         raise DataError(f"output folder {str(directory)!r} does not exist", path=path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    except OSError as exc:
+        raise DataError(f"cannot write in folder {str(directory)!r} ({exc.strerror or exc})", path=path) from None
     try:
         # mkstemp makes the file private (0600); give it the mode open() would: the existing
         # file's, else 0666 less the umask
@@ -42,7 +53,10 @@ def atomic_write(path, mode: str = "w", **kwargs):
             yield f
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise DataError(f"cannot write the file ({exc.strerror or exc})", path=path) from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
@@ -50,9 +64,178 @@ def atomic_write(path, mode: str = "w", **kwargs):
 
 
 def write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    """Write ``text`` to ``path`` atomically (UTF-8); ``"-"`` writes it to standard output."""
+    if str(path) == "-":
+        import sys
+
+        stream = sys.__stdout__ if sys.__stdout__ is not None else sys.stdout  # the real one, even when the
+        stream.write(text)                                                      # command line sends its messages
+        stream.flush()                                                          # to stderr meanwhile
+        return
     with atomic_write(path, "w", encoding="utf-8", newline="") as f:
         f.write(text)
+
+
+def write_json(path, data, *, indent: int | None = 1) -> None:
+    """Write ``data`` as JSON (whole or not at all); a NaN or infinity anywhere is an error, never written.
+
+    Raises
+    ------
+    DataError
+        Naming the file, if ``data`` holds a number JSON cannot represent.
+    """
+    import json
+
+    from .errors import DataError
+
+    try:
+        text = json.dumps(data, indent=indent, ensure_ascii=False, allow_nan=False)
+    except ValueError as exc:
+        raise DataError(f"refusing to write a non-finite number into JSON ({exc})", path=path) from None
+    write_text(path, text + "\n")
+
+
+#: Limits on JSON files kinid reads (fit, error set, board, camera files).
+MAX_JSON_BYTES = 64 * 1024 * 1024
+MAX_JSON_DEPTH = 32
+
+
+def read_json(path, *, what: str = "JSON file", max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH):
+    """Read a JSON file with limits on its size and nesting; every problem a DataError naming the file.
+
+    Parameters
+    ----------
+    what : str
+        What the file is, for messages ("fit file", "board file").
+    """
+    import json
+
+    from .errors import DataError
+
+    p = Path(path)
+    if p.is_dir():
+        raise DataError(f"is a folder, not a {what}", path=path)
+    try:
+        with open(p, "rb") as f:
+            raw = f.read(max_bytes + 1)
+    except FileNotFoundError:
+        raise DataError(f"cannot read {what}: no such file", path=path) from None
+    except OSError as exc:
+        raise DataError(f"cannot read {what}: {exc.strerror or exc}", path=path) from None
+    if len(raw) > max_bytes:
+        raise DataError(f"{what} is larger than {max_bytes:,} bytes", path=path)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise DataError(f"{what} is not UTF-8 text (byte {exc.start})", path=path, line=line) from None
+    depth, deepest, in_string, escaped = 0, 0, False, False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            if depth > max_depth:
+                raise DataError(f"{what} nests deeper than {max_depth} levels", path=path)
+        elif ch in "]}":
+            depth -= 1
+    try:
+        return json.loads(text, parse_constant=lambda c: _reject_constant(c, path, what))
+    except json.JSONDecodeError as exc:
+        raise DataError(f"not valid JSON: {exc.msg} (column {exc.colno})", path=path, line=exc.lineno) from None
+
+
+def _reject_constant(name, path, what):
+    from .errors import DataError
+
+    raise DataError(f"{what} holds {name}, which is not a JSON number", path=path)
+
+
+def check_output_target(path) -> None:
+    """Refuse an output path that exists and is not a regular file (a folder, a device, a FIFO, a socket)."""
+    import stat
+
+    from .errors import DataError
+
+    try:
+        st = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    except OSError as exc:
+        raise DataError(f"cannot use as output ({exc.strerror or exc})", path=path) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise DataError("is a folder; give a file name to write", path=path)
+    if not stat.S_ISREG(st.st_mode):
+        raise DataError("exists and is not a regular file (a device, FIFO or socket); kinid writes only regular "
+                        "files", path=path)
+
+
+def check_outputs(outputs, inputs) -> None:
+    """Refuse outputs that would overwrite an input, whatever the spelling or link, or each other.
+
+    Parameters
+    ----------
+    outputs : iterable of (option, path, kind)
+        ``kind`` is ``"file"`` or ``"folder"`` (a report folder: every file in it is an output).
+    inputs : iterable of (option, path)
+        Existing files or folders the command reads.
+
+    Raises
+    ------
+    DataError
+        Naming the output and the input it would overwrite.
+    """
+    from .errors import DataError
+
+    inputs = [(opt, Path(p)) for opt, p in inputs if p and str(p) != "-" and os.path.exists(p)]
+    seen = []
+    for opt, path, kind in outputs:
+        if path is None or str(path) == "-":
+            continue
+        if not str(path).strip():
+            raise DataError(f"{opt} is empty; give a path to write")
+        path = Path(path)
+        if kind == "file":
+            check_output_target(path)
+            for in_opt, src in inputs:
+                if path.exists() and src.is_file() and os.path.samefile(path, src):
+                    raise DataError(f"{opt} names the input file given as {in_opt}; kinid never overwrites an input: "
+                                    f"choose another {opt}", path=path)
+        else:
+            if path.exists() and not path.is_dir():
+                raise DataError(f"{opt} must be a folder, and this is a file", path=path)
+            for in_opt, src in inputs:
+                if src.is_dir() and _inside(path, src) and os.path.realpath(path) == os.path.realpath(src):
+                    raise DataError(f"{opt} is the input folder given as {in_opt}; choose another {opt} folder",
+                                    path=path)
+                if src.is_file() and _inside(src, path) and any(fnmatch.fnmatch(src.name, p) for p in REPORT_FILES):
+                    raise DataError(f"the {opt} folder holds the input given as {in_opt} ({src.name}), a name a "
+                                    f"report may write; kinid never writes over its inputs: choose another {opt} "
+                                    f"folder", path=path)
+        for other_opt, other in seen:
+            if os.path.realpath(other) == os.path.realpath(path):
+                raise DataError(f"{opt} and {other_opt} name the same path; give each its own", path=path)
+        seen.append((opt, path))
+
+
+#: Names a report folder may hold (``--report DIR``, ``kinid demo --out DIR``).
+REPORT_FILES = ("*.html", "*.png", "*.svg", "*.csv")
+
+
+def _inside(src: Path, folder: Path) -> bool:
+    """True if ``src`` is ``folder`` or lies inside it (through any spelling or link)."""
+    try:
+        real_src, real_folder = os.path.realpath(src), os.path.realpath(folder)
+    except OSError:  # pragma: no cover
+        return False
+    return real_src == real_folder or real_src.startswith(real_folder.rstrip(os.sep) + os.sep)
 
 
 #: Largest image kinid decodes, pixels (width × height). A 2048² frame is 4.2 Mpx; a decompression

@@ -142,7 +142,7 @@ def test_bad_effect_and_arguments_exit_2(tmp_path, capsys, workdir):
 def test_bad_fit_file_and_errors_file(tmp_path, capsys, workdir):
     (tmp_path / "f.json").write_text("{not json")
     assert main(["predict", "--fit", str(tmp_path / "f.json"), "--poses", str(workdir / "obs.csv"), "--out", str(tmp_path / "p.csv")]) == 2
-    assert "f.json:1: not JSON" in _err_line(capsys)
+    assert "f.json:1: not valid JSON" in _err_line(capsys)
     (tmp_path / "e.json").write_text(json.dumps({"EXX:periodic:10": [1.0]}))
     assert main(["simulate", "--machine", BC, "--errors", str(tmp_path / "e.json"), "--out", str(tmp_path / "o.csv")]) == 2
     assert "needs 2 finite number(s)" in _err_line(capsys)

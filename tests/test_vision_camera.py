@@ -178,7 +178,7 @@ def test_rms_unknown_saves_as_null(tmp_path, truth):
 @pytest.mark.parametrize(
     "content, match",
     [
-        ("{not json", "invalid JSON"),
+        ("{not json", "not valid JSON"),
         ('{"dist_coeffs": [0,0,0,0,0], "image_size": [640, 480]}', "missing key 'camera_matrix'"),
         ('{"camera_matrix": [[1,0,0],[0,1,0],[0,0,1]], "dist_coeffs": [0,0,0,0,0], "image_size": [640]}',
          "image_size must be"),

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.errors import DataError
+from kinid.files import read_json
 
 __all__ = ["Board", "BoardMatch", "make_board", "load_board", "save_board", "match_to_board", "board_codes"]
 
@@ -158,15 +159,7 @@ def load_board(path) -> Board:
         Naming the file and the key when the file is missing, not JSON, lacks
         a key or holds a bad value.
     """
-    try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-    except OSError as exc:
-        raise DataError(f"cannot read board file: {exc.strerror or exc}", path=path) from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise DataError(f"not valid JSON: {exc.msg} (column {exc.colno})", path=path, line=exc.lineno) from None
+    data = read_json(path, what="board file")
     if not isinstance(data, dict):
         raise DataError(f"expected a JSON object with keys {', '.join(_KEYS)}, got {type(data).__name__}", path=path)
     missing = [k for k in _KEYS if k not in data]

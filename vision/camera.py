@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from kinid.files import write_text
+from kinid.files import read_json, write_text
 from kinid.errors import DataError, ImageError
 
 __all__ = [
@@ -408,14 +408,7 @@ def load_camera(path):
         message names the key).
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"cannot read camera file: {exc.strerror}", path=path) from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise DataError(f"invalid JSON: {exc.msg}", path=path, line=exc.lineno) from None
+    data = read_json(path, what="camera file")
     if not isinstance(data, dict):
         raise DataError("expected a JSON object with camera_matrix, dist_coeffs, image_size", path=path)
     for key in ("camera_matrix", "dist_coeffs", "image_size"):
