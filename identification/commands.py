@@ -21,6 +21,8 @@ def register(sub) -> None:
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
     p.add_argument("--report", default=None, metavar="DIR", help="write the report (plots, residuals.csv, HTML) to DIR; with --auto, of every step")
     p.add_argument("--out", required=True, help="fit JSON to write")
+    p.add_argument("--allow-outside-limits", action="store_true",
+                   help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_identify)
 
     p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark")
@@ -28,6 +30,8 @@ def register(sub) -> None:
     p.add_argument("--poses", required=True, help="CSV with the observation columns without the solved axes")
     p.add_argument("--out", required=True)
     p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
+    p.add_argument("--allow-outside-limits", action="store_true",
+                   help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_predict)
 
     p = sub.add_parser("simulate", help="alignment readings of a machine with a known error set")
@@ -49,6 +53,8 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
     p.add_argument("--report", default=None, metavar="DIR", help="write plots and an HTML report to DIR")
     p.add_argument("--top", type=int, default=10, help="candidates to show in the readable report")
+    p.add_argument("--allow-outside-limits", action="store_true",
+                   help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_diagnose)
 
     p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect")
@@ -72,6 +78,25 @@ def _axes_list(text, machine):
     return names
 
 
+def _without_duplicates(obs):
+    """``obs`` with rows that repeat an earlier row exactly left out, and a warning naming them.
+
+    An exact copy (every reading equal) is the same measurement written twice; counted as
+    more data it would make σ look smaller and the tests stricter than the data allow.
+    """
+    from .observations import exact_duplicates
+
+    dup = exact_duplicates(obs)
+    if not dup:
+        return obs
+    lines = obs.lines or tuple(range(1, len(obs) + 1))
+    shown = ", ".join(f"line {lines[i]} = line {lines[j]}" for i, j in dup[:5]) + (" ..." if len(dup) > 5 else "")
+    print(f"warning: {obs.source}: {len(dup)} row(s) repeat an earlier row exactly ({shown}); "
+          "each measurement is used once", file=sys.stderr)
+    copies = {i for i, _ in dup}
+    return obs.subset(np.array([i for i in range(len(obs)) if i not in copies]))
+
+
 def _identify(args) -> int:
     from .fit import fit, model_effects, save_fit
     from .machine import load_machine
@@ -79,7 +104,7 @@ def _identify(args) -> int:
 
     _positive(args.noise_um, "--noise-um")
     machine = load_machine(args.machine)
-    obs = read_observations(args.data, machine)
+    obs = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits))
     effects = model_effects(machine, args.add)
     if args.auto:
         from .diagnose import forward_select
@@ -111,7 +136,7 @@ def _predict(args) -> int:
     machine = loaded.machine
     solve = _axes_list(args.solve, machine)
     solve_names = solve or [a.name for a in machine.axes if a.kind == "prismatic"]
-    poses = read_observations(args.poses, machine, optional_axes=solve_names)
+    poses = read_observations(args.poses, machine, optional_axes=solve_names, check_limits=not args.allow_outside_limits)
     out = solve_axes(machine, loaded.effects, loaded.theta, poses, solve_names)
     write_observations(args.out, out, machine)
     print(f"{len(out)} poses solved for {', '.join(solve_names)}; written to {args.out}")
@@ -147,7 +172,8 @@ def _diagnose(args) -> int:
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
-    obs = read_observations(args.data, loaded.machine)
+    obs = _without_duplicates(read_observations(args.data, loaded.machine,
+                                                check_limits=not args.allow_outside_limits))
     carried = Noise(loaded.noise_um, "fit") if loaded.noise.known else None
     result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, carried_noise=carried)
     if args.report:

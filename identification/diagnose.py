@@ -36,7 +36,7 @@ from .fit import FitResult, fit
 from .noise import Noise, resolve_noise
 
 from .machine import Machine, evaluate
-from .observations import Observations
+from .observations import Observations, exact_duplicates
 from .residuals import design, effect_columns, joint_values
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "score_candidates", "forward_select", "SelectionStep", "noise_from_replicates", "ALPHA"]
@@ -220,11 +220,16 @@ def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray)
     """Pooled σ (µm per coordinate) from alignments repeated at the same pose, or None.
 
     Rows are replicates when they have the same mark, the same readings of the
-    preset (non-prismatic) axes and the same approach directions.
+    preset (non-prismatic) axes and the same approach directions. Rows that
+    repeat another row exactly (every reading equal) are one measurement
+    copied, not replicates, and are left out.
     """
     preset = [j for j, a in enumerate(machine.axes) if a.kind != "prismatic"]
+    copies = {i for i, _ in exact_duplicates(obs)}  # an exact copy is the same measurement, not a replicate
     keys = {}
     for i in range(len(obs)):
+        if i in copies:
+            continue
         key = (obs.marks[i], *np.round(obs.axes[i, preset], 9), *(obs.directions[a][i] for a in sorted(obs.directions)))
         keys.setdefault(key, []).append(i)
     ss, dof = 0.0, 0

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.errors import DataError
-from .machine import Machine
+from .machine import Machine, axis_limits
 
 __all__ = ["Effect", "parse_effect", "default_model", "candidate_library", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
@@ -81,6 +81,13 @@ class Effect:
         return [u] * self.n_params
 
 
+#: Shortest period a periodic effect may have: below this no axis is sampled finely enough.
+MIN_PERIOD_MM = 0.01
+MIN_PERIOD_DEG = 0.01
+#: Longest period, in travels of the axis: beyond it a sine over the travel is a polynomial.
+MAX_PERIODS_OVER_TRAVEL = 20.0
+
+
 def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effect:
     """Parse an effect name against a machine.
 
@@ -110,8 +117,18 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         return Effect(name, code, "poly", degree=int(m.group("deg")), axis=axis, unit=joint.unit)
     if m.group("period"):
         period = float(m.group("period"))
-        if not period > 0:
-            raise DataError(f"{source} {name!r}: the period must be positive")
+        kind = machine.axis(axis).kind
+        unit = "mm" if kind == "prismatic" else "deg"
+        smallest = MIN_PERIOD_MM if kind == "prismatic" else MIN_PERIOD_DEG
+        lo, hi = axis_limits(machine)[machine.axis_names.index(axis)]
+        span = hi - lo if np.isfinite(hi - lo) else (None if kind == "prismatic" else 360.0)
+        if not (np.isfinite(period) and period >= smallest):
+            raise DataError(f"{source} {name!r}: the period must be at least {smallest:g} {unit} (a shorter one is "
+                            f"below any sampling of the axis), got {m.group('period')}")
+        if span is not None and period > MAX_PERIODS_OVER_TRAVEL * max(span, 360.0 if kind != "prismatic" else 0.0):
+            raise DataError(f"{source} {name!r}: a period of {period:g} {unit} is more than "
+                            f"{MAX_PERIODS_OVER_TRAVEL:g} times the travel of {axis} ({span:g} {unit}); over the "
+                            f"travel it is a polynomial: use {code}:poly2 instead")
         return Effect(name, code, "periodic", period=period, axis=axis, unit=joint.unit)
     return Effect(name, code, "reversal", axis=axis, unit=joint.unit)
 

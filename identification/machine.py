@@ -20,8 +20,10 @@ import numpy as np
 import pinocchio as pin
 
 from kinid.errors import MachineError
+from kinid.files import captured_stderr
 
 __all__ = [
+    "axis_limits",
     "Axis",
     "ErrorJoint",
     "Machine",
@@ -150,6 +152,61 @@ def _ancestors(model: pin.Model, joint_id: int) -> list[int]:
     return chain[::-1]
 
 
+#: Limits on a URDF before any parser sees it (a machine has tens of joints; a robot a few hundred).
+MAX_URDF_BYTES = 8 * 1024 * 1024
+MAX_URDF_JOINTS = 2000
+MAX_CHAIN_DEPTH = 200
+
+
+def check_urdf_limits(text: str, path) -> None:
+    """Refuse URDF text that is too large, declares entities, or nests its links deeper than a machine could.
+
+    Pinocchio recurses along the kinematic tree, so a file of thousands of
+    nested links would crash the process; the depth is checked here first.
+    """
+    import xml.etree.ElementTree as ET
+
+    if len(text) > MAX_URDF_BYTES:
+        raise MachineError(f"URDF is larger than {MAX_URDF_BYTES:,} characters", path=path)
+    head = text[:4096].upper()
+    if "<!DOCTYPE" in head or "<!ENTITY" in text.upper():
+        raise MachineError("URDF declares a DOCTYPE or entities; kinid reads plain URDF only", path=path)
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise MachineError(f"not valid XML ({exc})", path=path) from None
+    if root.tag != "robot":
+        raise MachineError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", path=path)
+    joints = root.findall("joint")
+    if len(joints) > MAX_URDF_JOINTS:
+        raise MachineError(f"URDF has {len(joints)} joints, more than the limit of {MAX_URDF_JOINTS}", path=path)
+    parent_of = {}
+    for j in joints:
+        parent, child = j.find("parent"), j.find("child")
+        if parent is not None and child is not None:
+            parent_of[child.get("link")] = parent.get("link")
+        if j.get("type") in ("prismatic", "revolute", "continuous"):
+            axis = j.find("axis")
+            raw = axis.get("xyz", "1 0 0") if axis is not None else "1 0 0"
+            try:
+                v = [float(x) for x in raw.split()]
+            except ValueError:
+                v = []
+            if len(v) != 3 or not all(np.isfinite(v)) or np.linalg.norm(v) < 1e-9:
+                raise MachineError(f"joint {j.get('name')!r}: axis xyz={raw!r} is not a non-zero direction", path=path)
+    for link in parent_of:
+        depth, seen = 0, set()
+        while link in parent_of:
+            if link in seen:
+                raise MachineError(f"link {link!r} is its own ancestor (a loop in the joints)", path=path)
+            seen.add(link)
+            link = parent_of[link]
+            depth += 1
+            if depth > MAX_CHAIN_DEPTH:
+                raise MachineError(f"a chain of more than {MAX_CHAIN_DEPTH} joints; a machine's chains are short",
+                                   path=path)
+
+
 def _urdf_origins(text: str, path) -> dict:
     """Joint name -> (xyz, rpy) of its ``<origin>`` as written in the URDF.
 
@@ -200,23 +257,39 @@ def load_machine(path) -> Machine:
         (the message names the joint and what is wrong).
     """
     path = Path(path)
+    if path.is_dir():
+        raise MachineError("is a folder, not a URDF file", path=path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as f:
+            raw = f.read(MAX_URDF_BYTES + 1)
     except FileNotFoundError:
         raise MachineError("machine file not found", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MachineError(f"cannot read ({exc})", path=path) from None
+    except OSError as exc:
+        raise MachineError(f"cannot read the machine file ({exc.strerror or exc})", path=path) from None
+    if len(raw) > MAX_URDF_BYTES:
+        raise MachineError(f"URDF is larger than {MAX_URDF_BYTES:,} bytes", path=path)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise MachineError(f"not UTF-8 text (byte {exc.start})", path=path,
+                           line=raw[:exc.start].count(b"\n") + 1) from None
     return machine_from_urdf(text, path)
 
 
 def machine_from_urdf(text: str, path="<urdf>") -> Machine:
     """Build a :class:`Machine` from URDF text; ``path`` names it in messages."""
+    check_urdf_limits(text, path)
     origins = _urdf_origins(text, path)
-    try:
-        model = pin.buildModelFromXML(text)
-    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError for malformed URDF
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise MachineError(f"not a valid URDF ({first})", path=path) from None
+    with captured_stderr() as said:
+        try:
+            model = pin.buildModelFromXML(text)
+        except Exception as exc:  # Pinocchio raises ValueError/RuntimeError for malformed URDF
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            model, failure = None, first
+    if model is None:
+        extra = said.text.strip().splitlines()
+        detail = failure if not extra else f"{failure}; the URDF parser said: {extra[0][:200]}"
+        raise MachineError(f"not a valid URDF ({detail})", path=path)
 
     frames = {}
     for name in ("workpiece", "tool"):
@@ -321,6 +394,19 @@ def _configuration(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray)
     for e, value in zip(machine.error_joints, errors_si):
         q[e.q_index] = value
     return q
+
+
+def axis_limits(machine: Machine) -> np.ndarray:
+    """(n_axes, 2) travel of each axis from the URDF joint limits, mm / deg; ±inf where the URDF gives none."""
+    out = np.full((len(machine.axes), 2), [-np.inf, np.inf])
+    for j, a in enumerate(machine.axes):
+        if a.nq != 1:  # continuous joint: no limits
+            continue
+        lo, hi = machine.model.lowerPositionLimit[a.q_index], machine.model.upperPositionLimit[a.q_index]
+        scale = 1e3 if a.kind == "prismatic" else 180.0 / np.pi
+        if np.isfinite(lo) and np.isfinite(hi) and hi > lo and abs(hi) < 1e10:
+            out[j] = (lo * scale, hi * scale)
+    return out
 
 
 def axes_to_si(machine: Machine, axes_user: np.ndarray) -> np.ndarray:

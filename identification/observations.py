@@ -16,9 +16,10 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
-from .machine import Machine
+from .machine import Machine, axis_limits
 
-__all__ = ["Observations", "read_observations", "write_observations", "observations_text"]
+__all__ = ["Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates",
+           "read_csv_rows"]
 
 _MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
 
@@ -78,7 +79,60 @@ def _column_for(machine: Machine, header: str):
     return None
 
 
-def read_observations(path, machine: Machine, *, optional_axes=()) -> Observations:
+#: Limits on a CSV file kinid reads.
+MAX_CSV_BYTES = 512 * 1024 * 1024
+MAX_CSV_CELL = 4096
+
+
+def read_csv_rows(path) -> list:
+    """(line number, cells) of each row of a CSV file, comments (``#``) and blank lines skipped.
+
+    Rows are split only where the CSV standard ends them (CR, LF, CR LF, and
+    not inside quotes); a form feed or U+2028 inside a cell stays in the cell.
+
+    Raises
+    ------
+    DataError
+        Naming the file (and line): missing, a folder, not UTF-8, too large,
+        a cell longer than ``MAX_CSV_CELL`` characters, or malformed quoting.
+    """
+    import io
+
+    path = Path(path)
+    if path.is_dir():
+        raise DataError("is a folder, not a CSV file", path=path)
+    try:
+        with open(path, "rb") as f:
+            raw = f.read(MAX_CSV_BYTES + 1)
+    except FileNotFoundError:
+        raise DataError("file not found", path=path) from None
+    except OSError as exc:
+        raise DataError(f"cannot read ({exc.strerror or exc})", path=path) from None
+    if len(raw) > MAX_CSV_BYTES:
+        raise DataError(f"file is larger than {MAX_CSV_BYTES:,} bytes", path=path)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise DataError(f"not UTF-8 text (byte {exc.start})", path=path, line=raw[:exc.start].count(b"\n") + 1) from None
+    reader = csv.reader(io.StringIO(text, newline=""), strict=False)
+    rows = []
+    start = 1
+    try:
+        for cells in reader:
+            lineno, start = start, reader.line_num + 1
+            if not cells or (len(cells) == 1 and not cells[0].strip()) or cells[0].lstrip().startswith("#"):
+                continue
+            for k, c in enumerate(cells):
+                if len(c) > MAX_CSV_CELL:
+                    raise DataError(f"a cell of {len(c):,} characters, more than the limit of {MAX_CSV_CELL:,}",
+                                    path=path, line=lineno)
+            rows.append((lineno, cells))
+    except csv.Error as exc:
+        raise DataError(f"malformed CSV ({exc})", path=path, line=start) from None
+    return rows
+
+
+def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True) -> Observations:
     """Read an observation CSV.
 
     Parameters
@@ -87,6 +141,9 @@ def read_observations(path, machine: Machine, *, optional_axes=()) -> Observatio
     machine : Machine
     optional_axes : iterable of str
         Axes that may be absent (``predict`` solves them); their readings are NaN.
+    check_limits : bool
+        Refuse a reading outside its axis's travel in the URDF (the joint
+        limits), which is almost always a unit or column mistake.
 
     Raises
     ------
@@ -94,17 +151,7 @@ def read_observations(path, machine: Machine, *, optional_axes=()) -> Observatio
         Naming the file, line and column of the first problem.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise DataError("file not found", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f"cannot read ({exc.__class__.__name__}: {exc})", path=path) from None
-    rows = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        if not line.strip() or line.lstrip().startswith("#"):
-            continue
-        rows.append((lineno, next(csv.reader([line]))))
+    rows = read_csv_rows(path)
     if not rows:
         raise DataError("no header row and no data", path=path)
     header_line, header = rows[0]
@@ -176,7 +223,35 @@ def read_observations(path, machine: Machine, *, optional_axes=()) -> Observatio
             if v not in (1.0, -1.0):
                 raise DataError(f"approach direction must be +1 or -1, found {cells[idx].strip()!r}", path=path, line=lineno, column=header[idx])
             dirs[name][i] = v
+    if check_limits:
+        limits = axis_limits(machine)
+        for j, a in enumerate(machine.axes):
+            lo, hi = limits[j]
+            margin = 1e-9 * max(1.0, abs(lo), abs(hi))
+            bad = np.flatnonzero((axes[:, j] < lo - margin) | (axes[:, j] > hi + margin))
+            if bad.size:
+                i = int(bad[0])
+                unit = "mm" if a.kind == "prismatic" else "deg"
+                raise DataError(f"{axes[i, j]:g} {unit} is outside the travel of axis {a.name} in the URDF "
+                                f"({lo:g} .. {hi:g} {unit}); check the units and the column, or pass "
+                                f"--allow-outside-limits if the URDF's limits are wrong",
+                                path=path, line=lines[i], column=a.column)
     return Observations(tuple(marks), w, axes, t_s, dirs, tuple(lines), str(path))
+
+
+def exact_duplicates(obs: Observations) -> list:
+    """(row, first row) pairs where a row repeats an earlier one exactly: same mark, mark position,
+    every reading, time and direction. Such copies are one measurement, not replicates."""
+    seen, out = {}, []
+    for i in range(len(obs)):
+        key = (obs.marks[i], *obs.w_mm[i], *obs.axes[i], None if obs.t_s is None else obs.t_s[i],
+               *(obs.directions[a][i] for a in sorted(obs.directions)))
+        key = tuple("nan" if isinstance(v, float) and v != v else v for v in key)
+        if key in seen:
+            out.append((i, seen[key]))
+        else:
+            seen[key] = i
+    return out
 
 
 def _ordered_axes(machine: Machine):

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write", "write_text", "write_json", "read_json", "check_output_target", "check_outputs", "read_image",
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS"]
 
 
@@ -129,7 +129,7 @@ def read_json(path, *, what: str = "JSON file", max_bytes: int = MAX_JSON_BYTES,
     except UnicodeDecodeError as exc:
         line = raw[:exc.start].count(b"\n") + 1
         raise DataError(f"{what} is not UTF-8 text (byte {exc.start})", path=path, line=line) from None
-    depth, deepest, in_string, escaped = 0, 0, False, False
+    depth, in_string, escaped = 0, False, False
     for ch in text:
         if in_string:
             if escaped:
@@ -156,6 +156,39 @@ def _reject_constant(name, path, what):
     from .errors import DataError
 
     raise DataError(f"{what} holds {name}, which is not a JSON number", path=path)
+
+
+class _Captured:
+    text = ""
+
+
+@contextlib.contextmanager
+def captured_stderr():
+    """Capture what C libraries (the URDF parser, libpng) write to file descriptor 2.
+
+    Their lines would otherwise appear before kinid's own one-line message;
+    the caller decides whether to pass them on (``.text`` after the block).
+    """
+    import sys
+
+    result = _Captured()
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):  # no real stderr (a notebook): nothing to capture
+        yield result
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), fd)
+        try:
+            yield result
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, fd)
+            os.close(saved)
+            tmp.seek(0)
+            result.text = tmp.read().decode("utf-8", "replace")
 
 
 def check_output_target(path) -> None:
