@@ -16,6 +16,7 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
+from kinid.files import read_csv_rows
 from .machine import Machine, axis_limits
 
 __all__ = ["Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates",
@@ -77,59 +78,6 @@ def _column_for(machine: Machine, header: str):
                 raise DataError(f"axis {a.name} is {a.kind}: expected column {a.column!r}", column=header)
             return a
     return None
-
-
-#: Limits on a CSV file kinid reads.
-MAX_CSV_BYTES = 512 * 1024 * 1024
-MAX_CSV_CELL = 4096
-
-
-def read_csv_rows(path) -> list:
-    """(line number, cells) of each row of a CSV file, comments (``#``) and blank lines skipped.
-
-    Rows are split only where the CSV standard ends them (CR, LF, CR LF, and
-    not inside quotes); a form feed or U+2028 inside a cell stays in the cell.
-
-    Raises
-    ------
-    DataError
-        Naming the file (and line): missing, a folder, not UTF-8, too large,
-        a cell longer than ``MAX_CSV_CELL`` characters, or malformed quoting.
-    """
-    import io
-
-    path = Path(path)
-    if path.is_dir():
-        raise DataError("is a folder, not a CSV file", path=path)
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_CSV_BYTES + 1)
-    except FileNotFoundError:
-        raise DataError("file not found", path=path) from None
-    except OSError as exc:
-        raise DataError(f"cannot read ({exc.strerror or exc})", path=path) from None
-    if len(raw) > MAX_CSV_BYTES:
-        raise DataError(f"file is larger than {MAX_CSV_BYTES:,} bytes", path=path)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DataError(f"not UTF-8 text (byte {exc.start})", path=path, line=raw[:exc.start].count(b"\n") + 1) from None
-    reader = csv.reader(io.StringIO(text, newline=""), strict=False)
-    rows = []
-    start = 1
-    try:
-        for cells in reader:
-            lineno, start = start, reader.line_num + 1
-            if not cells or (len(cells) == 1 and not cells[0].strip()) or cells[0].lstrip().startswith("#"):
-                continue
-            for k, c in enumerate(cells):
-                if len(c) > MAX_CSV_CELL:
-                    raise DataError(f"a cell of {len(c):,} characters, more than the limit of {MAX_CSV_CELL:,}",
-                                    path=path, line=lineno)
-            rows.append((lineno, cells))
-    except csv.Error as exc:
-        raise DataError(f"malformed CSV ({exc})", path=path, line=start) from None
-    return rows
 
 
 def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True) -> Observations:

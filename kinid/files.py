@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write", "write_text", "write_json", "read_json", "captured_stderr", "check_output_target", "check_outputs", "read_image",
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS"]
 
 
@@ -93,6 +93,62 @@ def write_json(path, data, *, indent: int | None = 1) -> None:
     except ValueError as exc:
         raise DataError(f"refusing to write a non-finite number into JSON ({exc})", path=path) from None
     write_text(path, text + "\n")
+
+
+#: Limits on a CSV file kinid reads.
+MAX_CSV_BYTES = 512 * 1024 * 1024
+MAX_CSV_CELL = 4096
+
+
+def read_csv_rows(path, *, what: str = "CSV file") -> list:
+    """(line number, cells) of each row of a CSV file, comments (``#``) and blank lines skipped.
+
+    Rows are split only where the CSV standard ends them (CR, LF, CR LF, and
+    not inside quotes); a form feed or U+2028 inside a cell stays in the cell.
+
+    Raises
+    ------
+    DataError
+        Naming the file (and line): missing, a folder, not UTF-8, too large,
+        a cell longer than ``MAX_CSV_CELL`` characters, or malformed quoting.
+    """
+    import csv
+    import io
+
+    from .errors import DataError
+
+    path = Path(path)
+    if path.is_dir():
+        raise DataError(f"is a folder, not a {what}", path=path)
+    try:
+        with open(path, "rb") as f:
+            raw = f.read(MAX_CSV_BYTES + 1)
+    except FileNotFoundError:
+        raise DataError("file not found", path=path) from None
+    except OSError as exc:
+        raise DataError(f"cannot read {what}: {exc.strerror or exc}", path=path) from None
+    if len(raw) > MAX_CSV_BYTES:
+        raise DataError(f"file is larger than {MAX_CSV_BYTES:,} bytes", path=path)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise DataError(f"not UTF-8 text (byte {exc.start})", path=path, line=raw[:exc.start].count(b"\n") + 1) from None
+    reader = csv.reader(io.StringIO(text, newline=""), strict=False)
+    rows = []
+    start = 1
+    try:
+        for cells in reader:
+            lineno, start = start, reader.line_num + 1
+            if not cells or (len(cells) == 1 and not cells[0].strip()) or cells[0].lstrip().startswith("#"):
+                continue
+            for k, c in enumerate(cells):
+                if len(c) > MAX_CSV_CELL:
+                    raise DataError(f"a cell of {len(c):,} characters, more than the limit of {MAX_CSV_CELL:,}",
+                                    path=path, line=lineno)
+            rows.append((lineno, cells))
+    except csv.Error as exc:
+        raise DataError(f"malformed CSV ({exc})", path=path, line=start) from None
+    return rows
 
 
 #: Limits on JSON files kinid reads (fit, error set, board, camera files).

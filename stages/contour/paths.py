@@ -374,17 +374,12 @@ def load_polyline(path):
     DataError
         Missing file or columns, a cell that is not a number, fewer than 2 rows.
     """
-    import csv
+    from kinid.files import read_csv_rows
 
-    try:
-        with open(path, encoding="utf-8", newline="") as f:
-            lines = [(i + 1, ln) for i, ln in enumerate(f.read().splitlines())]
-    except OSError as exc:
-        raise DataError(f"cannot read path file: {exc.strerror or exc}", path=path) from None
-    lines = [(i, ln) for i, ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
+    lines = read_csv_rows(path, what="path file")
     if not lines:
         raise DataError("empty path file; expected a header x_mm,y_mm and at least 2 rows", path=path)
-    rows = list(csv.reader([ln for _, ln in lines]))
+    rows = [cells for _, cells in lines]
     header = [h.strip() for h in rows[0]]
     for col in ("x_mm", "y_mm"):
         if col not in header:
