@@ -84,4 +84,9 @@ def solve_axes(machine: Machine, effects, theta, obs: Observations, solve=None, 
         axes[:, cols] -= step
         if np.max(np.abs(step)) < tol_mm:
             return replace(obs, axes=axes)
-    raise DataError(f"alignment did not converge in {max_iter} iterations (largest update {np.max(np.abs(step)):.3g})", path=obs.source)
+    i = int(np.argmax(np.max(np.abs(step), axis=1)))
+    line = obs.lines[i] if obs.lines else None
+    raise DataError(f"no readings of {', '.join(solve)} align the tool point with mark {obs.marks[i]!r} "
+                    f"(largest update {np.max(np.abs(step[i])):.3g} after {max_iter} iterations); give readings of "
+                    f"{', '.join(machine.axis(a).column for a in solve)} near the solution in this row as the "
+                    f"starting guess", path=obs.source, line=line)

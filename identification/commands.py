@@ -71,11 +71,12 @@ def _positive(value, name):
 def _axes_list(text, machine):
     if text is None:
         return None
+    by_lower = {a.lower(): a for a in machine.axis_names}
     names = [t.strip() for t in text.split(",") if t.strip()]
-    unknown = [n for n in names if n not in machine.axis_names]
+    unknown = [n for n in names if n.lower() not in by_lower]
     if unknown:
         raise DataError(f"--solve: unknown axes {', '.join(unknown)}; this machine has {', '.join(machine.axis_names)}")
-    return names
+    return [by_lower[n.lower()] for n in names]
 
 
 def _without_duplicates(obs):

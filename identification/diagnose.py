@@ -31,12 +31,12 @@ import scipy.stats
 from kinid.checks import check_positive
 from kinid.threads import blas_single_threaded
 
-from .effects import candidate_library
+from .effects import candidate_library, check_effects
 from .fit import FitResult, fit
 from .noise import Noise, resolve_noise
 
-from .machine import Machine, evaluate
-from .observations import Observations, exact_duplicates
+from .machine import Machine, check_machine, evaluate
+from .observations import Observations, check_observations, exact_duplicates
 from .residuals import design, effect_columns, joint_values
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "score_candidates", "forward_select", "SelectionStep", "noise_from_replicates", "ALPHA"]
@@ -356,6 +356,9 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     result : FitResult, optional
         An existing fit of ``effects`` on ``obs`` (skips the refit).
     """
+    check_machine(machine)
+    check_observations(obs)
+    effects = check_effects(machine, effects)
     if noise_um is not None:
         noise_um = check_positive("noise_um", noise_um)
     if result is None:
@@ -442,7 +445,11 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     list of SelectionStep
         The first step is the starting model.
     """
-    effects = list(effects)
+    check_machine(machine)
+    check_observations(obs)
+    effects = list(check_effects(machine, effects))
+    if noise_um is not None:
+        noise_um = check_positive("noise_um", noise_um)
     added = None
     steps = []
     theta0 = None

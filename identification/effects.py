@@ -23,7 +23,7 @@ import numpy as np
 from kinid.errors import DataError
 from .machine import Machine, axis_limits
 
-__all__ = ["Effect", "parse_effect", "default_model", "candidate_library", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
+__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "candidate_library", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
 LINEAR_PERIODS_MM = (2, 4, 5, 8, 10, 16, 20)
 ROTARY_PERIODS_DEG = (360, 180, 120, 90)
@@ -131,6 +131,32 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
                             f"travel it is a polynomial: use {code}:poly2 instead")
         return Effect(name, code, "periodic", period=period, axis=axis, unit=joint.unit)
     return Effect(name, code, "reversal", axis=axis, unit=joint.unit)
+
+
+def check_effects(machine: Machine, effects, name: str = "effects") -> tuple:
+    """``effects`` as a tuple of :class:`Effect`; names (``"EXX:periodic:10"``) are parsed.
+
+    Raises
+    ------
+    DataError
+        Naming the argument and the item that is neither an Effect nor an effect name.
+    """
+    if isinstance(effects, (str, Effect)):
+        effects = [effects]
+    try:
+        items = list(effects)
+    except TypeError:
+        raise DataError(f"must be a sequence of effects or effect names, got {type(effects).__name__}",
+                        parameter=name) from None
+    out = []
+    for k, e in enumerate(items):
+        if isinstance(e, str):
+            e = parse_effect(e, machine, source=f"{name}[{k}]")
+        elif not isinstance(e, Effect):
+            raise DataError(f"[{k}] must be an Effect or an effect name such as 'EXX:periodic:10', got "
+                            f"{type(e).__name__}", parameter=name)
+        out.append(e)
+    return tuple(out)
 
 
 def default_model(machine: Machine) -> list[Effect]:

@@ -22,11 +22,11 @@ from kinid.errors import DataError, KinidError
 from kinid.files import read_json, write_json
 from kinid.threads import blas_single_threaded
 
-from .effects import Effect, default_model, parse_effect
+from .effects import Effect, check_effects, default_model, parse_effect
 from .identifiability import RANK_TOL, Alias, analyse
-from .machine import Machine, machine_from_urdf
+from .machine import Machine, check_machine, machine_from_urdf
 from .noise import Noise
-from .observations import Observations
+from .observations import Observations, check_observations
 from .residuals import design, residuals
 
 __all__ = ["FitResult", "Noise", "fit", "save_fit", "load_fit", "model_effects", "FIT_FORMAT"]
@@ -213,7 +213,9 @@ def fit(
     noise = noise_um if isinstance(noise_um, Noise) else (
         None if noise_um is None else Noise(check_positive("noise_um", noise_um), "given"))
     noise_um = None if noise is None else noise.value_um
-    effects = tuple(default_model(machine) if effects is None else effects)
+    check_machine(machine)
+    check_observations(obs)
+    effects = tuple(default_model(machine)) if effects is None else check_effects(machine, effects)
     d = design(machine, effects, obs)
     names = d.param_names()
     P = d.n_params

@@ -19,11 +19,13 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
-from kinid.errors import MachineError
+from kinid.checks import check_array
+from kinid.errors import DataError, MachineError
 from kinid.files import captured_stderr
 
 __all__ = [
     "axis_limits",
+    "check_machine",
     "Axis",
     "ErrorJoint",
     "Machine",
@@ -420,6 +422,14 @@ def errors_to_si(machine: Machine, errors_user: np.ndarray) -> np.ndarray:
     return np.asarray(errors_user, dtype=float) * 1e-6
 
 
+def check_machine(machine, name: str = "machine") -> "Machine":
+    """``machine`` if it is a :class:`Machine`; DataError naming the argument otherwise."""
+    if not isinstance(machine, Machine):
+        hint = " (load it with kinid.identification.load_machine(path))" if isinstance(machine, (str, Path)) else ""
+        raise DataError(f"must be a Machine{hint}, got {type(machine).__name__}", parameter=name)
+    return machine
+
+
 def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True):
     """Tool point in the workpiece frame and its derivatives, for a batch of poses.
 
@@ -442,9 +452,16 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     d_axes : array (N, 3, n_axes)
         ∂p/∂(axis reading) in µm per mm (prismatic) or µm per deg (revolute).
     """
+    check_machine(machine)
+    axes_user = check_array("axes_user", np.atleast_2d(np.asarray(axes_user, dtype=float)), shape=(None, len(machine.axes)))
+    errors_user = np.asarray(errors_user, dtype=float)
+    if errors_user.shape not in ((len(machine.error_joints),), (axes_user.shape[0], len(machine.error_joints))):
+        raise DataError(f"must have shape ({len(machine.error_joints)},) or ({axes_user.shape[0]}, "
+                        f"{len(machine.error_joints)}), got {errors_user.shape}", parameter="errors_user")
+    check_array("errors_user", errors_user)
     model = machine.model
     data = model.createData()
-    axes_si = axes_to_si(machine, np.atleast_2d(axes_user))
+    axes_si = axes_to_si(machine, axes_user)
     n = axes_si.shape[0]
     errors_si = errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints))))
     wf, tf = machine.workpiece_frame, machine.tool_frame

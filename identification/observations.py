@@ -19,7 +19,7 @@ from kinid.errors import DataError
 from kinid.files import read_csv_rows
 from .machine import Machine, axis_limits
 
-__all__ = ["Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates",
+__all__ = ["Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
            "read_csv_rows"]
 
 _MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
@@ -185,6 +185,14 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
                                 f"--allow-outside-limits if the URDF's limits are wrong",
                                 path=path, line=lines[i], column=a.column)
     return Observations(tuple(marks), w, axes, t_s, dirs, tuple(lines), str(path))
+
+
+def check_observations(obs, name: str = "obs") -> Observations:
+    """``obs`` if it is :class:`Observations`; DataError naming the argument otherwise."""
+    if not isinstance(obs, Observations):
+        hint = " (read a CSV with kinid.identification.read_observations(path, machine))" if isinstance(obs, (str, Path)) else ""
+        raise DataError(f"must be Observations{hint}, got {type(obs).__name__}", parameter=name)
+    return obs
 
 
 def exact_duplicates(obs: Observations) -> list:
