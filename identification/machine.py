@@ -398,6 +398,21 @@ def _configuration(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray)
     return q
 
 
+def _configurations(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray) -> np.ndarray:
+    """Pinocchio configurations (N, nq) for N poses at once (SI, machine order)."""
+    n = axes_si.shape[0]
+    q = np.tile(pin.neutral(machine.model), (n, 1))
+    for j, a in enumerate(machine.axes):
+        if a.nq == 2:
+            q[:, a.q_index] = np.cos(axes_si[:, j])
+            q[:, a.q_index + 1] = np.sin(axes_si[:, j])
+        else:
+            q[:, a.q_index] = axes_si[:, j]
+    if machine.error_joints:
+        q[:, [e.q_index for e in machine.error_joints]] = errors_si
+    return q
+
+
 def axis_limits(machine: Machine) -> np.ndarray:
     """(n_axes, 2) travel of each axis from the URDF joint limits, mm / deg; ±inf where the URDF gives none."""
     out = np.full((len(machine.axes), 2), [-np.inf, np.inf])
@@ -461,39 +476,36 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     check_array("errors_user", errors_user)
     model = machine.model
     data = model.createData()
-    axes_si = axes_to_si(machine, axes_user)
-    n = axes_si.shape[0]
-    errors_si = errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints))))
+    n = axes_user.shape[0]
+    qs = _configurations(machine, axes_to_si(machine, axes_user),
+                         errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints)))))
     wf, tf = machine.workpiece_frame, machine.tool_frame
+    p = np.empty((n, 3))
+    G = np.empty((n, 3, model.nv)) if jacobian else None
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    frame_jacobian, frame_placement = pin.getFrameJacobian, pin.updateFramePlacement
+    kinematics = pin.computeJointJacobians if jacobian else pin.forwardKinematics
+    for i in range(n):
+        kinematics(model, data, qs[i])
+        oMw = frame_placement(model, data, wf)
+        oMt = frame_placement(model, data, tf)
+        Rt = oMw.rotation.T
+        delta = oMt.translation - oMw.translation
+        p[i] = Rt @ delta * 1e3
+        if jacobian:
+            Jt = frame_jacobian(model, data, tf, lwa)
+            Jw = frame_jacobian(model, data, wf, lwa)
+            # d(R^T delta) = R^T (v_t - v_w + delta x w_w); delta x w = S(delta) w
+            dx, dy, dz = delta
+            S = np.array(((0.0, -dz, dy), (dz, 0.0, -dx), (-dy, dx, 0.0)))
+            G[i] = Rt @ (Jt[:3] - Jw[:3] + S @ Jw[3:])  # (3, nv), m per SI unit
+    if not jacobian:
+        return p
     ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
     av = np.array([a.v_index for a in machine.axes], dtype=int)
-    # SI derivative (m per m, m per rad) -> µm per mm, µm per deg
+    # SI derivative (m per m, m per rad) -> µm per µm, µm per µrad (errors); µm per mm, µm per deg (axes)
     axis_scale = np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in machine.axes])
-    p = np.empty((n, 3))
-    d_err = np.empty((n, 3, len(ev))) if jacobian else None
-    d_ax = np.empty((n, 3, len(av))) if jacobian else None
-    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    for i in range(n):
-        q = _configuration(machine, axes_si[i], errors_si[i])
-        if jacobian:
-            pin.computeJointJacobians(model, data, q)
-        else:
-            pin.forwardKinematics(model, data, q)
-        oMw = pin.updateFramePlacement(model, data, wf)
-        oMt = pin.updateFramePlacement(model, data, tf)
-        R = oMw.rotation
-        delta = oMt.translation - oMw.translation
-        p[i] = R.T @ delta * 1e3
-        if jacobian:
-            Jt = pin.getFrameJacobian(model, data, tf, lwa)
-            Jw = pin.getFrameJacobian(model, data, wf, lwa)
-            # d(R^T delta) = R^T (v_t - v_w + delta x w_w)
-            G = R.T @ (Jt[:3] - Jw[:3] + np.cross(delta, Jw[3:].T).T)  # (3, nv), m per SI unit
-            d_err[i] = G[:, ev]  # m/m == µm/µm ; m/rad == µm/µrad
-            d_ax[i] = G[:, av] * axis_scale
-    if jacobian:
-        return p, d_err, d_ax
-    return p
+    return p, G[:, :, ev], G[:, :, av] * axis_scale
 
 
 def tool_in_workpiece_mm(machine: Machine, axes: Mapping[str, float], joint_errors: Mapping[str, float] | None = None) -> np.ndarray:
