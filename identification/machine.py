@@ -480,27 +480,34 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     qs = _configurations(machine, axes_to_si(machine, axes_user),
                          errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints)))))
     wf, tf = machine.workpiece_frame, machine.tool_frame
-    p = np.empty((n, 3))
-    G = np.empty((n, 3, model.nv)) if jacobian else None
+    # the loop only calls Pinocchio and copies its results; the algebra is done on all poses at once after it
+    R = np.empty((n, 3, 3))
+    pw = np.empty((n, 3))
+    pt = np.empty((n, 3))
+    Jt = np.empty((n, 6, model.nv)) if jacobian else None
+    Jw = np.empty((n, 6, model.nv)) if jacobian else None
     lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
     frame_jacobian, frame_placement = pin.getFrameJacobian, pin.updateFramePlacement
     kinematics = pin.computeJointJacobians if jacobian else pin.forwardKinematics
     for i in range(n):
         kinematics(model, data, qs[i])
         oMw = frame_placement(model, data, wf)
-        oMt = frame_placement(model, data, tf)
-        Rt = oMw.rotation.T
-        delta = oMt.translation - oMw.translation
-        p[i] = Rt @ delta * 1e3
+        R[i] = oMw.rotation
+        pw[i] = oMw.translation
+        pt[i] = frame_placement(model, data, tf).translation
         if jacobian:
-            Jt = frame_jacobian(model, data, tf, lwa)
-            Jw = frame_jacobian(model, data, wf, lwa)
-            # d(R^T delta) = R^T (v_t - v_w + delta x w_w); delta x w = S(delta) w
-            dx, dy, dz = delta
-            S = np.array(((0.0, -dz, dy), (dz, 0.0, -dx), (-dy, dx, 0.0)))
-            G[i] = Rt @ (Jt[:3] - Jw[:3] + S @ Jw[3:])  # (3, nv), m per SI unit
+            Jt[i] = frame_jacobian(model, data, tf, lwa)
+            Jw[i] = frame_jacobian(model, data, wf, lwa)
+    delta = pt - pw
+    p = np.einsum("nji,nj->ni", R, delta) * 1e3  # R^T delta, mm
     if not jacobian:
         return p
+    # d(R^T delta) = R^T (v_t - v_w + delta x w_w), m per SI unit
+    w = Jw[:, 3:]
+    cross = np.stack([delta[:, 1, None] * w[:, 2] - delta[:, 2, None] * w[:, 1],
+                      delta[:, 2, None] * w[:, 0] - delta[:, 0, None] * w[:, 2],
+                      delta[:, 0, None] * w[:, 1] - delta[:, 1, None] * w[:, 0]], axis=1)
+    G = np.einsum("nji,njk->nik", R, Jt[:, :3] - Jw[:, :3] + cross)
     ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
     av = np.array([a.v_index for a in machine.axes], dtype=int)
     # SI derivative (m per m, m per rad) -> µm per µm, µm per µrad (errors); µm per mm, µm per deg (axes)
