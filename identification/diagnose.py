@@ -252,6 +252,10 @@ def _model_pass(machine: Machine, obs: Observations, result: FitResult):
     return d_errors, d_axes, Q0
 
 
+#: Memory for one block of candidate columns in the score test, bytes (diagnosis memory stays flat in N).
+SCORE_BLOCK_BYTES = 64 * 1024 * 1024
+
+
 @blas_single_threaded
 def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
                      d_errors=None, q0=None):
@@ -278,50 +282,68 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     r = r - Q0 @ (Q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
     rss = float(r @ r)
     p0 = result.rank
-    dc = design(machine, candidates, obs)
-    C_all = effect_columns(d_errors, dc).reshape(M, -1) / sigma
-    C_perp_all = C_all - Q0 @ (Q0.T @ C_all)
     model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
     lever = np.sqrt(np.mean(np.sum(d_errors**2, axis=1), axis=0))  # per error joint: m/rad or 1
-    visible_floor = 1e-12 * max(1.0, float(np.abs(C_all).max())) if C_all.size else 1e-12
+    visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
     codes = machine.error_codes
     out = []
-    start = 0
+    # candidates in blocks, so that memory stays flat in the number of alignments: a block's
+    # columns (3N x k) and their projection take about SCORE_BLOCK_BYTES
+    per_column = 8 * M * 2
+    budget = max(int(SCORE_BLOCK_BYTES // per_column), 8)
+    blocks, current, width = [], [], 0
     for e in candidates:
-        k = e.n_params
-        C = C_all[:, start : start + k]
-        Cp = C_perp_all[:, start : start + k]
-        start += k
-        unit = e.param_units(machine)[0]
-        norm_c = np.linalg.norm(C, axis=0)
-        if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
-            out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
-            continue
-        ratio = np.linalg.norm(Cp, axis=0) / np.where(norm_c > 0, norm_c, 1.0)
-        U, s, Vt = np.linalg.svd(Cp / np.where(norm_c > 0, norm_c, 1.0), full_matrices=False)
-        keep = s > ALIAS_TOL
-        if not keep.any() or ratio.max() < ALIAS_TOL:
-            coef = np.linalg.lstsq(J0, C, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
-            weight = np.abs(coef).max(axis=1) * np.linalg.norm(J0, axis=0) if coef.size else np.zeros(0)
-            order = np.argsort(-weight)
-            names = tuple(model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
-            out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names))
-            continue
-        kk = int(keep.sum())
-        proj = U[:, keep].T @ r
-        delta = float(proj @ proj)
-        if sigma_known:
-            log_sf = scipy.stats.chi2.logsf(delta, kk)
-        else:
-            dof2 = M - p0 - kk
-            F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
-            log_sf = scipy.stats.f.logsf(F, kk, dof2)
-        # size of the effect: least-squares coefficients of the projected block
-        beta = -np.linalg.lstsq(Cp, r, rcond=None)[0]  # r is model − measurement
-        cov = np.linalg.pinv(Cp.T @ Cp)
-        size, size_std = _size(e, beta, cov, obs, machine)
-        rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
-        out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)), rms_after, size, size_std, unit))
+        if current and width + e.n_params > budget:
+            blocks.append(current)
+            current, width = [], 0
+        current.append(e)
+        width += e.n_params
+    if current:
+        blocks.append(current)
+    for block in blocks:
+        dc = design(machine, block, obs)
+        C_all = effect_columns(d_errors, dc).reshape(M, -1) / sigma
+        del dc
+        C_perp_all = C_all - Q0 @ (Q0.T @ C_all)
+        start = 0
+        for e in block:
+            k = e.n_params
+            C = C_all[:, start : start + k]
+            Cp = C_perp_all[:, start : start + k]
+            start += k
+            unit = e.param_units(machine)[0]
+            norm_c = np.linalg.norm(C, axis=0)
+            if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
+                out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
+                continue
+            ratio = np.linalg.norm(Cp, axis=0) / np.where(norm_c > 0, norm_c, 1.0)
+            U, s, Vt = np.linalg.svd(Cp / np.where(norm_c > 0, norm_c, 1.0), full_matrices=False)
+            keep = s > ALIAS_TOL
+            if not keep.any() or ratio.max() < ALIAS_TOL:
+                coef = np.linalg.lstsq(J0, C, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
+                weight = np.abs(coef).max(axis=1) * np.linalg.norm(J0, axis=0) if coef.size else np.zeros(0)
+                order = np.argsort(-weight)
+                names = tuple(model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
+                out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names))
+                continue
+            kk = int(keep.sum())
+            proj = U[:, keep].T @ r
+            delta = float(proj @ proj)
+            if sigma_known:
+                log_sf = scipy.stats.chi2.logsf(delta, kk)
+            else:
+                dof2 = M - p0 - kk
+                F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
+                log_sf = scipy.stats.f.logsf(F, kk, dof2)
+            # size of the effect: least-squares coefficients of the projected block, restricted to the
+            # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
+            scale = np.where(norm_c > 0, norm_c, 1.0)
+            Vk, sk = Vt[keep].T, s[keep]
+            beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
+            cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
+            size, size_std = _size(e, beta, cov, obs, machine)
+            rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
+            out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)), rms_after, size, size_std, unit))
     return out
 
 

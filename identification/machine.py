@@ -479,6 +479,33 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     n = axes_user.shape[0]
     qs = _configurations(machine, axes_to_si(machine, axes_user),
                          errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints)))))
+    ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
+    av = np.array([a.v_index for a in machine.axes], dtype=int)
+    # SI derivative (m per m, m per rad) -> µm per µm, µm per µrad (errors); µm per mm, µm per deg (axes)
+    axis_scale = np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in machine.axes])
+    p = np.empty((n, 3))
+    d_err = np.empty((n, 3, len(ev))) if jacobian else None
+    d_ax = np.empty((n, 3, len(av))) if jacobian else None
+    for lo in range(0, n, EVALUATE_CHUNK):  # chunks keep the Pinocchio copies small whatever N is
+        hi = min(lo + EVALUATE_CHUNK, n)
+        out = _evaluate_chunk(machine, data, qs[lo:hi], jacobian)
+        if jacobian:
+            p[lo:hi], G = out
+            d_err[lo:hi] = G[:, :, ev]
+            d_ax[lo:hi] = G[:, :, av] * axis_scale
+        else:
+            p[lo:hi] = out
+    return (p, d_err, d_ax) if jacobian else p
+
+
+#: Poses per chunk of :func:`evaluate`.
+EVALUATE_CHUNK = 2048
+
+
+def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool):
+    """Tool point (n, 3) mm and, with ``jacobian``, G (n, 3, nv) m per SI unit, for configurations ``qs``."""
+    model = machine.model
+    n = qs.shape[0]
     wf, tf = machine.workpiece_frame, machine.tool_frame
     # the loop only calls Pinocchio and copies its results; the algebra is done on all poses at once after it
     R = np.empty((n, 3, 3))
@@ -507,12 +534,7 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     cross = np.stack([delta[:, 1, None] * w[:, 2] - delta[:, 2, None] * w[:, 1],
                       delta[:, 2, None] * w[:, 0] - delta[:, 0, None] * w[:, 2],
                       delta[:, 0, None] * w[:, 1] - delta[:, 1, None] * w[:, 0]], axis=1)
-    G = np.einsum("nji,njk->nik", R, Jt[:, :3] - Jw[:, :3] + cross)
-    ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
-    av = np.array([a.v_index for a in machine.axes], dtype=int)
-    # SI derivative (m per m, m per rad) -> µm per µm, µm per µrad (errors); µm per mm, µm per deg (axes)
-    axis_scale = np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in machine.axes])
-    return p, G[:, :, ev], G[:, :, av] * axis_scale
+    return p, np.einsum("nji,njk->nik", R, Jt[:, :3] - Jw[:, :3] + cross)
 
 
 def tool_in_workpiece_mm(machine: Machine, axes: Mapping[str, float], joint_errors: Mapping[str, float] | None = None) -> np.ndarray:
