@@ -19,33 +19,15 @@ Example
 >>> machine = load_machine("urdf/five_axis_bc.urdf")                         # doctest: +SKIP
 >>> result = fit(machine, read_observations("obs.csv", machine), noise_um=1.0)  # doctest: +SKIP
 """
-from importlib import import_module
+from . import urdf_builder
+from .alignment import solve_axes
+from .diagnose import diagnose, forward_select
+from .effects import default_model, parse_effect
+from .fit import fit, load_fit, save_fit
+from .machine import load_machine, tool_in_workpiece_mm
+from .observations import read_observations, write_observations
+from .simulate import load_errors, simulate
 
-#: Public name -> the module that defines it. Imported on first use, so that
-#: ``import kinid.identification`` stays cheap (scipy.stats, for one, is only
-#: needed by the diagnosis).
-_EXPORTS = {
-    "load_machine": ".machine", "tool_in_workpiece_mm": ".machine",
-    "read_observations": ".observations", "write_observations": ".observations",
-    "parse_effect": ".effects", "default_model": ".effects",
-    "fit": ".fit", "save_fit": ".fit", "load_fit": ".fit",
-    "diagnose": ".diagnose", "forward_select": ".diagnose",
-    "solve_axes": ".alignment",
-    "simulate": ".simulate", "load_errors": ".simulate",
-    "urdf_builder": None,
-}
-
-__all__ = list(_EXPORTS)
-
-
-def __getattr__(name):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    module = _EXPORTS[name]
-    value = import_module(f".{name}", __name__) if module is None else getattr(import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__all__ = ["load_machine", "read_observations", "write_observations", "parse_effect", "default_model", "fit",
+           "save_fit", "load_fit", "diagnose", "forward_select", "solve_axes", "simulate", "load_errors",
+           "tool_in_workpiece_mm", "urdf_builder"]

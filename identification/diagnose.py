@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.stats
 
 from kinid.checks import check_positive
 from kinid.threads import blas_single_threaded
@@ -272,6 +271,8 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     -------
     list of Candidate, unsorted.
     """
+    import scipy.stats  # here, not at module level: it costs half a second to import
+
     if d_errors is None or q0 is None:
         d_errors, _, q0 = _model_pass(machine, obs, result)
     d0 = design(machine, result.effects, obs)
@@ -330,11 +331,13 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             proj = U[:, keep].T @ r
             delta = float(proj @ proj)
             if sigma_known:
-                log_sf = scipy.stats.chi2.logsf(delta, kk)
+                log_sf = _chi2_logsf(delta, kk)
             else:
                 dof2 = M - p0 - kk
                 F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
                 log_sf = scipy.stats.f.logsf(F, kk, dof2)
+                if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
+                    log_sf = _chi2_logsf(F * kk, kk)
             # size of the effect: least-squares coefficients of the projected block, restricted to the
             # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
             scale = np.where(norm_c > 0, norm_c, 1.0)
@@ -345,6 +348,24 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
             out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)), rms_after, size, size_std, unit))
     return out
+
+
+def _chi2_logsf(x: float, k: int) -> float:
+    """log P(χ²_k > x), finite far into the tail where scipy's value underflows to -inf.
+
+    Beyond it, the upper incomplete gamma function's asymptotic series:
+    log Q(a, z) = (a − 1) log z − z − log Γ(a) + log(1 + (a − 1)/z + (a − 1)(a − 2)/z² ...), a = k/2, z = x/2.
+    """
+    import math
+
+    import scipy.stats
+
+    value = float(scipy.stats.chi2.logsf(x, k))
+    if np.isfinite(value):
+        return value
+    a, z = k / 2.0, x / 2.0
+    series = 1.0 + (a - 1) / z + (a - 1) * (a - 2) / z**2
+    return (a - 1) * math.log(z) - z - math.lgamma(a) + math.log(max(series, 1e-300))
 
 
 def _size(effect, beta, cov, obs, machine):
@@ -378,6 +399,8 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     result : FitResult, optional
         An existing fit of ``effects`` on ``obs`` (skips the refit).
     """
+    import scipy.stats  # here, not at module level: it costs half a second to import
+
     check_machine(machine)
     check_observations(obs)
     effects = check_effects(machine, effects)

@@ -149,3 +149,16 @@ def test_residuals_in_machine_axes_point_at_the_faulty_axis(bc):
     np.testing.assert_allclose(dg.axis_residuals_um, (obs.axes - model.axes)[:, cols] * 1e3, atol=1e-3)
     table = dg.by_mark()
     assert [t[0] for t in table] == ["M1", "M2", "M3", "M4"] and sum(t[1] for t in table) == len(obs)
+
+
+def test_tail_probabilities_stay_finite_and_ordered():
+    """Far in the tail scipy's log sf underflows to -inf; the ranking must still order by evidence."""
+    import scipy.stats
+
+    from kinid.identification.diagnose import _chi2_logsf
+
+    for x, k in [(300.0, 2), (900.0, 5)]:  # where scipy is finite, the same value
+        assert _chi2_logsf(x, k) == pytest.approx(scipy.stats.chi2.logsf(x, k), rel=1e-9)
+    values = [_chi2_logsf(x, 2) for x in (2e4, 4e4, 8e4)]
+    assert all(np.isfinite(values)) and values[0] > values[1] > values[2]
+    assert values[0] == pytest.approx(-1e4, rel=1e-6)  # log Q(1, z) = -z exactly for k = 2
