@@ -29,9 +29,9 @@ def test_readable_report_and_plot(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv,match", [
-    (["--steps", "0"], "n_steps must be an integer >= 1, got 0"),
-    (["--step-mm", "-2"], "step_mm must be positive"),
-    (["--spec-um", "0"], "spec_um must be a positive number"),
+    (["--steps", "0"], "--steps must be an integer >= 1, got 0"),
+    (["--step-mm", "-2"], "--step-mm must be positive"),
+    (["--spec-um", "0"], "--spec-um must be a positive number"),
     (["--noise", "-1"], "--noise must be a non-negative number"),
     (["--steps", "60", "--step-mm", "10"], "outside its travel"),
 ])

@@ -30,6 +30,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from kinid.checks import check_int
 from kinid.errors import DataError, ImageError
 from kinid.vision import locate_template, make_template, pixel_to_machine_matrix
 from .table import OffsetTable, RoundRecord
@@ -62,9 +63,9 @@ def _number(name, value, *, positive=False) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise DataError(f"{name} must be a number, got {value!r}") from None
+        raise DataError(f"must be a number, got {value!r}", parameter=name) from None
     if not np.isfinite(v) or (positive and not v > 0):
-        raise DataError(f"{name} must be a {'positive' if positive else 'finite'} number, got {value!r}")
+        raise DataError(f"must be a {'positive' if positive else 'finite'} number, got {value!r}", parameter=name)
     return v
 
 
@@ -121,12 +122,10 @@ def check_plan(y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um
     head0 = _head(head_start_mm)
     step = _number("step_mm", step_mm)
     if not step > 0:
-        raise DataError(f"step_mm must be positive (the camera steps towards +Y), got {step_mm!r}")
-    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
-        raise DataError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+        raise DataError(f"must be positive (the camera steps towards +Y), got {step_mm!r}", parameter="step_mm")
+    check_int("n_steps", n_steps, minimum=1)
     spec = _number("spec_um", spec_um, positive=True)
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, (int, np.integer)) or max_rounds < 1:
-        raise DataError(f"max_rounds must be an integer >= 1, got {max_rounds!r}")
+    check_int("max_rounds", max_rounds, minimum=1)
     m = _check_matrix(pixel_to_mm)
     return y0, head0, step, spec, m
 

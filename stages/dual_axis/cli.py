@@ -38,7 +38,7 @@ def register(subparsers) -> None:
     p.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
     p.add_argument("--plot", metavar="OUT.png", help="plot of the plate offset before/after compensation")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    p.set_defaults(run=_run)
+    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"})
 
 
 def _stats(err_um: np.ndarray) -> dict:
