@@ -22,6 +22,7 @@ parameters ...", Proc. Cambridge Phil. Soc. 44, 1948 (score test).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,8 @@ class Candidate:
     size_unit : str
     aliases_with : tuple of str
         For ``aliased``: the model parameters it cannot be told from.
+    note : str
+        How the candidate was found when it is not from the library (a period search).
     """
 
     effect: str
@@ -84,6 +87,7 @@ class Candidate:
     size_std: float
     size_unit: str
     aliases_with: tuple = ()
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -191,6 +195,8 @@ class Diagnosis:
             lines.append(
                 f"{i:>4}  {c.effect:<{w}}  {c.k:>2}  {c.statistic:10.1f}  {c.p_value:9.2g}  {c.rms_after_um:8.3f}µ  {c.size:.4g} ± {c.size_std:.2g} {c.size_unit}"
             )
+            if c.note:
+                lines.append(f"{'':>4}  {'':<{w}}  ({c.note})")
         aliased = [c for c in self.candidates if c.status != "live"]
         if aliased:
             lines.append("")
@@ -350,6 +356,57 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     return out
 
 
+#: Joints whose best searched period is scored as a candidate (the strongest first).
+FOUND_PERIODS = 4
+#: χ² gain a free period needs over the joint's best listed period (χ²₁ at p = 0.001).
+PERIOD_GAIN_MIN = 10.83
+
+
+def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+    """Candidates at periods the library does not list, found by :func:`~kinid.identification.periods.search_periods`.
+
+    Each is scored like a library candidate, then its p-value is multiplied by
+    the number of independent periods searched for its joint.
+    """
+    from dataclasses import replace
+
+    from kinid.errors import DataError
+
+    from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, parse_effect
+    from .periods import search_periods
+
+    r = result.residuals_um.ravel() / sigma
+    r = r - q0 @ (q0.T @ r)
+    have = {c.effect for c in scored}
+    # the best χ² drop of a listed period, per joint: a free period must beat it by more than one
+    # extra parameter gains by chance (χ²₁ at 0.001), else the listed period is the simpler account
+    listed_best = {}
+    for c in scored:
+        if c.status == "live" and ":periodic:" in c.effect:
+            code = c.effect.split(":")[0]
+            listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
+    out = []
+    for est in search_periods(machine, obs, r, d_errors / sigma, q0)[:FOUND_PERIODS]:
+        listed = ROTARY_PERIODS_DEG if est.unit == "deg" else LINEAR_PERIODS_MM
+        if est.effect in have or any(abs(est.period - p) <= max(2 * est.period_std, 1e-9 * p) for p in listed):
+            continue  # the library's own candidate covers it
+        if est.statistic - listed_best.get(est.code, 0.0) < PERIOD_GAIN_MIN:
+            continue
+        try:
+            effect = parse_effect(est.effect, machine)
+        except DataError:
+            continue
+        c = score_candidates(machine, obs, result, [effect], sigma, sigma_known=known, d_errors=d_errors, q0=q0)[0]
+        if c.status != "live":
+            continue
+        log10_p = min(0.0, c.log10_p + math.log10(est.trials))
+        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
+                f"(p-value × {est.trials:.0f} periods searched)")
+        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note))
+        have.add(est.effect)
+    return out
+
+
 def _chi2_logsf(x: float, k: int) -> float:
     """log P(χ²_k > x), finite far into the tail where scipy's value underflows to -inf.
 
@@ -417,6 +474,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
     d_errors, d_axes, q0 = _model_pass(machine, obs, result)
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
+    scored += _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
     location = {j.code for j in machine.error_joints if j.location}
     # best first; exact ties (identical columns) go to the location error, the more physical reading
     live = sorted([c for c in scored if c.status == "live"], key=lambda c: (round(c.log10_p, 6), c.effect.split(":")[0] not in location, c.rms_after_um))

@@ -1,0 +1,187 @@
+"""Periods the candidate library does not list: a continuous search, then the period refined.
+
+A lead-screw error with an inch lead (12.7 mm), a 12.3 mm lead or a gear with
+seven teeth per table turn (360/7 = 51.43°) is periodic in its axis, but at a
+period the library does not hold. For every position-dependent error joint
+``E<d><k>`` the score test of ``E<d><k>:periodic:P`` is evaluated on a dense
+grid of frequencies, at the fit, in closed form (no refit per period):
+
+    Δ(P) = bᵀ G⁻¹ b,  b = [sᵀr, cᵀr],  G = Gram matrix of the sine and cosine
+    columns s, c after projecting them off the model's Jacobian,
+
+with r the whitened residual (orthogonal to the model). Δ is the χ² drop the
+effect would bring. The best grid period of each joint is refined by a bounded
+scalar search, and its standard deviation follows from the curvature of Δ
+(the χ² of the model with P as a parameter is rss − Δ(P), so var P = 2 / −Δ''(P)).
+
+Searching many periods makes a large Δ likelier by chance: the p-value of a
+found period is multiplied by the number of independent periods searched
+(the travel over the shortest period, per joint), so the search does not
+raise false alarms on noise.
+
+The shortest period searched is twice the usual spacing of the axis's
+readings (on a regular grid of positions a shorter period aliases onto a
+longer one), and at least 2 mm or 10°.
+
+Every sum is over alignments, O(N · periods · rank), in chunks of periods:
+memory stays flat in the number of alignments.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .machine import Machine
+from .observations import Observations
+
+__all__ = ["PeriodEstimate", "search_periods", "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "period_name"]
+
+#: Shortest period searched on linear axes, mm (the library's shortest), and on rotary axes, deg.
+MIN_PERIOD_MM = 2.0
+MIN_PERIOD_DEG = 10.0
+#: Grid density: frequencies spaced 1 / (OVERSAMPLE × span of the axis readings).
+OVERSAMPLE = 6
+#: Memory per array of one chunk of frequencies, bytes (a chunk holds N × chunk values; memory flat in N).
+CHUNK_BYTES = 8 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class PeriodEstimate:
+    """The best period found for one error joint.
+
+    Attributes
+    ----------
+    code, axis : str
+        Error joint and its axis.
+    period, period_std : float
+        Refined period and its standard deviation, mm or deg.
+    statistic : float
+        χ² drop Δ at the refined period.
+    trials : float
+        Independent periods searched for this joint (the p-value's multiplier).
+    unit : str
+        ``mm`` or ``deg``.
+    """
+
+    code: str
+    axis: str
+    period: float
+    period_std: float
+    statistic: float
+    trials: float
+    unit: str
+
+    @property
+    def effect(self) -> str:
+        return f"{self.code}:periodic:{period_name(self.period, self.period_std)}"
+
+
+def period_name(period: float, std: float) -> str:
+    """The period as written in an effect name: enough digits that rounding moves it by < std / 10."""
+    if not (np.isfinite(std) and std > 0):
+        return f"{period:.4g}"
+    decimals = max(0, min(6, int(math.ceil(-math.log10(std / 10.0)))))
+    text = f"{period:.{decimals}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+def _delta(freq, q, w, nrm, g):
+    """Δ for each frequency in ``freq`` (1/mm or 1/deg); q, w, nrm (N,), g (N, rank)."""
+    phase = 2.0 * np.pi * np.outer(q, freq)  # (N, F)
+    S, C = np.sin(phase), np.cos(phase)
+    bs, bc = w @ S, w @ C
+    ss = nrm @ (S * S)
+    cc = nrm @ (C * C)
+    sc = nrm @ (S * C)
+    Ps, Pc = g.T @ S, g.T @ C  # (rank, F)
+    g11 = ss - np.sum(Ps * Ps, axis=0)
+    g22 = cc - np.sum(Pc * Pc, axis=0)
+    g12 = sc - np.sum(Ps * Pc, axis=0)
+    det = g11 * g22 - g12 * g12
+    scale = np.maximum(g11 * g22, 1e-300)
+    ok = det > 1e-10 * scale
+    out = np.zeros(len(freq))
+    out[ok] = (g22[ok] * bs[ok] ** 2 - 2 * g12[ok] * bs[ok] * bc[ok] + g11[ok] * bc[ok] ** 2) / det[ok]
+    # where sine and cosine columns coincide after projection, one column is all the data see
+    one = ~ok & (g11 + g22 > 0)
+    out[one] = np.maximum(bs[one] ** 2 / np.maximum(g11[one], 1e-300), bc[one] ** 2 / np.maximum(g22[one], 1e-300))
+    return out
+
+
+def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, d_errors_w: np.ndarray,
+                   q0: np.ndarray) -> list:
+    """Best period of every position-dependent error joint, refined, best first.
+
+    Parameters
+    ----------
+    residual_w : array (3N,)
+        Whitened residual (÷ σ), orthogonal to the model's columns.
+    d_errors_w : array (N, 3, n_errors)
+        Error-joint Jacobian at the fit, whitened (÷ σ).
+    q0 : array (3N, rank)
+        Orthonormal basis of the model's identifiable columns.
+
+    Returns
+    -------
+    list of PeriodEstimate, by decreasing Δ.
+    """
+    from scipy.optimize import minimize_scalar
+
+    n = len(obs)
+    rank = q0.shape[1]
+    Q = q0.reshape(n, 3, rank)
+    R = residual_w.reshape(n, 3)
+    out = []
+    for j, joint in enumerate(machine.error_joints):
+        if joint.location or joint.axis not in machine.axis_names:
+            continue
+        a = machine.axis(joint.axis)
+        q = obs.axes[:, machine.axis_names.index(joint.axis)]
+        unique = np.unique(np.round(q, 9))
+        if unique.size < 6:
+            continue
+        span = float(unique[-1] - unique[0])
+        rotary = a.kind != "prismatic"
+        # no period shorter than twice the usual spacing of the readings: on a regular grid of
+        # positions, shorter periods alias onto longer ones and cannot be told apart (Nyquist)
+        spacing = float(np.median(np.diff(unique)))
+        p_min = max(MIN_PERIOD_DEG if rotary else MIN_PERIOD_MM, 2.0 * spacing)
+        p_max = 360.0 if rotary else span
+        if span <= 0 or p_max <= p_min:
+            continue
+        col = d_errors_w[:, :, j]  # (N, 3)
+        nrm = np.sum(col * col, axis=1)
+        if not np.any(nrm > 0):
+            continue
+        w = np.sum(col * R, axis=1)
+        g = np.einsum("nkr,nk->nr", Q, col)
+        extent = max(span, 360.0) if rotary else span
+        df = 1.0 / (OVERSAMPLE * extent)
+        freq = np.arange(1.0 / p_max, 1.0 / p_min + df / 2, df)
+        chunk = max(int(CHUNK_BYTES // (8 * n)), 4)
+        delta = np.concatenate([_delta(freq[k:k + chunk], q, w, nrm, g) for k in range(0, len(freq), chunk)])
+        k = int(np.argmax(delta))
+        if not delta[k] > 0:
+            continue
+        lo, hi = freq[max(k - 1, 0)], freq[min(k + 1, len(freq) - 1)]
+
+        def negative(f):
+            return -float(_delta(np.array([f]), q, w, nrm, g)[0])
+
+        f_best = minimize_scalar(negative, bounds=(lo, hi), method="bounded",
+                                 options={"xatol": df * 1e-6}).x if hi > lo else freq[k]
+        d_best = -negative(f_best)
+        if d_best < delta[k]:
+            f_best, d_best = freq[k], float(delta[k])
+        period = 1.0 / f_best
+        # curvature of Δ in the period: var P = 2 / (−Δ'')
+        h = period * 1e-4
+        d2 = (-negative(1.0 / (period + h)) - 2 * d_best - negative(1.0 / (period - h))) / h**2
+        std = math.sqrt(2.0 / -d2) if d2 < 0 else float("nan")
+        trials = max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
+        out.append(PeriodEstimate(joint.code, joint.axis, float(period), std, float(d_best), float(trials),
+                                  "deg" if rotary else "mm"))
+    out.sort(key=lambda e: -e.statistic)
+    return out

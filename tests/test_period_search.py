@@ -1,0 +1,125 @@
+"""Periods the candidate library does not list are found, named and refined; the error then falls.
+
+The hidden periodic errors are put into the data by a plain formula on the
+readings (not by kinid's effect code): for a positioning error e of X, the
+reading x that puts the tool where the nominal reading x₀ would solves
+x + e(x) = x₀; for an angular positioning error of the table C, the table
+stands at c + e(c) when the reading says c. The kinematics of the machine
+(location and set-up errors) come from kinid's simulator; the effect under
+test does not.
+"""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from kinid.identification import load_machine
+from kinid.identification.alignment import solve_axes
+from kinid.identification.diagnose import diagnose, forward_select
+from kinid.identification.effects import default_model, parse_effect
+from kinid.identification.fit import fit
+from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.urdf import path
+
+SIGMA = 1.0
+
+
+@pytest.fixture(scope="module")
+def bc():
+    return load_machine(path("five_axis_bc"))
+
+
+def _location_truth(machine, rng):
+    truth = {e.code: float(rng.normal(0, 15.0)) for e in default_model(machine)}
+    truth.update({"EX0W": 600.0, "EY0W": -400.0, "EC0W": 5000.0})
+    return errors_from_mapping(truth, machine)
+
+
+def _with_x_error(machine, obs, amp_um, period_mm, phase):
+    """Readings of X when X has the positioning error amp·sin(2πx/P + phase): solve x + e(x) = x₀."""
+    j = machine.axis_names.index("X")
+    x0 = obs.axes[:, j].copy()
+    x = x0.copy()
+    for _ in range(20):
+        x = x0 - amp_um * 1e-3 * np.sin(2 * np.pi * x / period_mm + phase)
+    axes = obs.axes.copy()
+    axes[:, j] = x
+    return replace(obs, axes=axes)
+
+
+def _held_out_rms(machine, result, truth_obs):
+    poses = replace(truth_obs, axes=np.where(np.isin(np.arange(truth_obs.axes.shape[1]),
+                                                      [machine.axis_names.index(a) for a in "XYZ"]),
+                                             np.nan, truth_obs.axes))
+    pred = solve_axes(machine, result.effects, result.theta, poses)
+    cols = [machine.axis_names.index(a) for a in "XYZ"]
+    return float(np.sqrt(np.mean(np.sum((pred.axes[:, cols] - truth_obs.axes[:, cols]) ** 2, axis=1)))) * 1e3
+
+
+def test_off_list_lead_on_a_linear_axis(bc):
+    P, amp = 13.3, 2.5  # a lead the library does not list
+    rng = np.random.default_rng(101)
+    effects, theta = _location_truth(bc, rng)
+    obs = _with_x_error(bc, simulate(bc, patent_plan(bc), effects, theta, noise_um=SIGMA, rng=rng), amp, P, 0.7)
+    held = _with_x_error(bc, simulate(bc, patent_plan(bc, tilt_deg=(-50, -25, 5, 35, 55), turn_deg=tuple(range(15, 360, 40))),
+                                      effects, theta, rng=rng), amp, P, 0.7)
+
+    before = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert before.verdict == "missing-effect"
+    best = before.live[0]
+    assert best.effect.startswith("EXX:periodic:"), [c.effect for c in before.live[:5]]
+    found = float(best.effect.split(":")[2])
+    assert "period found by search" in best.note
+    std = float(best.note.split("±")[1].split()[0])
+    assert abs(found - P) <= 3 * std and std < 0.2, (found, std)
+
+    steps = forward_select(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert steps[-1].diagnosis.verdict == "noise"
+    assert steps[1].added.startswith("EXX:periodic:")
+    true_fit = fit(bc, obs, default_model(bc) + [parse_effect(f"EXX:periodic:{P}", bc)], noise_um=SIGMA)
+    auto, truth, base = (_held_out_rms(bc, r, held) for r in (steps[-1].fit, true_fit, steps[0].fit))
+    assert auto <= 1.5 * truth, (auto, truth)
+    assert base > 2 * auto, (base, auto)
+
+
+def test_off_list_period_on_a_rotary_axis(bc):
+    """A gear error of the table with 7 periods per turn (51.43°), on a plan with the table every 10°."""
+    P, amp_urad = 360.0 / 7.0, 45.0
+    rng = np.random.default_rng(202)
+    effects, theta = _location_truth(bc, rng)
+    c = bc.axis_names.index("C")
+
+    def table_error(obs_plan, noise):
+        actual = obs_plan.axes.copy()
+        actual[:, c] += np.degrees(amp_urad * 1e-6 * np.sin(np.radians(obs_plan.axes[:, c]) * 7 + 0.4))
+        sim = simulate(bc, replace(obs_plan, axes=actual), effects, theta, noise_um=noise, rng=rng)
+        axes = sim.axes.copy()
+        axes[:, c] = obs_plan.axes[:, c]  # the reading is the commanded angle
+        return replace(sim, axes=axes)
+
+    plan = patent_plan(bc, tilt_deg=(-60, -30, 0, 30, 60), turn_deg=tuple(range(0, 360, 10)))
+    obs = table_error(plan, SIGMA)
+    held = table_error(patent_plan(bc, tilt_deg=(-45, 15, 45), turn_deg=tuple(range(5, 360, 30))), 0.0)
+
+    before = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert before.verdict == "missing-effect"
+    best = before.live[0]
+    assert best.effect.startswith("ECC:periodic:"), [c.effect for c in before.live[:5]]
+    found = float(best.effect.split(":")[2])
+    std = float(best.note.split("±")[1].split()[0])
+    assert abs(found - P) <= 3 * std and std < 0.5, (found, std)
+
+    steps = forward_select(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert steps[-1].diagnosis.verdict == "noise"
+    true_fit = fit(bc, obs, default_model(bc) + [parse_effect(f"ECC:periodic:{P}", bc)], noise_um=SIGMA)
+    auto, truth = (_held_out_rms(bc, r, held) for r in (steps[-1].fit, true_fit))
+    assert auto <= 1.5 * truth, (auto, truth)
+
+
+def test_no_search_candidate_on_listed_periods(bc):
+    """A listed period (10 mm) stays the listed name: a free period must earn its extra parameter."""
+    rng = np.random.default_rng(303)
+    effects, theta = _location_truth(bc, rng)
+    obs = _with_x_error(bc, simulate(bc, patent_plan(bc), effects, theta, noise_um=SIGMA, rng=rng), 2.5, 10.0, 1.1)
+    dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert dg.live[0].effect == "EXX:periodic:10", [c.effect for c in dg.live[:4]]
