@@ -60,6 +60,9 @@ def register(sub) -> None:
     p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect")
     p.add_argument("--out", default=None, help="report folder (default: a fresh kinid-demo-<time> folder)")
     p.add_argument("--seed", type=int, default=7)
+    p.add_argument("--case", choices=("library", "lead"), default="library",
+                   help="hidden effect: 'library' (a 10 mm lead, a listed period) or 'lead' (a 12.7 mm lead the "
+                        "library does not list: the period search finds it)")
     p.set_defaults(run=_demo, outputs={"out": "folder"})
 
 
@@ -193,5 +196,5 @@ def _diagnose(args) -> int:
 def _demo(args) -> int:
     from .demo import run_demo
 
-    run_demo(args.out, seed=args.seed)
+    run_demo(args.out, seed=args.seed, case=args.case)
     return 0

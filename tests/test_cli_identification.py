@@ -161,3 +161,12 @@ def test_identify_report_without_auto(workdir, tmp_path, capsys):
                  "--report", str(tmp_path / "rep"), "--out", str(tmp_path / "f.json")]) == 0
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "verdict: missing-effect" in page and "EXX:periodic:10" in page
+
+
+def test_demo_lead_case_finds_the_unlisted_period(tmp_path, capsys):
+    from kinid.cli import main
+
+    assert main(["demo", "--case", "lead", "--out", str(tmp_path / "demo")]) == 0
+    out = capsys.readouterr().out
+    assert "hidden effect: EXX:periodic:12.7" in out and "found and added as EXX:periodic:12.7" in out
+    assert "period found by search" in out
