@@ -21,6 +21,9 @@ def register(sub) -> None:
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
     p.add_argument("--report", default=None, metavar="DIR", help="write the report (plots, residuals.csv, HTML) to DIR; with --auto, of every step")
     p.add_argument("--out", required=True, help="fit JSON to write")
+    p.add_argument("--no-robust", action="store_true",
+                   help="keep gross errors (alignments beyond the Bonferroni χ²₃ bound at 0.001) instead of "
+                        "setting them aside")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_identify)
@@ -114,12 +117,21 @@ def _identify(args) -> int:
         from .diagnose import forward_select
         from .report import selection_report
 
-        steps = forward_select(machine, obs, effects, noise_um=args.noise_um, progress=sys.stderr)
+        steps = forward_select(machine, obs, effects, noise_um=args.noise_um, progress=sys.stderr,
+                               robust=not args.no_robust)
         result = steps[-1].fit
+        obs = steps[-1].data
         if args.report:
             selection_report(steps, obs, args.report)
     else:
-        result = fit(machine, obs, effects, noise_um=args.noise_um)
+        from dataclasses import replace
+
+        aside = ()
+        if not args.no_robust:
+            from .outliers import set_aside_outliers
+
+            obs, aside = set_aside_outliers(machine, obs, effects, noise_um=args.noise_um)
+        result = replace(fit(machine, obs, effects, noise_um=args.noise_um), set_aside=aside)
         if args.report:
             from .diagnose import diagnose
             from .report import diagnosis_report
@@ -178,8 +190,15 @@ def _diagnose(args) -> int:
     loaded = load_fit(args.fit)
     obs = _without_duplicates(read_observations(args.data, loaded.machine,
                                                 check_limits=not args.allow_outside_limits))
+    aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
+    if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
+        obs = obs.subset(np.array([i for i, ln in enumerate(obs.lines) if ln not in aside_lines]))
     carried = Noise(loaded.noise_um, "fit") if loaded.noise.known else None
     result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, carried_noise=carried)
+    if loaded.set_aside:
+        from dataclasses import replace
+
+        result = replace(result, fit=replace(result.fit, set_aside=loaded.set_aside))
     if args.report:
         from .report import diagnosis_report
 

@@ -23,7 +23,7 @@ parameters ...", Proc. Cambridge Phil. Soc. 44, 1948 (score test).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
@@ -74,6 +74,8 @@ class Candidate:
         For ``aliased``: the model parameters it cannot be told from.
     note : str
         How the candidate was found when it is not from the library (a period search).
+    trials : float
+        Alternatives searched to find it (its p-value is multiplied by this); 1 for the library.
     """
 
     effect: str
@@ -88,6 +90,7 @@ class Candidate:
     size_unit: str
     aliases_with: tuple = ()
     note: str = ""
+    trials: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -120,6 +123,8 @@ class Diagnosis:
         the readings at which the model puts the tool point on the mark, µm.
     axis_names : tuple of str
         The axes of ``axis_residuals_um``.
+    note : str
+        When the verdict needs a word more: a σ given too small for these data.
     """
 
     fit: FitResult
@@ -134,6 +139,7 @@ class Diagnosis:
     outliers: tuple
     axis_residuals_um: np.ndarray = None
     axis_names: tuple = ()
+    note: str = ""
 
     @property
     def noise_um(self) -> float:
@@ -168,7 +174,10 @@ class Diagnosis:
             "verdict": self.verdict,
             "rms_um": float(self.rms_um),
             "noise_um": float(self.noise_um),
+            "note": self.note,
             "candidates": [{"effect": c.effect, "rms_after_um": float(c.rms_after_um), "p_value": float(c.p_value)} for c in self.live],
+            "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": float(a.residual_um), "sigmas": float(a.sigmas)}
+                          for a in self.fit.set_aside],
         }
 
     def text(self, top: int = 10) -> str:
@@ -179,7 +188,9 @@ class Diagnosis:
             f"residual RMS {self.rms_um:.3f} µm per coordinate; noise σ {self.noise_um:.3f} µm ({self.noise_source})"
             + (f"; χ² test of the residual against σ: p = {self.chi2_p:.3g}" if np.isfinite(self.chi2_p) else ""),
         ]
-        if self.verdict == "noise":
+        if self.verdict == "noise" and self.note:
+            lines.append(f"verdict: noise — {self.note}")
+        elif self.verdict == "noise":
             lines.append("verdict: noise — no candidate effect is significant and the residual is consistent with the noise")
         else:
             best = self.live[0] if self.live else None
@@ -214,6 +225,10 @@ class Diagnosis:
         if self.outliers:
             lines.append("")
             lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
+        if f.set_aside:
+            lines.append("")
+            lines.append(f"set aside as gross errors before fitting ({len(f.set_aside)}; --no-robust keeps them):")
+            lines += [f"  - {a.describe()}" for a in f.set_aside]
         if f.aliases:
             lines.append("")
             lines.append("held fixed (not identifiable from these data):")
@@ -255,6 +270,26 @@ def _model_pass(machine: Machine, obs: Observations, result: FitResult):
     J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
     Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
     return d_errors, d_axes, Q0
+
+
+#: A warm-started refit taking more iterations than this is redone from a cold start.
+WARM_START_ITERATIONS = 15
+
+
+def _set_aside(machine, obs, effects, noise_um, progress, before: tuple):
+    """``obs`` without its gross errors and the tuple of all set aside so far (rows of the original data)."""
+    from .outliers import set_aside_outliers
+
+    kept, new = set_aside_outliers(machine, obs, effects, noise_um=noise_um)
+    if not new:
+        return obs, before
+    if before:  # rows of ``obs`` -> rows of the data as read: keep the first record's numbering
+        rows = [i for i in range(len(obs) + len(before)) if i not in {a.row for a in before}]
+        new = tuple(replace(a, row=rows[a.row]) for a in new)
+    if progress is not None:
+        for a in new:
+            print(f"  set aside as a gross error: {a.describe()}", file=progress, flush=True)
+    return kept, before + new
 
 
 #: Memory for one block of candidate columns in the score test, bytes (diagnosis memory stays flat in N).
@@ -402,9 +437,21 @@ def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
         log10_p = min(0.0, c.log10_p + math.log10(est.trials))
         note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
                 f"(p-value × {est.trials:.0f} periods searched)")
-        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note))
+        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=est.trials))
         have.add(est.effect)
     return out
+
+
+def _f_log10_p(c: Candidate, rss: float, dof: int) -> float:
+    """log10 p of candidate ``c`` by the F test, σ estimated from the residuals (whitened rss, dof)."""
+    import scipy.stats
+
+    dof2 = max(dof - c.k, 1)
+    F = (c.statistic / c.k) / max((rss - c.statistic) / dof2, 1e-300)
+    log_sf = float(scipy.stats.f.logsf(F, c.k, dof2))
+    if not np.isfinite(log_sf):
+        log_sf = _chi2_logsf(F * c.k, c.k)
+    return log_sf / math.log(10)
 
 
 def _chi2_logsf(x: float, k: int) -> float:
@@ -483,12 +530,23 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     chi2_p = float(scipy.stats.chi2.sf(np.sum(r**2) / sigma**2, result.dof)) if known else float("nan")
     significant = bool(live) and live[0].p_value < threshold
     verdict = "missing-effect" if significant or (known and chi2_p < alpha) else "noise"
+    note = ""
+    if known and chi2_p < alpha:
+        # The residual exceeds the given σ. Structure, or a σ given too small? The F test of the best
+        # candidates does not depend on σ at all: if none passes it, the excess is white noise.
+        dof = max(result.dof, 1)
+        rss = float(np.sum(r**2)) / sigma**2
+        passes = [c for c in live[:5] if _f_log10_p(c, rss, dof) + math.log10(c.trials) < math.log10(threshold)]
+        if not passes:
+            verdict = "noise"
+            note = (f"the residual looks like noise of about {np.sqrt(rss / dof) * sigma:.2g} µm, not "
+                    f"{sigma:.2g} µm as given: no candidate explains more than white noise would")
     stud, lev = _studentized(result, q0, sigma)
     bound = scipy.stats.chi2.isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
     rms = float(np.sqrt(np.mean(r**2)))
     axis_r, axis_names = axis_residuals(machine, obs, result, d_axes=d_axes)
-    return Diagnosis(fit=result, verdict=verdict, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
+    return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks))
 
@@ -525,23 +583,32 @@ class SelectionStep:
     """One step of forward selection: the model, its fit and its diagnosis, and what was added to reach it.
 
     ``stopped`` is empty but on the last step, where it says in words why the
-    selection ended there.
+    selection ended there. ``data`` are the alignments the step used (gross
+    errors set aside).
     """
 
     added: str | None
     fit: FitResult
     diagnosis: Diagnosis
     stopped: str = ""
+    data: Observations | None = None
 
 
 @blas_single_threaded
-def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=None, alpha: float = ALPHA, max_steps: int = 8, progress=None) -> list:
+def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=None, alpha: float = ALPHA,
+                   max_steps: int = 8, progress=None, robust: bool = True, folds: int = 4) -> list:
     """Add the best candidate, refit the full nonlinear model, rescore; until the verdict is ``noise``.
 
     Parameters
     ----------
     progress : file-like, optional
         Where to print one line per step (the RMS falling against σ).
+    robust : bool
+        Set gross errors aside (:func:`~kinid.identification.outliers.set_aside_outliers`)
+        with the starting model and again with the final one.
+    folds : int
+        An effect is added only if it also lowers the held-out RMS of this many
+        blocks of the data (:func:`~kinid.identification.crossval.cross_validate`); 0 skips the check.
 
     Returns
     -------
@@ -553,20 +620,29 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     effects = list(check_effects(machine, effects))
     if noise_um is not None:
         noise_um = check_positive("noise_um", noise_um)
+    aside = ()
+    if robust:
+        obs, aside = _set_aside(machine, obs, effects, noise_um, progress, aside)
     added = None
     steps = []
     theta0 = None
     carried = None
     for _ in range(max_steps + 1):
         dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0)
-        steps.append(SelectionStep(added, dg.fit, dg))
+        if theta0 is not None and (not dg.fit.success or dg.fit.iterations > WARM_START_ITERATIONS):
+            # the warm start stalled: a cold start reaches the optimum the model has
+            cold = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha)
+            if cold.rms_um <= dg.rms_um:
+                dg = cold
+        dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
+        steps.append(SelectionStep(added, dg.fit, dg, data=obs))
         if progress is not None:
             what = "start" if added is None else f"+ {added}"
             print(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}", file=progress, flush=True)
         best = dg.live[0] if dg.live else None
         stop = ""
         if dg.verdict == "noise":
-            stop = f"the residual is explained by noise of σ = {dg.noise}"
+            stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
         elif best is None:
             stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
                     "from the model: see the aliased candidates")
@@ -575,8 +651,26 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
                     f"threshold {dg.threshold:.2g}")
         elif len(steps) > max_steps:
             stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
+        elif folds:
+            from .crossval import cross_validate
+            from .effects import parse_effect as _parse
+
+            cv = cross_validate(machine, obs, effects, _parse(best.effect, machine), folds=folds, noise_um=noise_um,
+                                theta0=dg.fit.theta)
+            if progress is not None:
+                print(f"  {'':<28} next: {best.effect}, p = {best.p_value:.2g}, {cv}", file=progress, flush=True)
+            if not cv.improves:
+                stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
+                        f"data better: {cv}")
         if stop:
-            steps[-1] = SelectionStep(added, dg.fit, dg, stopped=stop)
+            if robust:  # a misread may stand out only once the model is complete
+                kept, more = _set_aside(machine, obs, effects, noise_um, progress, aside)
+                if more != aside:
+                    obs, aside = kept, more
+                    dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,
+                                  theta0=dg.fit.theta)
+                    dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
+            steps[-1] = SelectionStep(added, dg.fit, dg, stopped=stop, data=obs)
             if progress is not None:
                 print(f"  stopped: {stop}", file=progress, flush=True)
             break

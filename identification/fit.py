@@ -26,6 +26,7 @@ from .effects import Effect, check_effects, default_model, parse_effect
 from .identifiability import RANK_TOL, Alias, analyse
 from .machine import Machine, check_machine, machine_from_urdf
 from .noise import Noise
+from .outliers import SetAside
 from .observations import Observations, check_observations
 from .residuals import design, residuals
 
@@ -70,6 +71,11 @@ class FitResult:
     iterations : int
     success : bool
     message : str
+    singular_values : array
+        Of the whitened, column-scaled Jacobian of the identifiable parameters.
+    set_aside : tuple of SetAside
+        Alignments left out as gross errors before this fit
+        (:mod:`~kinid.identification.outliers`), with their CSV lines.
     """
 
     machine: Machine
@@ -93,6 +99,7 @@ class FitResult:
     success: bool
     message: str
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    set_aside: tuple = ()
 
     @property
     def noise_um(self) -> float:
@@ -138,6 +145,9 @@ class FitResult:
         if self.aliases:
             lines.append("not identifiable from these data (held fixed, not returned as values):")
             lines += [f"  - {a.message}" for a in self.aliases]
+        if self.set_aside:
+            lines.append(f"set aside as gross errors ({len(self.set_aside)}; kinid identify --no-robust keeps them):")
+            lines += [f"  - {a.describe()}" for a in self.set_aside]
         if not self.success:
             lines.append(f"WARNING: {self.message}")
         return "\n".join(lines)
@@ -326,6 +336,8 @@ def fit_to_dict(result: FitResult) -> dict:
         "success": result.success,
         "message": result.message,
         "singular_values": [_finite(v) for v in result.singular_values],
+        "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": _finite(a.residual_um),
+                       "sigmas": _finite(a.sigmas)} for a in result.set_aside],
     }
 
 
@@ -373,7 +385,10 @@ def load_fit(path) -> FitResult:
             rms_um=_number(data, "rms_um"), noise=noise, dof=int(data.get("dof", 0)),
             iterations=int(data.get("iterations", 0)), success=bool(data.get("success", True)),
             message=str(data.get("message", "")),
-            singular_values=np.array([np.nan if v is None else float(v) for v in data.get("singular_values", ())]))
+            singular_values=np.array([np.nan if v is None else float(v) for v in data.get("singular_values", ())]),
+            set_aside=tuple(SetAside(-1, None if a.get("line") is None else int(a["line"]), str(a.get("mark", "")),
+                                     _number(a, "residual_um"), _number(a, "sigmas"))
+                            for a in data.get("set_aside", ())))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

@@ -222,10 +222,12 @@ def selection_report(steps, obs, folder, *, preface: str = "") -> Path:
     machine = steps[0].fit.machine
     plot_selection(steps, folder / "rms_steps.png")
     sections = [("The error falls as effects are added", preface, [("Residual RMS per step against σ", "rms_steps.png")])]
-    sections.append(("Default model: where it fails", steps[0].diagnosis.text(top=10), _figures("before_", machine, obs, steps[0].fit, folder)))
+    first = steps[0].data if getattr(steps[0], "data", None) is not None else obs  # gross errors set aside
+    last = steps[-1].data if getattr(steps[-1], "data", None) is not None else obs
+    sections.append(("Default model: where it fails", steps[0].diagnosis.text(top=10), _figures("before_", machine, first, steps[0].fit, folder)))
     if len(steps) > 1:
-        sections.append(("Final model", steps[-1].diagnosis.text(top=5), _figures("after_", machine, obs, steps[-1].fit, folder)))
-    write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, obs))
+        sections.append(("Final model", steps[-1].diagnosis.text(top=5), _figures("after_", machine, last, steps[-1].fit, folder)))
+    write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     sections.append(("Final fit", steps[-1].fit.table(), []))
     page = folder / "index.html"
     write_text(page, _page("kinid: compare, diagnose, add, watch the error fall", sections))

@@ -59,7 +59,7 @@ def test_diagnose_json_names_the_hidden_effect(workdir, capsys):
     capsys.readouterr()
     assert main(["diagnose", "--fit", str(d / "fit0.json"), "--data", str(d / "obs.csv"), "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
-    assert set(result) == {"verdict", "rms_um", "noise_um", "candidates"}
+    assert set(result) == {"verdict", "rms_um", "noise_um", "candidates", "note", "set_aside"}
     assert result["verdict"] == "missing-effect"
     assert result["noise_um"] == 1.0
     assert result["candidates"][0]["effect"] == "EXX:periodic:10"

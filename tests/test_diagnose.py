@@ -108,7 +108,7 @@ def test_noise_from_replicates(bc):
     assert dg.verdict == "noise"
 
 
-def _noise_verdicts(bc, trials, seed0):
+def _noise_verdicts(bc, trials, seed0, noise_um=SIGMA):
     base = _data(bc, None, seed=1, noise=0.0)
     prism = [j for j, a in enumerate(bc.axes) if a.kind == "prismatic"]
     start = fit(bc, base)
@@ -118,7 +118,7 @@ def _noise_verdicts(bc, trials, seed0):
         axes = base.axes.copy()
         axes[:, prism] += rng.normal(0, SIGMA * 1e-3, size=(len(base), 3))
         obs = replace(base, axes=axes)
-        verdicts.append(diagnose(bc, obs, default_model(bc), noise_um=SIGMA, theta0=start.theta).verdict)
+        verdicts.append(diagnose(bc, obs, default_model(bc), noise_um=noise_um, theta0=start.theta).verdict)
     return verdicts
 
 
@@ -132,6 +132,13 @@ def test_pure_noise_false_alarm_rate_below_5_percent(bc):
     """200 seeded trials: the verdict is `noise` in at least 95 % (expected ≈ 98 %: α = 1 % twice)."""
     verdicts = _noise_verdicts(bc, 200, 5000)
     assert verdicts.count("noise") >= 190, verdicts.count("noise")
+
+
+@pytest.mark.slow
+def test_pure_noise_false_alarm_rate_with_sigma_estimated(bc):
+    """σ not given (estimated from the residuals, F tests), the period search on: `noise` in at least 95 %."""
+    verdicts = _noise_verdicts(bc, 120, 9000, noise_um=None)
+    assert verdicts.count("noise") >= 114, verdicts.count("noise")
 
 
 def test_residuals_in_machine_axes_point_at_the_faulty_axis(bc):
