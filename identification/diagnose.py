@@ -195,7 +195,7 @@ class Diagnosis:
         else:
             best = self.live[0] if self.live else None
             if best is not None and best.p_value < self.threshold:
-                lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {best.p_value:.3g} < {self.threshold:.3g})")
+                lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {_p(best)} < {self.threshold:.3g})")
                 lines.append(f"  add it:  kinid identify ... --add {best.effect}")
             else:
                 lines.append("verdict: missing-effect — the residual exceeds the noise, but no candidate in the library explains it")
@@ -204,7 +204,7 @@ class Diagnosis:
         lines.append(f"{'rank':>4}  {'effect':<{w}}  {'k':>2}  {'Δχ²':>10}  {'p-value':>9}  {'RMS after':>9}  size ± std")
         for i, c in enumerate(self.live[:top], 1):
             lines.append(
-                f"{i:>4}  {c.effect:<{w}}  {c.k:>2}  {c.statistic:10.1f}  {c.p_value:9.2g}  {c.rms_after_um:8.3f}µ  {c.size:.4g} ± {c.size_std:.2g} {c.size_unit}"
+                f"{i:>4}  {c.effect:<{w}}  {c.k:>2}  {c.statistic:10.1f}  {_p(c, 2):>9}  {c.rms_after_um:8.3f} µm  {c.size:.4g} ± {c.size_std:.2g} {c.size_unit}"
             )
             if c.note:
                 lines.append(f"{'':>4}  {'':<{w}}  ({c.note})")
@@ -217,14 +217,24 @@ class Diagnosis:
                 lines.append(f"  {c.effect}: {why}")
             if len(aliased) > top:
                 lines.append(f"  ... and {len(aliased) - top} more")
-        if self.marks:
+        marks = list(dict.fromkeys(self.marks))
+        if marks and len(marks) <= MARKS_SHOWN:
             lines.append("")
-            lines.append(f"residuals by mark (RMS per coordinate, µm; readings {', '.join(self.axis_names)} measured − model):")
+            axes = f"; readings {', '.join(self.axis_names)} measured − model" if len(self.axis_names) == 3 else ""
+            lines.append(f"residuals by mark (RMS per coordinate, µm{axes}):")
             for mark, n, rw, ra in self.by_mark():
-                lines.append(f"  {mark:<8} {n:4d} alignments   workpiece frame {rw:7.3f}   axes " + "  ".join(f"{v:7.3f}" for v in ra))
+                tail = ("   axes " + "  ".join(f"{v:7.3f}" for v in ra)) if axes else ""
+                lines.append(f"  {mark:<8} {n:4d} alignments   workpiece frame {rw:7.3f}{tail}")
         if self.outliers:
             lines.append("")
             lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
+        missing = joints_the_urdf_lacks(f.machine)
+        if missing and self.verdict == "missing-effect":
+            lines.append("")
+            lines.append("the URDF has no error joint that can vary with the position of these axes, so no candidate "
+                         "can describe their position-dependent errors:")
+            lines += [f"  - {axis}: add {', '.join(codes)} directly after joint {axis} (docs/machines.md)"
+                      for axis, codes in missing]
         if f.set_aside:
             lines.append("")
             lines.append(f"set aside as gross errors before fitting ({len(f.set_aside)}; --no-robust keeps them):")
@@ -234,6 +244,31 @@ class Diagnosis:
             lines.append("held fixed (not identifiable from these data):")
             lines += [f"  - {a.message}" for a in f.aliases]
         return "\n".join(lines)
+
+
+#: The readable report lists the residual by mark for at most this many marks.
+MARKS_SHOWN = 20
+
+
+def _p(c, digits: int = 3) -> str:
+    """A p-value for text: its value, or its power of ten where the value underflows."""
+    return f"{c.p_value:.{digits}g}" if c.p_value > 0 else f"1e{c.log10_p:.0f}"
+
+
+def joints_the_urdf_lacks(machine: Machine) -> list:
+    """(axis, codes) for each motion axis with no error joint whose value may vary with its position.
+
+    For such an axis the URDF needs position-dependent error joints ``E<d><axis>``
+    (or location joints on the axis's own line) before its errors can be found.
+    """
+    from .effects import axis_dependent_joints
+
+    covered = {axis for _, axis in axis_dependent_joints(machine)}
+    out = []
+    for a in machine.axes:
+        if a.name not in covered:
+            out.append((a.name, [f"E{d}{a.name}" for d in "XYZABC"]))
+    return out
 
 
 def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray):

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.errors import DataError
-from .machine import Machine, axis_limits
+from .machine import Machine, _joint_kind, axis_limits
 
-__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "candidate_library", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
+__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "candidate_library", "axis_dependent_joints", "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
 LINEAR_PERIODS_MM = (2, 4, 5, 8, 10, 16, 20)
 ROTARY_PERIODS_DEG = (360, 180, 120, 90)
@@ -173,11 +173,12 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
     error the model lacks.
     """
     have = {e.name for e in model}
+    varying = {code for code, _ in axis_dependent_joints(machine)}
     out = []
     for j in machine.error_joints:
         if j.location:
             out.append(f"{j.code}")
-        else:
+        if j.code in varying:
             kind = machine.axis(j.axis).kind
             out += [f"{j.code}:poly{k}" for k in (1, 2, 3)]
             periods = LINEAR_PERIODS_MM if kind == "prismatic" else ROTARY_PERIODS_DEG
@@ -187,6 +188,43 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
         if has_time:
             out.append(f"{j.code}:drift")
     return [parse_effect(n, machine) for n in out if n not in have]
+
+
+def axis_dependent_joints(machine: Machine) -> list:
+    """(code, axis) of the error joints whose value may vary with the position of their axis.
+
+    Every position-dependent joint ``E<d><k>``; and a location joint ``E<d>0<k>``
+    whose motion is the same as axis ``k``'s own — a translation along the
+    direction of a linear axis, or a rotation about the same line as a rotary
+    axis — because it commutes with the axis, so that its value varying with
+    the axis's position is the position-dependent error the URDF has no joint
+    for (an arm's gear error of J2 is ``EB0J2`` varying with J2 when J2 turns
+    about y).
+    """
+    import pinocchio as pin
+
+    data = machine.model.createData()
+    pin.forwardKinematics(machine.model, data, pin.neutral(machine.model))
+    out = []
+    for e in machine.error_joints:
+        if e.axis not in machine.axis_names:
+            continue
+        if not e.location:
+            out.append((e.code, e.axis))
+            continue
+        axis = machine.axis(e.axis)
+        if (e.kind == "prismatic") != (axis.kind == "prismatic"):
+            continue
+        je, jk = machine.model.getJointId(e.code), machine.model.getJointId(e.axis)
+        de = data.oMi[je].rotation @ np.eye(3)["XYZABC".index(e.direction) % 3]
+        dk = data.oMi[jk].rotation @ _joint_kind(machine.model.joints[jk])[1]
+        if np.linalg.norm(np.cross(de, dk)) > 1e-9:
+            continue  # not parallel
+        offset = data.oMi[jk].translation - data.oMi[je].translation
+        if e.kind == "revolute" and np.linalg.norm(np.cross(offset, dk)) > 1e-9:
+            continue  # parallel rotation axes on different lines do not commute
+        out.append((e.code, e.axis))
+    return out
 
 
 def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None) -> np.ndarray:

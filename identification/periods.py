@@ -1,5 +1,8 @@
 """Periods the candidate library does not list: a continuous search, then the period refined.
 
+(and every location joint equivalent to one, see
+:func:`~kinid.identification.effects.axis_dependent_joints`).
+
 A lead-screw error with an inch lead (12.7 mm), a 12.3 mm lead or a gear with
 seven teeth per table turn (360/7 = 51.43°) is periodic in its axis, but at a
 period the library does not hold. For every position-dependent error joint
@@ -133,9 +136,12 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
     rank = q0.shape[1]
     Q = q0.reshape(n, 3, rank)
     R = residual_w.reshape(n, 3)
+    from .effects import axis_dependent_joints
+
+    varying = {code for code, _ in axis_dependent_joints(machine)}
     out = []
     for j, joint in enumerate(machine.error_joints):
-        if joint.location or joint.axis not in machine.axis_names:
+        if joint.code not in varying:
             continue
         a = machine.axis(joint.axis)
         q = obs.axes[:, machine.axis_names.index(joint.axis)]
