@@ -2,11 +2,11 @@
 
 A p-value says an effect explains more of these residuals than noise would;
 it does not say the effect generalises. Before forward selection adds an
-effect, the data are cut into ``folds`` contiguous blocks in measurement
-order (time: a drift or a thermal change between blocks is part of what must
-generalise); each block is predicted by the model fitted on the others, with
-and without the effect. The effect is accepted only if the held-out sum of
-squares falls.
+effect, the alignments are dealt into ``folds`` blocks in measurement order
+(every ``folds``-th alignment to the same block, so that each block spans the
+whole plan and the whole time); each block is predicted by the model fitted
+on the others, with and without the effect. The effect is accepted only if
+the held-out sum of squares falls.
 """
 from __future__ import annotations
 
@@ -47,13 +47,12 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
     from .residuals import design, residuals
 
     n = len(obs)
-    edges = np.linspace(0, n, folds + 1).astype(int)
     order = np.argsort(obs.t_s, kind="stable") if obs.t_s is not None else np.arange(n)
     ss = np.zeros(2)
     count = 0
     models = (list(effects), list(effects) + [candidate])
     for k in range(folds):
-        test = np.sort(order[edges[k]:edges[k + 1]])
+        test = np.sort(order[k::folds])
         train = np.setdiff1d(np.arange(n), test)
         if test.size == 0 or train.size == 0:
             continue

@@ -422,7 +422,9 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
             size, size_std = _size(e, beta, cov, obs, machine)
             rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
-            out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)), rms_after, size, size_std, unit))
+            note = _map_description(e, beta, machine) if e.basis == "map" else ""
+            out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)),
+                                 rms_after, size, size_std, unit, note=note))
     return out
 
 
@@ -477,6 +479,78 @@ def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
     return out
 
 
+def _map_description(effect, beta, machine) -> str:
+    """In words: where a map candidate's error is, and how large at its peak."""
+    i = int(np.argmax(np.abs(beta)))
+    unit = "mm" if machine.axis(effect.axis).kind == "prismatic" else "deg"
+    width = effect.knots[1] - effect.knots[0]
+    big = np.flatnonzero(np.abs(beta) > 0.5 * abs(beta[i]))
+    extent = (big.max() - big.min() + 1) * width
+    return (f"a local error of {effect.axis} near {effect.axis.lower()} = {effect.knots[i]:+g} {unit}, "
+            f"{abs(beta[i]):.2g} {'µm' if effect.unit == 'um' else 'µrad'} peak over about {extent:g} {unit}, "
+            f"not described by any parametric effect")
+
+
+#: A proposed map must gain over the best parametric candidate more χ² than its extra parameters would
+#: at this level.
+MAP_GAIN_ALPHA = 1e-3
+#: Knot intervals over the measured range of an axis in a proposed map.
+MAP_INTERVALS = 40
+
+
+def _nice_step(span: float) -> float:
+    """A round step (1, 2 or 5 × 10^k) close to span / MAP_INTERVALS."""
+    raw = span / MAP_INTERVALS
+    k = math.floor(math.log10(raw))
+    for m in (1, 2, 5, 10):
+        if m * 10**k >= raw:
+            return m * 10**k
+    return 10 ** (k + 1)  # pragma: no cover
+
+
+def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+    """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range) as a candidate.
+
+    It competes with the parametric candidates on its p-value, so a map wins
+    only where no parametric effect describes the structure (a local bump).
+    """
+    from kinid.errors import DataError
+
+    from .effects import axis_dependent_joints, parse_effect
+
+    maps = []
+    for code, axis in axis_dependent_joints(machine):
+        q = obs.axes[:, machine.axis_names.index(axis)]
+        lo, hi = float(np.min(q)), float(np.max(q))
+        if not hi > lo or np.unique(np.round(q, 9)).size < 2 * MAP_INTERVALS:
+            continue
+        step = _nice_step(hi - lo)
+        lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
+        try:
+            maps.append(parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine))
+        except DataError:
+            continue
+    have = {c.effect for c in scored}
+    fresh = [m for m in maps if m.name not in have]
+    live = [c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
+                                        q0=q0) if c.status == "live"]
+    if not live:
+        return []
+    best = min(live, key=lambda c: c.log10_p)
+    # a map must beat the best parametric candidate by more than its extra parameters gain by chance
+    import scipy.stats
+
+    parametric = [c for c in scored if c.status == "live"]
+    top = max(parametric, key=lambda c: c.statistic, default=None)
+    if top is not None and best.k > top.k and \
+            best.statistic - top.statistic < scipy.stats.chi2.isf(MAP_GAIN_ALPHA, best.k - top.k):
+        return []
+    log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
+    from dataclasses import replace
+
+    return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
+
+
 def _f_log10_p(c: Candidate, rss: float, dof: int) -> float:
     """log10 p of candidate ``c`` by the F test, σ estimated from the residuals (whitened rss, dof)."""
     import scipy.stats
@@ -508,6 +582,9 @@ def _chi2_logsf(x: float, k: int) -> float:
 
 
 def _size(effect, beta, cov, obs, machine):
+    if effect.basis == "map":  # the peak value of the map (the part the model does not already hold)
+        i = int(np.argmax(np.abs(beta)))
+        return float(beta[i]), float(np.sqrt(max(cov[i, i], 0.0)))
     if effect.basis == "periodic":
         amp = float(np.hypot(*beta))
         g = beta / amp if amp > 0 else np.array([1.0, 0.0])
@@ -557,6 +634,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     d_errors, d_axes, q0 = _model_pass(machine, obs, result)
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
     scored += _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
+    scored += _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0)
     location = {j.code for j in machine.error_joints if j.location}
     # best first; exact ties (identical columns) go to the location error, the more physical reading
     live = sorted([c for c in scored if c.status == "live"], key=lambda c: (round(c.log10_p, 6), c.effect.split(":")[0] not in location, c.rms_after_um))

@@ -28,7 +28,11 @@ __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "candidat
 LINEAR_PERIODS_MM = (2, 4, 5, 8, 10, 16, 20)
 ROTARY_PERIODS_DEG = (360, 180, 120, 90)
 _SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
-_BASIS = re.compile(r"^(?:poly(?P<deg>[1-9])|periodic:(?P<period>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)|(?P<rev>reversal)|(?P<drift>drift))$")
+_NUM = r"[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?"
+_BASIS = re.compile(rf"^(?:poly(?P<deg>[1-9])|periodic:(?P<period>{_NUM})|(?P<rev>reversal)|(?P<drift>drift)"
+                    rf"|map:(?P<step>{_NUM})(?::(?P<lo>[-+]?{_NUM}):(?P<hi>[-+]?{_NUM}))?)$")
+#: Knots a map effect may have at most.
+MAX_MAP_KNOTS = 200
 
 
 @dataclass(frozen=True)
@@ -41,7 +45,7 @@ class Effect:
         As written by users: ``EXX:periodic:10``.
     code : str
         The error joint.
-    basis : {"constant", "poly", "periodic", "reversal", "drift"}
+    basis : {"constant", "poly", "periodic", "reversal", "drift", "map"}
     degree : int
         Polynomial degree (poly only).
     period : float
@@ -50,6 +54,9 @@ class Effect:
         The axis whose position or direction drives the basis ("" for constant/drift).
     unit : {"um", "urad"}
         Unit of the error joint's value.
+    knots : tuple of float
+        Map only: the axis positions (mm or deg) where the map's values are the
+        parameters; linear in between, constant beyond the ends.
     """
 
     name: str
@@ -59,9 +66,12 @@ class Effect:
     period: float = 0.0
     axis: str = ""
     unit: str = "um"
+    knots: tuple = ()
 
     @property
     def n_params(self) -> int:
+        if self.basis == "map":
+            return len(self.knots)
         return {"poly": self.degree, "periodic": 2}.get(self.basis, 1)
 
     def param_names(self) -> list[str]:
@@ -69,6 +79,8 @@ class Effect:
             return [f"{self.name}[q{str(j).translate(_SUPERSCRIPT)}]" for j in range(1, self.degree + 1)]
         if self.basis == "periodic":
             return [f"{self.name}[sin]", f"{self.name}[cos]"]
+        if self.basis == "map":
+            return [f"{self.name}[{k:g}]" for k in self.knots]
         return [self.name]
 
     def param_units(self, machine: Machine) -> list[str]:
@@ -107,7 +119,8 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         return Effect(name, code, "constant", unit=joint.unit)
     m = _BASIS.match(basis)
     if not m:
-        raise DataError(f"{source} {name!r}: unknown basis {basis!r}; expected poly<k> (k=1..9), periodic:<P>, reversal or drift")
+        raise DataError(f"{source} {name!r}: unknown basis {basis!r}; expected poly<k> (k=1..9), periodic:<P>, "
+                        "reversal, drift or map:<step>[:<from>:<to>]")
     if m.group("drift"):
         return Effect(name, code, "drift", unit=joint.unit)
     axis = joint.axis
@@ -115,6 +128,9 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         raise DataError(f"{source} {name!r}: a {basis.split(':')[0]} basis needs the position of an axis; {code} is a set-up error")
     if m.group("deg"):
         return Effect(name, code, "poly", degree=int(m.group("deg")), axis=axis, unit=joint.unit)
+    if m.group("step"):
+        return Effect(name, code, "map", axis=axis, unit=joint.unit,
+                      knots=_map_knots(name, machine, axis, m.group("step"), m.group("lo"), m.group("hi"), source))
     if m.group("period"):
         period = float(m.group("period"))
         kind = machine.axis(axis).kind
@@ -157,6 +173,26 @@ def check_effects(machine: Machine, effects, name: str = "effects") -> tuple:
                             f"{type(e).__name__}", parameter=name)
         out.append(e)
     return tuple(out)
+
+
+def _map_knots(name, machine, axis, step_text, lo_text, hi_text, source) -> tuple:
+    """Knots of ``CODE:map:<step>[:<from>:<to>]``: every ``step`` from ``from`` to ``to`` (default: the URDF travel)."""
+    step = float(step_text)
+    unit = "mm" if machine.axis(axis).kind == "prismatic" else "deg"
+    if lo_text is None:
+        lo, hi = axis_limits(machine)[machine.axis_names.index(axis)]
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            raise DataError(f"{source} {name!r}: axis {axis} has no travel in the URDF; give the range as "
+                            f"{name}:<from>:<to> ({unit})")
+    else:
+        lo, hi = float(lo_text), float(hi_text)
+    if not (np.isfinite(step) and step > 0 and np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+        raise DataError(f"{source} {name!r}: a map needs a positive step and a range from < to")
+    n = int(np.ceil((hi - lo) / step - 1e-9)) + 1
+    if n > MAX_MAP_KNOTS:
+        raise DataError(f"{source} {name!r}: {n} knots, more than {MAX_MAP_KNOTS}; use a larger step or give the "
+                        f"measured range as {name.split(':map:')[0]}:map:{step_text}:<from>:<to> ({unit})")
+    return tuple(float(lo + step * k) for k in range(max(n, 2)))
 
 
 def default_model(machine: Machine) -> list[Effect]:
@@ -256,6 +292,16 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
     if effect.basis == "periodic":
         phase = 2 * np.pi * q / effect.period
         return np.stack([np.sin(phase), np.cos(phase)], axis=1)
+    if effect.basis == "map":  # hat functions: linear between knots, constant beyond the ends
+        knots = np.asarray(effect.knots)
+        step = knots[1] - knots[0]
+        x = np.clip((q - knots[0]) / step, 0.0, len(knots) - 1.0)
+        i = np.minimum(np.floor(x).astype(int), len(knots) - 2)
+        t = x - i
+        out = np.zeros((n, len(knots)))
+        out[np.arange(n), i] = 1.0 - t
+        out[np.arange(n), i + 1] += t
+        return out
     column = f"dir_{effect.axis.lower()}"
     if directions is None or effect.axis not in directions:
         raise DataError(f"effect {effect.name!r} needs the column {column!r} in the data")

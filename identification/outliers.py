@@ -1,7 +1,7 @@
 """Gross misreads set aside: one slipped alignment must neither bias the fit nor invent effects.
 
 An alignment whose externally studentized residual is beyond the Bonferroni
-bound of χ²₃ at ``alpha`` (0.001 over all alignments: about 5.3 σ for 336
+bound of χ²₃ at ``alpha`` (10⁻⁵ over all alignments: about 6.1 σ for 336
 alignments) is a gross error, not noise: it is set aside and the model
 refitted, until no alignment is beyond the bound (a few rounds at most). σ is
 the given one, or else a robust estimate from the residuals (1.4826 × the
@@ -26,7 +26,7 @@ from .observations import Observations
 __all__ = ["SetAside", "set_aside_outliers", "OUTLIER_ALPHA"]
 
 #: Family-wise level of the gross-error test over all alignments.
-OUTLIER_ALPHA = 1e-3
+OUTLIER_ALPHA = 1e-5
 
 
 @dataclass(frozen=True)

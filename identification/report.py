@@ -22,7 +22,7 @@ from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG
 from kinid.errors import DataError
 from kinid.figures import new_figure, save_figure
 
-__all__ = ["diagnosis_report", "selection_report", "plot_residuals_vs_axes", "plot_periodogram", "plot_singular_values", "plot_selection"]
+__all__ = ["diagnosis_report", "selection_report", "plot_maps", "plot_residuals_vs_axes", "plot_periodogram", "plot_singular_values", "plot_selection"]
 
 
 def _outdir(folder) -> Path:
@@ -216,6 +216,33 @@ def diagnosis_report(diagnosis, obs, folder) -> Path:
     return page
 
 
+def plot_maps(fit_result, path) -> bool:
+    """Each map effect of the fit: the error at its knots with a ±2σ band, against its axis. False if none."""
+    maps = [e for e in fit_result.effects if e.basis == "map"]
+    if not maps:
+        return False
+    fig = new_figure((7.0, 2.8 * len(maps)))
+    axes = fig.subplots(len(maps), 1, squeeze=False)[:, 0]
+    for ax, e in zip(axes, maps):
+        k = fit_result.effects.index(e)
+        start = sum(x.n_params for x in fit_result.effects[:k])
+        v = fit_result.values[start:start + e.n_params]
+        sd = fit_result.std[start:start + e.n_params]
+        q = np.asarray(e.knots)
+        unit = "µm" if e.unit == "um" else "µrad"
+        axis_unit = "mm" if fit_result.machine.axis(e.axis).kind == "prismatic" else "deg"
+        ok = np.isfinite(v)
+        ax.fill_between(q[ok], (v - 2 * sd)[ok], (v + 2 * sd)[ok], color="tab:blue", alpha=0.25, label="±2σ")
+        ax.plot(q[ok], v[ok], "o-", color="tab:blue", ms=3, label=f"{e.code} at the knots")
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_xlabel(f"{e.axis} position ({axis_unit})")
+        ax.set_ylabel(f"{e.code} ({unit})")
+        ax.set_title(f"{e.name}: identified map (the part the location errors do not hold)", fontsize=10)
+        ax.legend(fontsize=8, loc="best")
+    save_figure(fig, path)
+    return True
+
+
 def selection_report(steps, obs, folder, *, preface: str = "") -> Path:
     """Write the forward-selection report (falling error, first and last residual plots) into ``folder``."""
     folder = _outdir(folder)
@@ -227,6 +254,8 @@ def selection_report(steps, obs, folder, *, preface: str = "") -> Path:
     sections.append(("Default model: where it fails", steps[0].diagnosis.text(top=10), _figures("before_", machine, first, steps[0].fit, folder)))
     if len(steps) > 1:
         sections.append(("Final model", steps[-1].diagnosis.text(top=5), _figures("after_", machine, last, steps[-1].fit, folder)))
+    if plot_maps(steps[-1].fit, folder / "maps.png"):
+        sections.append(("Non-parametric error maps", "", [("Identified maps with ±2σ band", "maps.png")]))
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     sections.append(("Final fit", steps[-1].fit.table(), []))
     page = folder / "index.html"
