@@ -393,8 +393,11 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
                 out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
                 continue
-            ratio = np.linalg.norm(Cp, axis=0) / np.where(norm_c > 0, norm_c, 1.0)
-            U, s, Vt = np.linalg.svd(Cp / np.where(norm_c > 0, norm_c, 1.0), full_matrices=False)
+            # a column that vanishes on this plan (a sine sampled at its zeros) carries nothing: drop it
+            # rather than blow its rounding noise up to unit length
+            alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
+            ratio = np.where(alive, np.linalg.norm(Cp, axis=0) / np.where(alive, norm_c, 1.0), 0.0)
+            U, s, Vt = np.linalg.svd(np.where(alive, Cp / np.where(alive, norm_c, 1.0), 0.0), full_matrices=False)
             keep = s > ALIAS_TOL
             if not keep.any() or ratio.max() < ALIAS_TOL:
                 coef = np.linalg.lstsq(J0, C, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
@@ -416,7 +419,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
                     log_sf = _chi2_logsf(F * kk, kk)
             # size of the effect: least-squares coefficients of the projected block, restricted to the
             # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
-            scale = np.where(norm_c > 0, norm_c, 1.0)
+            scale = np.where(alive, norm_c, 1.0)
             Vk, sk = Vt[keep].T, s[keep]
             beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
             cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)

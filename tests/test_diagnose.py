@@ -169,3 +169,18 @@ def test_tail_probabilities_stay_finite_and_ordered():
     values = [_chi2_logsf(x, 2) for x in (2e4, 4e4, 8e4)]
     assert all(np.isfinite(values)) and values[0] > values[1] > values[2]
     assert values[0] == pytest.approx(-1e4, rel=1e-6)  # log Q(1, z) = -z exactly for k = 2
+
+
+def test_degenerate_candidate_columns_are_not_ranked_with_absurd_sizes(bc):
+    """On a plan with the table at 4 angles only, periodic:90 of C degenerates (its sine is zero at every
+    reading): such candidates are reduced to what the data see or reported as aliased, never sized at 1e15."""
+    rng = np.random.default_rng(31)
+    truth = {e.code: float(rng.normal(0, 20.0)) for e in default_model(bc)}
+    effects, theta = errors_from_mapping(truth, bc)
+    plan = patent_plan(bc, turn_deg=(0, 90, 180, 270))
+    obs = simulate(bc, plan, effects, theta, noise_um=SIGMA, rng=rng)
+    dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    for c in dg.live:
+        assert np.isfinite(c.size) and abs(c.size) < 1e6 and np.isfinite(c.size_std) and c.size_std < 1e6, c
+    c90 = [c for c in dg.candidates if c.effect.endswith("C:periodic:90")]
+    assert c90 and all(c.status != "live" or c.k == 2 for c in c90)
