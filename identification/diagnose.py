@@ -461,7 +461,9 @@ def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
             code = c.effect.split(":")[0]
             listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
     out = []
-    for est in search_periods(machine, obs, r, d_errors / sigma, q0)[:FOUND_PERIODS]:
+    estimates = search_periods(machine, obs, r, d_errors / sigma, q0)
+    joints = max(len(estimates), 1)  # the best of every joint's search is taken: the trials multiply
+    for est in estimates[:FOUND_PERIODS]:
         listed = ROTARY_PERIODS_DEG if est.unit == "deg" else LINEAR_PERIODS_MM
         if est.effect in have or any(abs(est.period - p) <= max(2 * est.period_std, 1e-9 * p) for p in listed):
             continue  # the library's own candidate covers it
@@ -474,10 +476,11 @@ def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
         c = score_candidates(machine, obs, result, [effect], sigma, sigma_known=known, d_errors=d_errors, q0=q0)[0]
         if c.status != "live":
             continue
-        log10_p = min(0.0, c.log10_p + math.log10(est.trials))
+        trials = est.trials * joints
+        log10_p = min(0.0, c.log10_p + math.log10(trials))
         note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
-                f"(p-value × {est.trials:.0f} periods searched)")
-        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=est.trials))
+                f"(p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} joints searched)")
+        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
         have.add(est.effect)
     return out
 
