@@ -211,6 +211,8 @@ def diagnosis_report(diagnosis, obs, folder) -> Path:
     if diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
         plot_measured_vs_model(diagnosis, obs, folder / "measured_vs_model.png")
         figs.append(("Measured minus model readings (table: residuals.csv)", "measured_vs_model.png"))
+    if plot_maps(diagnosis.fit, folder / "maps.png"):
+        figs.append(("Identified error maps with ±2σ band", "maps.png"))
     page = folder / "index.html"
     write_text(page, _page("kinid diagnosis", [("Diagnosis", diagnosis.text(top=15), figs), ("Fit", diagnosis.fit.table(), [])]))
     return page
