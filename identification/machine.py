@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from kinid.checks import check_array
 from kinid.errors import DataError, MachineError
-from kinid.files import captured_stderr
+from kinid.files import captured_stderr, read_limited_text
 
 __all__ = [
     "axis_limits",
@@ -259,22 +259,7 @@ def load_machine(path) -> Machine:
         (the message names the joint and what is wrong).
     """
     path = Path(path)
-    if path.is_dir():
-        raise MachineError("is a folder, not a URDF file", path=path)
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_URDF_BYTES + 1)
-    except FileNotFoundError:
-        raise MachineError("machine file not found", path=path) from None
-    except OSError as exc:
-        raise MachineError(f"cannot read the machine file ({exc.strerror or exc})", path=path) from None
-    if len(raw) > MAX_URDF_BYTES:
-        raise MachineError(f"URDF is larger than {MAX_URDF_BYTES:,} bytes", path=path)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise MachineError(f"not UTF-8 text (byte {exc.start})", path=path,
-                           line=raw[:exc.start].count(b"\n") + 1) from None
+    text = read_limited_text(path, what="machine file", max_bytes=MAX_URDF_BYTES, error=MachineError)
     return machine_from_urdf(text, path)
 
 

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "captured_stderr", "check_output_target", "check_outputs", "read_image",
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS"]
 
 
@@ -95,6 +95,38 @@ def write_json(path, data, *, indent: int | None = 1) -> None:
     write_text(path, text + "\n")
 
 
+def read_limited_text(path, *, what: str, max_bytes: int, error=None) -> str:
+    """The UTF-8 text of a file of at most ``max_bytes``; every problem one ``error`` naming the file.
+
+    Parameters
+    ----------
+    what : str
+        What the file is, for messages ("CSV file", "machine file").
+    error : type, optional
+        The KinidError subclass to raise (default DataError).
+    """
+    from .errors import DataError
+
+    error = error or DataError
+    p = Path(path)
+    if p.is_dir():
+        raise error(f"is a folder, not a {what}", path=path)
+    try:
+        with open(p, "rb") as f:
+            raw = f.read(max_bytes + 1)
+    except FileNotFoundError:
+        raise error(f"{what} not found", path=path) from None
+    except OSError as exc:
+        raise error(f"cannot read {what}: {exc.strerror or exc}", path=path) from None
+    if len(raw) > max_bytes:
+        raise error(f"{what} is larger than {max_bytes:,} bytes", path=path)
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} is not UTF-8 text (byte {exc.start})", path=path,
+                    line=raw[:exc.start].count(b"\n") + 1) from None
+
+
 #: Limits on a CSV file kinid reads.
 MAX_CSV_BYTES = 512 * 1024 * 1024
 MAX_CSV_CELL = 4096
@@ -118,21 +150,7 @@ def read_csv_rows(path, *, what: str = "CSV file") -> list:
     from .errors import DataError
 
     path = Path(path)
-    if path.is_dir():
-        raise DataError(f"is a folder, not a {what}", path=path)
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_CSV_BYTES + 1)
-    except FileNotFoundError:
-        raise DataError("file not found", path=path) from None
-    except OSError as exc:
-        raise DataError(f"cannot read {what}: {exc.strerror or exc}", path=path) from None
-    if len(raw) > MAX_CSV_BYTES:
-        raise DataError(f"file is larger than {MAX_CSV_BYTES:,} bytes", path=path)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DataError(f"not UTF-8 text (byte {exc.start})", path=path, line=raw[:exc.start].count(b"\n") + 1) from None
+    text = read_limited_text(path, what=what, max_bytes=MAX_CSV_BYTES)
     reader = csv.reader(io.StringIO(text, newline=""), strict=False)
     rows = []
     start = 1
@@ -168,23 +186,7 @@ def read_json(path, *, what: str = "JSON file", max_bytes: int = MAX_JSON_BYTES,
 
     from .errors import DataError
 
-    p = Path(path)
-    if p.is_dir():
-        raise DataError(f"is a folder, not a {what}", path=path)
-    try:
-        with open(p, "rb") as f:
-            raw = f.read(max_bytes + 1)
-    except FileNotFoundError:
-        raise DataError(f"cannot read {what}: no such file", path=path) from None
-    except OSError as exc:
-        raise DataError(f"cannot read {what}: {exc.strerror or exc}", path=path) from None
-    if len(raw) > max_bytes:
-        raise DataError(f"{what} is larger than {max_bytes:,} bytes", path=path)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise DataError(f"{what} is not UTF-8 text (byte {exc.start})", path=path, line=line) from None
+    text = read_limited_text(path, what=what, max_bytes=max_bytes)
     depth, in_string, escaped = 0, False, False
     for ch in text:
         if in_string:

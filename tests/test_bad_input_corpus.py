@@ -92,9 +92,9 @@ CASES = [
     # files that are not what they should be
     ("machine missing", lambda d: ["identify", "--machine", "none.urdf", "--data", "obs.csv", "--out", "f.json"], r"none\.urdf: machine file not found"),
     ("machine is a folder", lambda d: (d / "dir.urdf").mkdir(exist_ok=True) or ["identify", "--machine", "dir.urdf", "--data", "obs.csv", "--out", "f.json"],
-     r"dir\.urdf: is a folder"),
+     r"dir\.urdf: is a folder, not a machine file"),
     ("machine not UTF-8", lambda d: ["identify", "--machine", _bytes(d, "l1.urdf", b"<robot name='r'>\xff</robot>"), "--data", "obs.csv", "--out", "f.json"],
-     r"l1\.urdf:1: not UTF-8"),
+     r"l1\.urdf:1: machine file is not UTF-8"),
     ("machine with entities", lambda d: ["identify", "--machine", _text(d, "ent.urdf", '<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "aaaa">]><robot name="r"/>'),
                                          "--data", "obs.csv", "--out", "f.json"], r"DOCTYPE or entities"),
     ("machine 5000 nested links", lambda d: ["identify", "--machine", _text(d, "deep.urdf", "<robot name='r'><link name='l0'/>" + "".join(
@@ -118,7 +118,7 @@ CASES = [
      r"long\.csv:2: .*(field larger than field limit|limit of)"),
     ("reading far outside travel", lambda d: ID + [_obs_with(d, "far.csv", lambda ls: ls[:1] + [re.sub(r"^([^,]*,[^,]*,[^,]*,[^,]*,)[^,]*", r"\g<1>1e300", ls[1])] + ls[2:]),
                                                    "--out", "f.json"], r"far\.csv:2, column 'x_mm': 1e\+300 mm is outside the travel of axis X"),
-    ("data not UTF-8", lambda d: ID + [_bytes(d, "b.csv", (d / "obs.csv").read_bytes()[:200] + b"\xff\n"), "--out", "f.json"], r"b\.csv:\d+: not UTF-8"),
+    ("data not UTF-8", lambda d: ID + [_bytes(d, "b.csv", (d / "obs.csv").read_bytes()[:200] + b"\xff\n"), "--out", "f.json"], r"b\.csv:\d+: CSV file is not UTF-8"),
     ("data a folder", lambda d: (d / "ddir.csv").mkdir(exist_ok=True) or ID + ["ddir.csv", "--out", "f.json"], r"ddir\.csv: is a folder"),
     # fit files
     ("fit effects not names", lambda d: ["diagnose", "--fit", _fit_with(d, "f1.json", effects=[1, 2]), "--data", "obs.csv"], r"f1\.json: malformed kinid fit"),

@@ -88,7 +88,7 @@ def test_malformed_board_files(tmp_path, changes, match):
 
 
 def test_unreadable_board_files(tmp_path):
-    with pytest.raises(DataError, match="cannot read board file"):
+    with pytest.raises(DataError, match="board file not found"):
         load_board(tmp_path / "missing.json")
     p = tmp_path / "broken.json"
     p.write_text('{"pitch_mm": 16,\n "rows": }')

@@ -198,7 +198,7 @@ def test_load_camera_errors_name_the_problem(tmp_path, content, match):
 
 
 def test_load_camera_missing_file(tmp_path):
-    with pytest.raises(DataError, match="cannot read camera file"):
+    with pytest.raises(DataError, match="camera file not found"):
         load_camera(tmp_path / "absent.json")
 
 
