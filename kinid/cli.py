@@ -40,6 +40,7 @@ VERBS = {
     "uvw": Verb("kinid.stages.uvw.cli", "UVW alignment stage: compensation from measured moves"),
     "dual-axis": Verb("kinid.stages.dual_axis.cli", "offset table between two parallel Y axes of a gantry"),
     "contour": Verb("kinid.stages.contour.cli", "planar contour error from an image sequence of a ring-coded board"),
+    "iso230-2": Verb("kinid.stages.iso230_2", "ISO 230-2 accuracy, repeatability and reversal of one axis from bidirectional runs"),
 }
 
 

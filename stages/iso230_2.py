@@ -1,0 +1,245 @@
+"""ISO 230-2 evaluation of bidirectional positioning runs of one axis, and the ``kinid iso230-2`` command.
+
+Input (RUNS.csv): one row per measurement, columns ``target_mm`` (target
+position P_i), ``run`` (run number j), ``direction`` (+1 approaching in the
+positive direction ↑, −1 in the negative ↓) and ``deviation_um`` (positional
+deviation x_ij = measured − target, µm). Every target needs at least two runs
+in each direction.
+
+The values follow ISO 230-2 (test code for machine tools — determination of
+accuracy and repeatability of positioning of numerically controlled axes),
+for m targets and n runs per direction:
+
+- mean unidirectional positional deviation  x̄_i↑ = Σ_j x_ij↑ / n  (likewise ↓)
+- mean bidirectional positional deviation   x̄_i = (x̄_i↑ + x̄_i↓) / 2
+- reversal value at a position              B_i = x̄_i↑ − x̄_i↓
+- reversal value of the axis                B = max |B_i|;  mean reversal value B̄ = Σ_i B_i / m
+- standard uncertainty (estimator)          s_i↑ = √(Σ_j (x_ij↑ − x̄_i↑)² / (n − 1))  (likewise ↓)
+- unidirectional repeatability              R_i↑ = 4 s_i↑;  R↑ = max R_i↑  (likewise ↓)
+- bidirectional repeatability               R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓);  R = max R_i
+- unidirectional systematic deviation       E↑ = max x̄_i↑ − min x̄_i↑  (likewise ↓)
+- bidirectional systematic deviation        E = max(x̄_i↑, x̄_i↓) − min(x̄_i↑, x̄_i↓)
+- range of mean bidirectional deviation     M = max x̄_i − min x̄_i
+- unidirectional accuracy                   A↑ = max(x̄_i↑ + 2 s_i↑) − min(x̄_i↑ − 2 s_i↑)  (likewise ↓)
+- bidirectional accuracy                    A = max(x̄_i↑ + 2 s_i↑, x̄_i↓ + 2 s_i↓) − min(x̄_i↑ − 2 s_i↑, x̄_i↓ − 2 s_i↓)
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinid.errors import DataError
+
+__all__ = ["PositioningResult", "evaluate_runs", "read_runs", "register"]
+
+_COLUMNS = ("target_mm", "run", "direction", "deviation_um")
+
+
+@dataclass(frozen=True)
+class PositioningResult:
+    """ISO 230-2 values of one axis (µm); per-position arrays in target order.
+
+    Attributes
+    ----------
+    targets_mm : array (m,)
+    mean_up_um, mean_down_um, mean_um : array (m,)
+        x̄_i↑, x̄_i↓ and x̄_i.
+    s_up_um, s_down_um : array (m,)
+        s_i↑, s_i↓.
+    reversal_um : array (m,)
+        B_i.
+    repeatability_um : array (m,)
+        R_i.
+    A_um, A_up_um, A_down_um, E_um, E_up_um, E_down_um, R_um, R_up_um, R_down_um, M_um, B_um, mean_reversal_um : float
+    runs : int
+        Runs per direction (n, the smallest over the targets).
+    """
+
+    targets_mm: np.ndarray
+    mean_up_um: np.ndarray
+    mean_down_um: np.ndarray
+    mean_um: np.ndarray
+    s_up_um: np.ndarray
+    s_down_um: np.ndarray
+    reversal_um: np.ndarray
+    repeatability_um: np.ndarray
+    A_um: float
+    A_up_um: float
+    A_down_um: float
+    E_um: float
+    E_up_um: float
+    E_down_um: float
+    R_um: float
+    R_up_um: float
+    R_down_um: float
+    M_um: float
+    B_um: float
+    mean_reversal_um: float
+    runs: int
+
+    def summary(self) -> dict:
+        """The ``--json`` object: every axis value and the per-position table."""
+        keys = ("A_um", "A_up_um", "A_down_um", "E_um", "E_up_um", "E_down_um", "R_um", "R_up_um", "R_down_um",
+                "M_um", "B_um", "mean_reversal_um")
+        out = {k: float(getattr(self, k)) for k in keys}
+        out["runs"] = self.runs
+        out["positions"] = [
+            {"target_mm": float(t), "mean_up_um": float(u), "mean_down_um": float(d), "mean_um": float(x),
+             "s_up_um": float(su), "s_down_um": float(sd), "reversal_um": float(b), "repeatability_um": float(r)}
+            for t, u, d, x, su, sd, b, r in zip(self.targets_mm, self.mean_up_um, self.mean_down_um, self.mean_um,
+                                               self.s_up_um, self.s_down_um, self.reversal_um, self.repeatability_um)]
+        return out
+
+    def text(self) -> str:
+        lines = [f"ISO 230-2 positioning of one axis: {len(self.targets_mm)} targets, {self.runs} runs per direction",
+                 "", f"{'target (mm)':>12} {'x̄↑ (µm)':>9} {'x̄↓ (µm)':>9} {'B_i (µm)':>9} {'s↑ (µm)':>8} "
+                     f"{'s↓ (µm)':>8} {'R_i (µm)':>9}"]
+        for t, u, d, b, su, sd, r in zip(self.targets_mm, self.mean_up_um, self.mean_down_um, self.reversal_um,
+                                         self.s_up_um, self.s_down_um, self.repeatability_um):
+            lines.append(f"{t:12.3f} {u:9.3f} {d:9.3f} {b:9.3f} {su:8.3f} {sd:8.3f} {r:9.3f}")
+        lines += ["", f"{'':<44}{'bidirectional':>14}{'↑':>9}{'↓':>9}",
+                  f"{'accuracy A (µm)':<44}{self.A_um:14.3f}{self.A_up_um:9.3f}{self.A_down_um:9.3f}",
+                  f"{'systematic positional deviation E (µm)':<44}{self.E_um:14.3f}{self.E_up_um:9.3f}{self.E_down_um:9.3f}",
+                  f"{'repeatability R (µm)':<44}{self.R_um:14.3f}{self.R_up_um:9.3f}{self.R_down_um:9.3f}",
+                  f"{'range of mean bidirectional deviation M (µm)':<44}{self.M_um:14.3f}",
+                  f"{'reversal value B (µm)':<44}{self.B_um:14.3f}",
+                  f"{'mean reversal value B̄ (µm)':<44}{self.mean_reversal_um:14.3f}"]
+        return "\n".join(lines)
+
+
+def evaluate_runs(target_mm, direction, deviation_um) -> PositioningResult:
+    """ISO 230-2 values from measurements (one entry each): target, direction ±1, deviation µm.
+
+    Raises
+    ------
+    DataError
+        A direction other than ±1, a non-finite value, or a target with fewer
+        than two runs in a direction.
+    """
+    t = np.asarray(target_mm, dtype=float)
+    d = np.asarray(direction, dtype=float)
+    x = np.asarray(deviation_um, dtype=float)
+    if not (t.shape == d.shape == x.shape and t.ndim == 1 and t.size):
+        raise DataError("target_mm, direction and deviation_um must be 1-D arrays of one length", parameter="runs")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(x))):
+        raise DataError("must be finite", parameter="target_mm and deviation_um")
+    if not np.all(np.isin(d, (-1.0, 1.0))):
+        raise DataError("must be +1 or -1", parameter="direction")
+    targets = np.unique(t)
+    stats = {}
+    for sign in (1.0, -1.0):
+        means, stds, counts = [], [], []
+        for p in targets:
+            v = x[(t == p) & (d == sign)]
+            if v.size < 2:
+                arrow = "+" if sign > 0 else "-"
+                raise DataError(f"target {p:g} mm has {v.size} run(s) in direction {arrow}; ISO 230-2 needs at "
+                                f"least 2 (it recommends 5)", parameter="runs")
+            means.append(v.mean())
+            stds.append(v.std(ddof=1))
+            counts.append(v.size)
+        stats[sign] = (np.array(means), np.array(stds), min(counts))
+    up, s_up, n_up = stats[1.0]
+    down, s_down, n_down = stats[-1.0]
+    mean = (up + down) / 2
+    rev = up - down
+    r_up, r_down = 4 * s_up, 4 * s_down
+    r_bi = np.maximum.reduce([2 * s_up + 2 * s_down + np.abs(rev), r_up, r_down])
+    both = np.r_[up, down]
+    return PositioningResult(
+        targets_mm=targets, mean_up_um=up, mean_down_um=down, mean_um=mean, s_up_um=s_up, s_down_um=s_down,
+        reversal_um=rev, repeatability_um=r_bi,
+        A_um=float(max(np.max(up + 2 * s_up), np.max(down + 2 * s_down))
+                   - min(np.min(up - 2 * s_up), np.min(down - 2 * s_down))),
+        A_up_um=float(np.max(up + 2 * s_up) - np.min(up - 2 * s_up)),
+        A_down_um=float(np.max(down + 2 * s_down) - np.min(down - 2 * s_down)),
+        E_um=float(both.max() - both.min()), E_up_um=float(np.ptp(up)), E_down_um=float(np.ptp(down)),
+        R_um=float(r_bi.max()), R_up_um=float(r_up.max()), R_down_um=float(r_down.max()),
+        M_um=float(np.ptp(mean)), B_um=float(np.max(np.abs(rev))), mean_reversal_um=float(rev.mean()),
+        runs=int(min(n_up, n_down)))
+
+
+def read_runs(path):
+    """(target_mm, direction, deviation_um) arrays from RUNS.csv; DataError naming the line and column."""
+    import math
+
+    from kinid.files import read_csv_rows
+
+    rows = read_csv_rows(path, what="runs file")
+    if not rows:
+        raise DataError(f"empty; expected a header {','.join(_COLUMNS)} and rows", path=path)
+    header_line, header = rows[0]
+    header = [h.strip() for h in header]
+    for col in _COLUMNS:
+        if col not in header:
+            raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
+    idx = [header.index(c) for c in _COLUMNS]
+    out = []
+    for lineno, cells in rows[1:]:
+        values = []
+        for col, i in zip(_COLUMNS, idx):
+            cell = cells[i].strip() if i < len(cells) else ""
+            try:
+                v = float(cell)
+            except ValueError:
+                raise DataError(f"{cell!r} is not a number", path=path, line=lineno, column=col) from None
+            if not math.isfinite(v):
+                raise DataError(f"{cell!r} is not a finite number", path=path, line=lineno, column=col)
+            values.append(v)
+        if values[2] not in (1.0, -1.0):
+            raise DataError(f"direction must be +1 or -1, found {cells[idx[2]].strip()!r}", path=path, line=lineno,
+                            column="direction")
+        out.append(values)
+    if not out:
+        raise DataError("no measurements after the header", path=path, line=header_line)
+    a = np.array(out)
+    return a[:, 0], a[:, 2], a[:, 3]
+
+
+def plot_runs(result: PositioningResult, path) -> None:
+    """The standard's plot: mean deviation per direction with ±2s bands against the target."""
+    from kinid.figures import new_figure, save_figure
+
+    fig = new_figure((7.5, 4.2))
+    ax = fig.subplots()
+    t = result.targets_mm
+    for mean, s, colour, label in ((result.mean_up_um, result.s_up_um, "tab:red", "↑ (positive approach)"),
+                                   (result.mean_down_um, result.s_down_um, "tab:blue", "↓ (negative approach)")):
+        ax.plot(t, mean, "o-", color=colour, label=f"mean deviation {label}")
+        ax.plot(t, mean + 2 * s, "--", color=colour, lw=0.9)
+        ax.plot(t, mean - 2 * s, "--", color=colour, lw=0.9, label=f"±2s {label.split()[0]}")
+    ax.plot(t, result.mean_um, "k:", lw=1.0, label="mean bidirectional deviation")
+    ax.axhline(0, color="0.6", lw=0.8)
+    ax.set_xlabel("target position (mm)")
+    ax.set_ylabel("positional deviation (µm)")
+    ax.set_title(f"ISO 230-2: A = {result.A_um:.2f} µm, E = {result.E_um:.2f} µm, R = {result.R_um:.2f} µm, "
+                 f"B = {result.B_um:.2f} µm", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    save_figure(fig, path)
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "iso230-2", help="ISO 230-2 accuracy, repeatability and reversal of one axis from bidirectional runs",
+        description="Evaluate bidirectional positioning runs of one axis by ISO 230-2: A, E, R, M, B, the mean "
+                    "reversal value and the unidirectional values. RUNS.csv columns: "
+                    "target_mm,run,direction,deviation_um (direction +1/-1; deviation = measured - target, µm).")
+    p.add_argument("runs", metavar="RUNS.csv", help="bidirectional positioning runs")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys A_um, E_um, R_um, M_um, B_um, ...)")
+    p.add_argument("--plot", metavar="OUT.png", help="mean deviations ±2s per direction against the target")
+    p.set_defaults(run=_run)
+
+
+def _run(args) -> int:
+    target, direction, deviation = read_runs(args.runs)
+    try:
+        result = evaluate_runs(target, direction, deviation)
+    except DataError as exc:
+        raise DataError(str(exc), path=args.runs) from None
+    if args.plot:
+        plot_runs(result, args.plot)
+    print(json.dumps(result.summary()) if args.json else result.text())
+    return 0

@@ -1,0 +1,71 @@
+"""ISO 230-2 evaluation against a worked example computed by hand from the standard's formulas."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from kinid.cli import main
+from kinid.errors import DataError
+from kinid.stages.iso230_2 import evaluate_runs
+
+# targets 0, 10, 20 mm; two runs per direction; deviations µm
+RUNS = [  # target, run, direction, deviation
+    (0, 1, 1, 1.0), (0, 2, 1, 3.0), (0, 1, -1, -1.0), (0, 2, -1, 0.0),
+    (10, 1, 1, 2.0), (10, 2, 1, 2.0), (10, 1, -1, 1.0), (10, 2, -1, 3.0),
+    (20, 1, 1, -1.0), (20, 2, 1, -3.0), (20, 1, -1, -4.0), (20, 2, -1, -4.0),
+]
+R2 = math.sqrt(2.0)
+# By hand (ISO 230-2 formulas, n = 2):
+#   x̄↑ = (2, 2, -2), s↑ = (√2, 0, √2);  x̄↓ = (-0.5, 2, -4), s↓ = (√0.5, √2, 0)
+#   x̄ = (0.75, 2, -3);  B_i = x̄↑ - x̄↓ = (2.5, 0, 2)  ->  B = 2.5, B̄ = 4.5 / 3 = 1.5
+#   R↑ = 4 max s↑ = 4√2;  R↓ = 4√2
+#   R_i = max(2s↑ + 2s↓ + |B_i|, 4s↑, 4s↓) = (2√2 + √2 + 2.5, 4√2, 4√2)  ->  R = 3√2 + 2.5
+#   E↑ = 2 - (-2) = 4;  E↓ = 2 - (-4) = 6;  E = 2 - (-4) = 6;  M = 2 - (-3) = 5
+#   A↑ = max(2 + 2√2, 2, -2 + 2√2) - min(2 - 2√2, 2, -2 - 2√2) = 4 + 4√2
+#   A↓ = max(-0.5 + √2, 2 + 2√2, -4) - min(-0.5 - √2, 2 - 2√2, -4) = 6 + 2√2
+#   A  = max(2 + 2√2, 2 + 2√2) - min(-2 - 2√2, -4) = 4 + 4√2
+HAND = {"A_um": 4 + 4 * R2, "A_up_um": 4 + 4 * R2, "A_down_um": 6 + 2 * R2, "E_um": 6.0, "E_up_um": 4.0,
+        "E_down_um": 6.0, "R_um": 3 * R2 + 2.5, "R_up_um": 4 * R2, "R_down_um": 4 * R2, "M_um": 5.0, "B_um": 2.5,
+        "mean_reversal_um": 1.5}
+
+
+def test_worked_example_by_hand():
+    t, run, d, x = np.array(RUNS, float).T
+    res = evaluate_runs(t, d, x).summary()
+    for key, value in HAND.items():
+        assert res[key] == pytest.approx(value, abs=1e-12), key
+    assert [p["reversal_um"] for p in res["positions"]] == pytest.approx([2.5, 0.0, 2.0])
+
+
+def test_command_line_json_text_and_plot(tmp_path, capsys):
+    f = tmp_path / "runs.csv"
+    f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, r)) for r in RUNS) + "\n")
+    assert main(["iso230-2", str(f), "--json", "--plot", str(tmp_path / "iso.png")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key, value in HAND.items():
+        assert out[key] == pytest.approx(value, abs=1e-9), key
+    assert (tmp_path / "iso.png").stat().st_size > 5000
+    assert main(["iso230-2", str(f)]) == 0
+    text = capsys.readouterr().out
+    assert "accuracy A (µm)" in text and f"{HAND['A_um']:14.3f}" in text and f"{HAND['R_um']:14.3f}" in text
+
+
+@pytest.mark.parametrize("rows, message", [
+    ("target_mm,run,direction,deviation_um\n0,1,1,1\n0,2,1,2\n0,1,-1,1\n", "run(s) in direction -"),
+    ("target_mm,run,direction,deviation_um\n0,1,2,1\n", "bad.csv:2, column 'direction': direction must be"),
+    ("target_mm,run,deviation_um\n0,1,1\n", "missing column 'direction'"),
+    ("target_mm,run,direction,deviation_um\n0,1,1,abc\n", "'abc' is not a number"),
+])
+def test_bad_runs_files(tmp_path, capsys, rows, message):
+    f = tmp_path / "bad.csv"
+    f.write_text(rows)
+    assert main(["iso230-2", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert message in err, err
+    assert err.count("\n") == 1
+
+
+def test_api_names_the_problem():
+    with pytest.raises(DataError, match="direction must be"):
+        evaluate_runs([0, 0], [1, 0], [1, 2])
