@@ -140,7 +140,10 @@ def _joint_kind(jmodel) -> tuple[str | None, np.ndarray | None]:
         return ("prismatic" if m.group(1) == "P" else "revolute"), axis
     if short in ("JointModelPrismaticUnaligned", "JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned"):
         kind = "prismatic" if "Prismatic" in short else "revolute"
-        return kind, np.asarray(jmodel.axis, dtype=float).reshape(3)
+        concrete = jmodel.extract() if hasattr(jmodel, "extract") else jmodel  # the generic wrapper has no axis
+        axis = np.asarray(concrete.axis, dtype=float).reshape(3)
+        norm = float(np.linalg.norm(axis))
+        return (kind, axis / norm) if norm > 1e-12 else (None, None)
     return None, None
 
 

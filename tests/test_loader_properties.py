@@ -19,7 +19,10 @@ import numpy as np
 MACHINE = load_machine(urdf_path("five_axis_bc"))
 URDF = MACHINE.urdf
 HEADER = "mark,wx_mm,wy_mm,wz_mm,x_mm,y_mm,z_mm,b_deg,c_deg"
-SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+# derandomize: the same examples on every run, so that CI is reproducible (a failure found once is kept as
+# a regression case below rather than found again by chance)
+SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 cells = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.text(max_size=8),
                   st.sampled_from(["", "1", "-0", "1e308", "\u2028", "\x0c", '"a,b"', "#"]))
@@ -47,6 +50,17 @@ def test_urdf_loader(start, length, replacement):
     except KinidError:
         return
     assert machine.axes and machine.model.existFrame("workpiece") and machine.model.existFrame("tool")
+
+
+def test_urdf_with_a_degenerate_axis_found_by_the_property_test():
+    """Regression: one character removed from the shipped URDF (found by test_urdf_loader) crashed the loader."""
+    text = URDF[:1527] + URDF[1528:]
+    try:
+        machine = machine_from_urdf(text, "mutated.urdf")
+    except KinidError as exc:
+        assert "mutated.urdf" in str(exc)
+    else:
+        assert machine.axes
 
 
 def _valid_fit(tmp):
