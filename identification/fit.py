@@ -158,9 +158,9 @@ def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
     effects = default_model(machine) if base is None else [parse_effect(n, machine) for n in base]
     names = {e.name for e in effects}
     for n in add:
-        e = parse_effect(n, machine, source="--add effect")
+        e = parse_effect(n, machine, source="added effect")
         if e.name in names:
-            raise DataError(f"--add effect {n!r} is already in the model")
+            raise DataError(f"is already in the model: {n!r}", parameter="add")
         names.add(e.name)
         effects.append(e)
     return effects
