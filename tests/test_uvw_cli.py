@@ -27,7 +27,7 @@ def test_text_report_and_plot(tmp_path, capsys):
     png = tmp_path / "uvw.png"
     assert main(["uvw", "--moves", "30", "--plot", str(png)]) == 0
     text = capsys.readouterr().out
-    assert "forward 0.96 um, reverse 3.25 um" in text
+    assert "forward 0.96 µm, reverse 3.25 µm" in text
     assert "uncompensated" in text and "patent" in text and "model" in text
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert not list(tmp_path.glob(".*.tmp"))

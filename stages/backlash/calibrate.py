@@ -347,8 +347,8 @@ def analyse(log, *, start=(0.0, 0.0, 0.0), travel_mm=None) -> BacklashResult:
         excursion = 0.5 * travel_mm
         for name, val in (("X", sx.backlash_mm), ("Y", sy.backlash_mm)):
             if abs(val) > 0.5 * excursion:
-                warnings.warn(f"measured {name} backlash {val * 1e3:.2f} um is more than half the reversal "
-                              f"excursion {excursion * 1e3:.0f} um; increase travel_mm", stacklevel=2)
+                warnings.warn(f"measured {name} backlash {val * 1e3:.2f} µm is more than half the reversal "
+                              f"excursion {excursion * 1e3:.0f} µm; increase travel_mm", stacklevel=2)
     n_th = theta_gaps.size
     return BacklashResult(
         pixel_mm_x=scale.mm_per_px_x,

@@ -156,12 +156,12 @@ def _report(m, settings) -> str:
              f"reference mark    code {tr.reference_code} at row {tr.reference_rc[0]}, column {tr.reference_rc[1]}",
              f"board rotation    {tr.angle_deg:.4f} deg (in the image, clockwise as seen)"]
     if unit == "mm":
-        lines.append(f"pixel size        {settings.pixel_mm * 1e3 / tr.scale:.5f} um from the board's pitch "
-                     f"(given {settings.pixel_mm * 1e3:.5f} um)")
+        lines.append(f"pixel size        {settings.pixel_mm * 1e3 / tr.scale:.5f} µm from the board's pitch "
+                     f"(given {settings.pixel_mm * 1e3:.5f} µm)")
     else:
-        lines.append(f"pixel size        {1e3 / tr.scale:.5f} um (object side, ideal pixels)")
+        lines.append(f"pixel size        {1e3 / tr.scale:.5f} µm (object side, ideal pixels)")
     res = tr.residual_rms / tr.scale * 1e3
-    lines.append(f"mark residual     {res:.3f} um RMS per coordinate" if math.isfinite(res) else
+    lines.append(f"mark residual     {res:.3f} µm RMS per coordinate" if math.isfinite(res) else
                  "mark residual     n/a (no frame with two marks)")
     path = ce.path
     name = type(path).__name__.replace("Path", "").lower()
@@ -170,12 +170,12 @@ def _report(m, settings) -> str:
                      f"radius {path.radius_mm:.4f} mm")
     else:
         lines.append(f"path              {name}")
-    lines.append(f"contour error     RMS {ce.rms_um:.3f} um, max |e| {ce.max_um:.3f} um")
+    lines.append(f"contour error     RMS {ce.rms_um:.3f} µm, max |e| {ce.max_um:.3f} µm")
     c = m.circular
     if c is not None:
-        h = f"{c.H_um:.3f} um" if math.isfinite(c.H_um) else "n/a (one direction only)"
-        lines += [f"ISO 230-4 G       {c.G_um:.3f} um (circular deviation)",
-                  f"ISO 230-4 F       max {c.F_max_um:+.3f} um, min {c.F_min_um:+.3f} um (radial deviation, "
+        h = f"{c.H_um:.3f} µm" if math.isfinite(c.H_um) else "n/a (one direction only)"
+        lines += [f"ISO 230-4 G       {c.G_um:.3f} µm (circular deviation)",
+                  f"ISO 230-4 F       max {c.F_max_um:+.3f} µm, min {c.F_min_um:+.3f} µm (radial deviation, "
                   f"R0 {c.nominal_radius_mm:.4f} mm)",
                   f"ISO 230-4 H       {h} (circular hysteresis)"]
     return "\n".join(lines)

@@ -48,18 +48,18 @@ def plot_contour(measurement, out_png, *, magnification=None):
         ax.set_theta_direction(-1)
         ax.set_ylim(0, 1.5)
         ax.set_yticklabels([])
-        title = f"radial deviation (0.4 R = {span:.3g} um)"
+        title = f"radial deviation (0.4 R = {span:.3g} µm)"
         if m.circular is not None:
-            title += f"\nG {m.circular.G_um:.2f} um"
+            title += f"\nG {m.circular.G_um:.2f} µm"
             if np.isfinite(m.circular.H_um):
-                title += f", H {m.circular.H_um:.2f} um"
+                title += f", H {m.circular.H_um:.2f} µm"
         ax.set_title(title, fontsize=9)
         ax.legend(loc="lower right", fontsize=7)
     else:
         ax = fig.add_subplot(1, 2, 1)
         ax.plot(np.flatnonzero(ok), err[ok], "b.-", ms=3)
         ax.set_xlabel("frame")
-        ax.set_ylabel("contour error, um")
+        ax.set_ylabel("contour error (µm)")
         ax.grid(True, alpha=0.3)
     ax2 = fig.add_subplot(1, 2, 2)
     ax2.plot(xy[ok, 0], xy[ok, 1], "b.-", ms=2, lw=0.8)
