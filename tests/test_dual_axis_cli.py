@@ -1,6 +1,8 @@
 """``kinid dual-axis`` in-process: report, JSON, plot, bad input."""
 import json
 
+import numpy as np
+
 import pytest
 
 from kinid.cli import main
@@ -49,3 +51,16 @@ def test_plot_into_missing_folder_is_an_error(tmp_path, capsys):
 def test_bad_degree(capsys):
     assert main(["dual-axis", "--degree", "0"]) == 2
     assert "degree must be an integer >= 1, got 0" in capsys.readouterr().err
+
+
+def test_offset_table_is_written_to_a_file(tmp_path, capsys):
+    out = tmp_path / "table.csv"
+    assert main(["dual-axis", "--steps", "4", "--step-mm", "20", "--out", str(out), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    lines = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")]
+    assert lines[0] == "camera_y_mm,head_dx_mm,head_dy_mm"
+    rows = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    assert rows.shape == (5, 3)
+    np.testing.assert_allclose(rows[:, 0], [0, 20, 40, 60, 80])
+    assert np.all(rows[0, 1:] == 0.0)
+    assert rep["rounds"] >= 1

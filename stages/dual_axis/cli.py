@@ -38,6 +38,7 @@ def register(subparsers) -> None:
     p.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
     p.add_argument("--plot", metavar="OUT.png", help="plot of the plate offset before/after compensation")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    p.add_argument("--out", metavar="TABLE.csv", help="write the offset table: camera_y_mm,head_dx_mm,head_dy_mm")
     p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"})
 
 
@@ -205,6 +206,10 @@ def _run(args) -> int:
                             repeat_um=args.repeat_um)
     if args.plot:
         _plot(args.plot, result)
+    if args.out:
+        from kinid.files import write_text
+
+        write_text(args.out, result["table"].csv_text())
     rep = result["report"]
     if args.json:
         print(json.dumps(rep))
@@ -212,4 +217,6 @@ def _run(args) -> int:
         print(_format(rep))
         if args.plot:
             print(f"plot written to {args.plot}")
+        if args.out:
+            print(f"offset table written to {args.out}")
     return 0

@@ -74,6 +74,14 @@ class OffsetTable:
     history: tuple = field(default=())
     message: str = ""
 
+    def csv_text(self) -> str:
+        """The table as CSV: ``camera_y_mm,head_dx_mm,head_dy_mm`` per vertex (docs/dual_axis.md)."""
+        lines = [f"# kinid dual-axis offset table: {self.rounds} round(s), "
+                 f"{'converged' if self.converged else 'NOT converged'} within {self.spec_um:g} µm",
+                 "camera_y_mm,head_dx_mm,head_dy_mm"]
+        lines += [f"{y:.6f},{dx:.6f},{dy:.6f}" for y, (dx, dy) in zip(self.y_mm, self.offset_mm)]
+        return "\n".join(lines) + "\n"
+
     @property
     def y_range_mm(self) -> tuple:
         """(first, last) camera Y the table covers, mm."""
