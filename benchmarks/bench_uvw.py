@@ -10,8 +10,9 @@ import time
 
 import numpy as np
 
-from kinid.stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, alignment_targets, calibrate,
-                        calibrate_patent, run_moves)
+from kinid.stages.uvw import ACTUATORS, SimulatedUVWStage, calibrate, calibrate_patent
+from kinid.stages.uvw.simulate import ActuatorTruth
+from kinid.stages.uvw.calibrate import alignment_targets, run_moves
 
 
 def random_truth(rng, lead_um, bow):

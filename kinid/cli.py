@@ -11,7 +11,9 @@ one line and exit status 130.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import sys
 from dataclasses import dataclass
 
@@ -104,8 +106,6 @@ DEFAULT_OUTPUTS = {"out": "file", "plot": "file", "draw": "file", "report": "fol
 
 def _check_files(parser, args, verb) -> None:
     """Before a verb runs: no output may overwrite an input or another output, or be a device or folder."""
-    import os
-
     from .files import check_outputs
 
     outputs = getattr(args, "outputs", None) or DEFAULT_OUTPUTS
@@ -138,8 +138,6 @@ def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # numpy-heavy verbs work on small matrices, where threaded BLAS costs more than it gives; the
     # library limits itself around the fit and the diagnosis, this covers the rest of a command
-    import os
-
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     verb = parser = args = None
     try:
@@ -149,8 +147,6 @@ def main(argv=None) -> int:
         _check_files(parser, args, verb)
         if "-" in (getattr(args, dest, None) for dest in (getattr(args, "outputs", None) or DEFAULT_OUTPUTS)):
             # the data go to standard output: the verb's messages go to standard error
-            import contextlib
-
             with contextlib.redirect_stdout(sys.stderr):
                 status = args.run(args)
         else:
@@ -162,11 +158,9 @@ def main(argv=None) -> int:
         print(f"kinid {verb}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"kinid {verb or ''}: interrupted".replace("  ", " "), file=sys.stderr)
+        print(f"kinid{' ' + verb if verb else ''}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of kinid
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     return 0 if status is None else int(status)

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from kinid.errors import DataError, ImageError, StageError
-from kinid.stages.backlash import SimulatedStage, locate_fiducial, plan_moves, play
+from kinid.stages.backlash import SimulatedStage, locate_fiducial, plan_moves
+from kinid.stages.backlash.simulate import play
 from kinid.stages.backlash.locate import centroid_locate
 from kinid.vision.render import render_disk
 

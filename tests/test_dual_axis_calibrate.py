@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 
 from kinid.errors import DataError, ImageError, StageError
-from kinid.stages.dual_axis import (ErrorProfile, SimulatedGantry, calibrate, fit_smooth, measure_pixel_to_mm,
-                              random_error_profiles, verify)
+from kinid.stages.dual_axis import SimulatedGantry, calibrate, fit_smooth, verify
+from kinid.stages.dual_axis.simulate import ErrorProfile, random_error_profiles
+from kinid.stages.dual_axis.calibrate import measure_pixel_to_mm
 
 HEAD0 = (0.0, 0.0)
 

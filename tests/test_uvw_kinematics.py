@@ -6,7 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from kinid.errors import DataError, StageError
-from kinid.stages.uvw import Pose, Strokes, UVWGeometry, decompose_move, forward_kinematics, inverse_kinematics
+from kinid.stages.uvw import UVWGeometry, decompose_move, forward_kinematics, inverse_kinematics
+from kinid.stages.uvw.kinematics import Pose, Strokes
 
 GEOMETRIES = [UVWGeometry(a_mm=50.0, b_mm=50.0),
               UVWGeometry(a_mm=40.0, b_mm=-65.0, x1_offset_mm=12.0, x2_offset_mm=-7.5, y_offset_mm=9.0)]

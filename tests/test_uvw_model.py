@@ -7,9 +7,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from kinid.errors import DataError, StageError
-from kinid.stages.uvw import (ACTUATORS, ActuatorTruth, SimulatedUVWStage, UVWGeometry, alignment_targets, calibrate,
-                        calibrate_patent, default_truth, fit_actuator_model, phase_residuals, run_moves,
-                        run_stage_moves)
+from kinid.stages.uvw import ACTUATORS, SimulatedUVWStage, UVWGeometry, calibrate, calibrate_patent
+from kinid.stages.uvw.simulate import ActuatorTruth, default_truth
+from kinid.stages.uvw.calibrate import alignment_targets, run_moves, run_stage_moves
+from kinid.stages.uvw.model import fit_actuator_model, phase_residuals
 from kinid.stages.uvw.kinematics import Pose
 
 

@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 
 from kinid.errors import DataError, StageError
-from kinid.stages.uvw import (ActuatorTruth, PatentCompensator, PatentStatistics, SimulatedUVWStage, calibrate_patent,
-                        measure_patent, patent_compensation_um, patent_statistics, patent_strokes)
+from kinid.stages.uvw import SimulatedUVWStage, calibrate_patent, patent_compensation_um
+from kinid.stages.uvw.simulate import ActuatorTruth
+from kinid.stages.uvw.patent import PatentCompensator, PatentStatistics, measure_patent, patent_statistics, patent_strokes
 
 
 def _worked_example_errors():

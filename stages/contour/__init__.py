@@ -4,10 +4,9 @@
 from all frames, then the reference mark's track) -> ``contour_error`` /
 ``circular_test`` (ISO 230-4 G, F, H). ``kinid contour`` is the command line.
 """
-from .frames import FrameSource, map_frames, open_frames
-from .measure import ContourMeasurement, measure_contour, track_csv
-from .paths import (CirclePath, CircularTest, ContourError, LinePath, PolylinePath, circular_test, contour_error,
-                    fit_circle, fit_line, load_polyline)
-from .track import FrameResult, FrameSettings, Track, TrackBuilder, consistent_marks, estimate_track, process_frame
+from .frames import open_frames
+from .measure import ContourMeasurement, measure_contour
+from .paths import CirclePath, LinePath, PolylinePath, circular_test, contour_error
+from .track import TrackBuilder, process_frame
 
 __all__ = ["measure_contour", "ContourMeasurement", "process_frame", "TrackBuilder", "contour_error", "circular_test", "CirclePath", "LinePath", "PolylinePath", "open_frames"]

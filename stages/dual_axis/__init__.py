@@ -8,10 +8,9 @@ for a camera-Y move, docs/hardware.md); :func:`fit_smooth` fits a parallelism
 angle plus straightness polynomial instead. :class:`SimulatedGantry` is
 ``urdf/gantry_dual_y.urdf`` with error values set.
 """
-from .calibrate import calibrate, check_plan, default_roi, measure_pixel_to_mm, verify
-from .simulate import (ErrorProfile, SimulatedGantry, default_error_profiles, random_error_profiles,
-                       random_texture)
+from .calibrate import calibrate, verify
+from .simulate import SimulatedGantry
 from .smooth import SmoothModel, fit_smooth
-from .table import OffsetTable, RoundRecord, head_move_from
+from .table import OffsetTable
 
 __all__ = ["calibrate", "verify", "OffsetTable", "fit_smooth", "SmoothModel", "SimulatedGantry"]
