@@ -360,15 +360,15 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     rss = float(r @ r)
     p0 = result.rank
     model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
-    lever = np.sqrt(np.mean(np.sum(d_errors**2, axis=1), axis=0))  # per error joint: m/rad or 1
+    lever = np.sqrt(np.einsum("nkj,nkj->j", d_errors, d_errors) / d_errors.shape[0])  # per error joint: m/rad or 1
     visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
     codes = machine.error_codes
     out = []
-    # candidates in blocks, so that memory stays flat in the number of alignments: a block's
-    # columns (3N x k) and their projection take about SCORE_BLOCK_BYTES
-    per_column = 8 * M * 2
-    budget = max(int(SCORE_BLOCK_BYTES // per_column), 8)
+    # Candidates in blocks of columns, each block streamed over chunks of alignments, so that memory
+    # stays flat in the number of alignments: only sums over alignments are kept (norms, the model
+    # projection Q0ᵀC, the Gram matrix of each candidate's projected columns and their product with r).
     blocks, current, width = [], [], 0
+    budget = max(int(SCORE_BLOCK_BYTES // (8 * 64 * 3 * 2)), 8)  # columns per block (chunks of >= 64 rows)
     for e in candidates:
         if current and width + e.n_params > budget:
             blocks.append(current)
@@ -377,37 +377,69 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         width += e.n_params
     if current:
         blocks.append(current)
+    n = len(obs)
+    G0 = J0.T @ J0
     for block in blocks:
-        dc = design(machine, block, obs)
-        C_all = effect_columns(d_errors, dc).reshape(M, -1) / sigma
-        del dc
-        C_perp_all = C_all - Q0 @ (Q0.T @ C_all)
+        P = sum(e.n_params for e in block)
+        rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 3 * P * 2)))  # alignments per chunk
+        chunks = [np.arange(a, min(a + rows, n)) for a in range(0, n, rows)]
+
+        def columns(idx, block=block, P=P):
+            d = design(machine, block, obs.subset(idx))
+            C = d_errors[idx][:, :, d.joint_index]
+            C *= d.basis[:, None, :]
+            C /= sigma
+            return C.reshape(3 * len(idx), P)
+
+        norm2 = np.zeros(P)
+        A = np.zeros((Q0.shape[1], P))
+        BJ = np.zeros((J0.shape[1], P))
+        for idx in chunks:
+            C = columns(idx)
+            m_rows = slice(3 * idx[0], 3 * idx[-1] + 3)  # the chunk's residual coordinates, contiguous
+            norm2 += np.einsum("ij,ij->j", C, C)
+            A += Q0[m_rows].T @ C
+            BJ += J0[m_rows].T @ C
+        spans = []
         start = 0
         for e in block:
+            spans.append((start, start + e.n_params))
+            start += e.n_params
+        grams = [np.zeros((b - a, b - a)) for a, b in spans]
+        bvec = np.zeros(P)
+        for idx in chunks:
+            m_rows = slice(3 * idx[0], 3 * idx[-1] + 3)
+            Cp = columns(idx)
+            Cp -= Q0[m_rows] @ A
+            bvec += Cp.T @ r[m_rows]
+            for g, (a, b) in zip(grams, spans):
+                g += Cp[:, a:b].T @ Cp[:, a:b]
+        for e, (a, b), gram in zip(block, spans, grams):
             k = e.n_params
-            C = C_all[:, start : start + k]
-            Cp = C_perp_all[:, start : start + k]
-            start += k
             unit = e.param_units(machine)[0]
-            norm_c = np.linalg.norm(C, axis=0)
+            norm_c = np.sqrt(norm2[a:b])
             if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
                 out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
                 continue
             # a column that vanishes on this plan (a sine sampled at its zeros) carries nothing: drop it
             # rather than blow its rounding noise up to unit length
             alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
-            ratio = np.where(alive, np.linalg.norm(Cp, axis=0) / np.where(alive, norm_c, 1.0), 0.0)
-            U, s, Vt = np.linalg.svd(np.where(alive, Cp / np.where(alive, norm_c, 1.0), 0.0), full_matrices=False)
-            keep = s > ALIAS_TOL
+            scale = np.where(alive, norm_c, 1.0)
+            gs = np.where(np.outer(alive, alive), gram / np.outer(scale, scale), 0.0)
+            ratio = np.where(alive, np.sqrt(np.maximum(np.diag(gs), 0.0)), 0.0)
+            w, V = np.linalg.eigh(gs)
+            sv = np.sqrt(np.maximum(w, 0.0))
+            keep = sv > ALIAS_TOL
             if not keep.any() or ratio.max() < ALIAS_TOL:
-                coef = np.linalg.lstsq(J0, C, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
-                weight = np.abs(coef).max(axis=1) * np.linalg.norm(J0, axis=0) if coef.size else np.zeros(0)
+                coef = np.linalg.lstsq(G0, BJ[:, a:b], rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
+                weight = np.abs(coef).max(axis=1) * np.sqrt(np.diag(G0)) if coef.size else np.zeros(0)
                 order = np.argsort(-weight)
                 names = tuple(model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
                 out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names))
                 continue
             kk = int(keep.sum())
-            proj = U[:, keep].T @ r
+            Vk, sk = V[:, keep], sv[keep]
+            proj = (Vk.T @ (bvec[a:b] / scale)) / sk  # U_kᵀ r, without forming U
             delta = float(proj @ proj)
             if sigma_known:
                 log_sf = _chi2_logsf(delta, kk)
@@ -419,8 +451,6 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
                     log_sf = _chi2_logsf(F * kk, kk)
             # size of the effect: least-squares coefficients of the projected block, restricted to the
             # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
-            scale = np.where(alive, norm_c, 1.0)
-            Vk, sk = Vt[keep].T, s[keep]
             beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
             cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
             size, size_std = _size(e, beta, cov, obs, machine)
@@ -461,7 +491,7 @@ def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
             code = c.effect.split(":")[0]
             listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
     out = []
-    estimates = search_periods(machine, obs, r, d_errors / sigma, q0)
+    estimates = search_periods(machine, obs, r, d_errors, q0, sigma)
     joints = max(len(estimates), 1)  # the best of every joint's search is taken: the trials multiply
     for est in estimates[:FOUND_PERIODS]:
         listed = ROTARY_PERIODS_DEG if est.unit == "deg" else LINEAR_PERIODS_MM

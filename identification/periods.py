@@ -113,16 +113,16 @@ def _delta(freq, q, w, nrm, g):
     return out
 
 
-def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, d_errors_w: np.ndarray,
-                   q0: np.ndarray) -> list:
+def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, d_errors: np.ndarray,
+                   q0: np.ndarray, sigma: float = 1.0) -> list:
     """Best period of every position-dependent error joint, refined, best first.
 
     Parameters
     ----------
     residual_w : array (3N,)
         Whitened residual (÷ σ), orthogonal to the model's columns.
-    d_errors_w : array (N, 3, n_errors)
-        Error-joint Jacobian at the fit, whitened (÷ σ).
+    d_errors : array (N, 3, n_errors)
+        Error-joint Jacobian at the fit (whitened here, one joint at a time, by ``sigma``).
     q0 : array (3N, rank)
         Orthonormal basis of the model's identifiable columns.
 
@@ -157,7 +157,7 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         p_max = 360.0 if rotary else span
         if span <= 0 or p_max <= p_min:
             continue
-        col = d_errors_w[:, :, j]  # (N, 3)
+        col = d_errors[:, :, j] / sigma  # (N, 3)
         nrm = np.sum(col * col, axis=1)
         if not np.any(nrm > 0):
             continue
