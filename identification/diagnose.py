@@ -530,6 +530,8 @@ def _map_description(effect, beta, machine) -> str:
 #: A proposed map must gain over the best parametric candidate more χ² than its extra parameters would
 #: at this level.
 MAP_GAIN_ALPHA = 1e-3
+#: Readings (weighted by the knot's hat function) every knot of a proposed map must rest on.
+MAP_MIN_SUPPORT = 3.0
 #: Knot intervals over the measured range of an axis in a proposed map.
 MAP_INTERVALS = 40
 
@@ -562,6 +564,10 @@ def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
             continue
         step = _nice_step(hi - lo)
         lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
+        knots = np.arange(lo, hi + step / 2, step)
+        support = np.clip(1.0 - np.abs(q[:, None] - knots[None, :]) / step, 0.0, None).sum(axis=0)
+        if support.min() < MAP_MIN_SUPPORT:
+            continue  # readings clustered (a few preset positions): a knot between them would be a guess
         try:
             maps.append(parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine))
         except DataError:

@@ -223,8 +223,9 @@ def plot_maps(fit_result, path) -> bool:
     maps = [e for e in fit_result.effects if e.basis == "map"]
     if not maps:
         return False
-    fig = new_figure((7.0, 2.8 * len(maps)))
+    fig = new_figure((7.0, 3.0 * len(maps)))
     axes = fig.subplots(len(maps), 1, squeeze=False)[:, 0]
+    fig.subplots_adjust(hspace=0.55)
     for ax, e in zip(axes, maps):
         k = fit_result.effects.index(e)
         start = sum(x.n_params for x in fit_result.effects[:k])
