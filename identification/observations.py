@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -16,7 +15,7 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
-from kinid.files import read_csv_rows
+from kinid.files import csv_number, read_csv_rows
 from .machine import Machine, axis_limits
 
 __all__ = ["Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
@@ -135,16 +134,7 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
 
     def number(lineno, cells, col):
         idx = header.index(col) if isinstance(col, str) else col
-        name = header[idx]
-        if idx >= len(cells) or cells[idx].strip() == "":
-            raise DataError("empty cell; a number is needed", path=path, line=lineno, column=name)
-        try:
-            v = float(cells[idx])
-        except ValueError:
-            raise DataError(f"{cells[idx].strip()!r} is not a number", path=path, line=lineno, column=name) from None
-        if not math.isfinite(v):
-            raise DataError(f"{cells[idx].strip()!r} is not a finite number", path=path, line=lineno, column=name)
-        return v
+        return csv_number(cells, idx, path=path, line=lineno, column=header[idx])
 
     n = len(data)
     marks, lines = [], []

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS"]
 
 
@@ -167,6 +167,24 @@ def read_csv_rows(path, *, what: str = "CSV file") -> list:
     except csv.Error as exc:
         raise DataError(f"malformed CSV ({exc})", path=path, line=start) from None
     return rows
+
+
+def csv_number(cells, index: int, *, path, line, column) -> float:
+    """The finite number in ``cells[index]`` of a CSV row; DataError naming the file, line and column."""
+    import math
+
+    from .errors import DataError
+
+    cell = cells[index].strip() if index < len(cells) else ""
+    if not cell:
+        raise DataError("empty cell; a number is needed", path=path, line=line, column=column)
+    try:
+        value = float(cell)
+    except ValueError:
+        raise DataError(f"{cell!r} is not a number", path=path, line=line, column=column) from None
+    if not math.isfinite(value):
+        raise DataError(f"{cell!r} is not a finite number", path=path, line=line, column=column)
+    return value
 
 
 #: Limits on JSON files kinid reads (fit, error set, board, camera files).

@@ -163,9 +163,7 @@ def evaluate_runs(target_mm, direction, deviation_um) -> PositioningResult:
 
 def read_runs(path):
     """(target_mm, direction, deviation_um) arrays from RUNS.csv; DataError naming the line and column."""
-    import math
-
-    from kinid.files import read_csv_rows
+    from kinid.files import csv_number, read_csv_rows
 
     rows = read_csv_rows(path, what="runs file")
     if not rows:
@@ -178,16 +176,7 @@ def read_runs(path):
     idx = [header.index(c) for c in _COLUMNS]
     out = []
     for lineno, cells in rows[1:]:
-        values = []
-        for col, i in zip(_COLUMNS, idx):
-            cell = cells[i].strip() if i < len(cells) else ""
-            try:
-                v = float(cell)
-            except ValueError:
-                raise DataError(f"{cell!r} is not a number", path=path, line=lineno, column=col) from None
-            if not math.isfinite(v):
-                raise DataError(f"{cell!r} is not a finite number", path=path, line=lineno, column=col)
-            values.append(v)
+        values = [csv_number(cells, i, path=path, line=lineno, column=col) for col, i in zip(_COLUMNS, idx)]
         if values[2] not in (1.0, -1.0):
             raise DataError(f"direction must be +1 or -1, found {cells[idx[2]].strip()!r}", path=path, line=lineno,
                             column="direction")

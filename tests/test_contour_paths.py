@@ -107,7 +107,7 @@ def test_load_polyline(tmp_path):
     with pytest.raises(DataError, match="missing column y_mm"):
         load_polyline(f)
     f.write_text("x_mm,y_mm\n0,0\n1,abc\n")
-    with pytest.raises(DataError, match=r"path.csv:3, column 'y_mm': expected a number, got 'abc'"):
+    with pytest.raises(DataError, match=r"path.csv:3, column 'y_mm': 'abc' is not a number"):
         load_polyline(f)
     f.write_text("x_mm,y_mm\n0,0\n")
     with pytest.raises(DataError, match="at least 2 vertices, got 1"):

@@ -374,7 +374,7 @@ def load_polyline(path):
     DataError
         Missing file or columns, a cell that is not a number, fewer than 2 rows.
     """
-    from kinid.files import read_csv_rows
+    from kinid.files import csv_number, read_csv_rows
 
     lines = read_csv_rows(path, what="path file")
     if not lines:
@@ -388,17 +388,7 @@ def load_polyline(path):
     ix, iy = header.index("x_mm"), header.index("y_mm")
     verts = []
     for (lineno, _), row in zip(lines[1:], rows[1:]):
-        vals = []
-        for i, col in ((ix, "x_mm"), (iy, "y_mm")):
-            cell = row[i].strip() if i < len(row) else ""
-            try:
-                v = float(cell)
-            except ValueError:
-                raise DataError(f"expected a number, got {cell!r}", path=path, line=lineno, column=col) from None
-            if not math.isfinite(v):
-                raise DataError(f"expected a finite number, got {cell!r}", path=path, line=lineno, column=col)
-            vals.append(v)
-        verts.append(vals)
+        verts.append([csv_number(row, i, path=path, line=lineno, column=col) for i, col in ((ix, "x_mm"), (iy, "y_mm"))])
     if len(verts) < 2:
         raise DataError(f"a polyline needs at least 2 vertices, got {len(verts)}", path=path)
     return tuple(tuple(v) for v in verts)
