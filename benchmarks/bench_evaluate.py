@@ -1,4 +1,8 @@
-"""Benchmark: one Pinocchio pass of kinid (tool point + Jacobians of every pose) against the raw Pinocchio calls.
+"""Benchmark: one Pinocchio pass of kinid (tool point + Jacobians of every pose) against raw Pinocchio calls.
+
+kinid's pass makes one Pinocchio call per pose (``computeJointJacobians``) and
+forms the two frames' Jacobians from the world-frame joint Jacobian for all
+poses at once; the floor below is the straightforward use of Pinocchio.
 
 ``kinid.identification.machine.evaluate`` computes, for N poses, the tool
 point in the workpiece frame and its derivatives with respect to every error

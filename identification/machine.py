@@ -463,7 +463,7 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
                         f"{len(machine.error_joints)}), got {errors_user.shape}", parameter="errors_user")
     check_array("errors_user", errors_user)
     model = machine.model
-    data = model.createData()
+    data = _pinocchio_data(machine)
     n = axes_user.shape[0]
     qs = _configurations(machine, axes_to_si(machine, axes_user),
                          errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints)))))
@@ -491,38 +491,83 @@ EVALUATE_CHUNK = 2048
 
 
 def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool):
-    """Tool point (n, 3) mm and, with ``jacobian``, G (n, 3, nv) m per SI unit, for configurations ``qs``."""
+    """Tool point (n, 3) mm and, with ``jacobian``, G (n, 3, nv) m per SI unit, for configurations ``qs``.
+
+    One Pinocchio call per pose (``computeJointJacobians`` or ``forwardKinematics``); the loop then
+    only copies the world-frame joint Jacobian ``data.J`` and the placements of the two frames' parent
+    joints. The frames' placements and their LOCAL_WORLD_ALIGNED Jacobians are formed afterwards for
+    all poses at once: the velocity of a point p of a body is v_O + ω × p, so its Jacobian is
+    J_lin − [p]× J_ang over the columns of the joints that carry the body.
+    """
     model = machine.model
     n = qs.shape[0]
-    wf, tf = machine.workpiece_frame, machine.tool_frame
-    # the loop only calls Pinocchio and copies its results; the algebra is done on all poses at once after it
-    R = np.empty((n, 3, 3))
-    pw = np.empty((n, 3))
-    pt = np.empty((n, 3))
-    Jt = np.empty((n, 6, model.nv)) if jacobian else None
-    Jw = np.empty((n, 6, model.nv)) if jacobian else None
-    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    frame_jacobian, frame_placement = pin.getFrameJacobian, pin.updateFramePlacement
+    wf, tf = model.frames[machine.workpiece_frame], model.frames[machine.tool_frame]
+    jw, jt = wf.parentJoint, tf.parentJoint
+    Rw_j, pw_j = np.empty((n, 3, 3)), np.empty((n, 3))
+    Rt_j, pt_j = np.empty((n, 3, 3)), np.empty((n, 3))
+    J = np.empty((n, 6, model.nv)) if jacobian else None
     kinematics = pin.computeJointJacobians if jacobian else pin.forwardKinematics
+    oMi = data.oMi
     for i in range(n):
         kinematics(model, data, qs[i])
-        oMw = frame_placement(model, data, wf)
-        R[i] = oMw.rotation
-        pw[i] = oMw.translation
-        pt[i] = frame_placement(model, data, tf).translation
+        Mw, Mt = oMi[jw], oMi[jt]
+        Rw_j[i], pw_j[i] = Mw.rotation, Mw.translation
+        Rt_j[i], pt_j[i] = Mt.rotation, Mt.translation
         if jacobian:
-            Jt[i] = frame_jacobian(model, data, tf, lwa)
-            Jw[i] = frame_jacobian(model, data, wf, lwa)
+            J[i] = data.J
+    # frame placements: oMf = oMi · (frame placement in its joint)
+    Rw = Rw_j @ wf.placement.rotation
+    pw = np.einsum("nij,j->ni", Rw_j, wf.placement.translation) + pw_j
+    pt = np.einsum("nij,j->ni", Rt_j, tf.placement.translation) + pt_j
     delta = pt - pw
-    p = np.einsum("nji,nj->ni", R, delta) * 1e3  # R^T delta, mm
+    p = np.einsum("nji,nj->ni", Rw, delta) * 1e3  # R_wᵀ (p_t − p_w), mm
     if not jacobian:
         return p
-    # d(R^T delta) = R^T (v_t - v_w + delta x w_w), m per SI unit
-    w = Jw[:, 3:]
+    lin, ang = J[:, :3], J[:, 3:]
+
+    def point_jacobian(point, joint):
+        """Linear velocity Jacobian (n, 3, nv) of a point carried by ``joint``: J_lin − [p]× J_ang, its columns only."""
+        cols = _support_columns(machine, joint)
+        out = np.zeros((n, 3, model.nv))
+        x, y, z = point[:, 0, None], point[:, 1, None], point[:, 2, None]
+        a = ang[:, :, cols]
+        out[:, 0, cols] = lin[:, 0, cols] - (y * a[:, 2] - z * a[:, 1])
+        out[:, 1, cols] = lin[:, 1, cols] - (z * a[:, 0] - x * a[:, 2])
+        out[:, 2, cols] = lin[:, 2, cols] - (x * a[:, 1] - y * a[:, 0])
+        return out
+
+    vt = point_jacobian(pt, jt)
+    vw = point_jacobian(pw, jw)
+    cols_w = _support_columns(machine, jw)
+    w = np.zeros((n, 3, model.nv))
+    w[:, :, cols_w] = ang[:, :, cols_w]  # angular velocity Jacobian of the workpiece
+    # d(R_wᵀ δ) = R_wᵀ (v_t − v_w + δ × ω_w)
     cross = np.stack([delta[:, 1, None] * w[:, 2] - delta[:, 2, None] * w[:, 1],
                       delta[:, 2, None] * w[:, 0] - delta[:, 0, None] * w[:, 2],
                       delta[:, 0, None] * w[:, 1] - delta[:, 1, None] * w[:, 0]], axis=1)
-    return p, np.einsum("nji,njk->nik", R, Jt[:, :3] - Jw[:, :3] + cross)
+    return p, np.einsum("nji,njk->nik", Rw, vt - vw + cross)
+
+
+def _pinocchio_data(machine: Machine):
+    """A Pinocchio ``Data`` for ``machine``, made once per thread (making one costs milliseconds)."""
+    import threading
+
+    cache = machine.__dict__.setdefault("_data_cache", {})
+    key = threading.get_ident()
+    if key not in cache:
+        cache[key] = machine.model.createData()
+    return cache[key]
+
+
+def _support_columns(machine: Machine, joint: int) -> np.ndarray:
+    """Velocity columns of the joints that carry ``joint`` (its support, itself included)."""
+    cache = machine.__dict__.setdefault("_support_cache", {})
+    if joint not in cache:
+        model = machine.model
+        cols = [v for j in model.supports[joint] if j > 0
+                for v in range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])]
+        cache[joint] = np.array(cols, dtype=int)
+    return cache[joint]
 
 
 def tool_in_workpiece_mm(machine: Machine, axes: Mapping[str, float], joint_errors: Mapping[str, float] | None = None) -> np.ndarray:
