@@ -46,6 +46,9 @@ def register(sub) -> None:
     p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
     p.add_argument("--no-directions", action="store_true", help="do not write dir_<axis> columns")
     p.add_argument("--no-time", action="store_true", help="do not write the t_s column")
+    p.add_argument("--stop-scatter-um", type=float, default=0.0, metavar="S",
+                   help="the operator stops within about S µm of each alignment; the rows record where the mark "
+                        "was seen relative to the tool point (mark_dx_mm, mark_dy_mm, mark_dz_mm)")
     p.add_argument("--out", required=True)
     p.set_defaults(run=_simulate)
 
@@ -168,11 +171,14 @@ def _simulate(args) -> int:
 
     if args.noise_um < 0 or not np.isfinite(args.noise_um):
         raise DataError(f"--noise-um must be zero or positive, got {args.noise_um}")
+    if args.stop_scatter_um < 0 or not np.isfinite(args.stop_scatter_um):
+        raise DataError(f"--stop-scatter-um must be zero or positive, got {args.stop_scatter_um}")
     machine = load_machine(args.machine)
     effects, theta = load_errors(args.errors, machine)
     solve = _axes_list(args.solve, machine)
     plan = load_plan(args.plan, machine, solve)
-    obs = simulate(machine, plan, effects, theta, noise_um=args.noise_um, rng=np.random.default_rng(args.seed), solve=solve, directions=not args.no_directions)
+    obs = simulate(machine, plan, effects, theta, noise_um=args.noise_um, rng=np.random.default_rng(args.seed), solve=solve, directions=not args.no_directions,
+                   stop_scatter_um=args.stop_scatter_um)
     if args.no_time:
         obs = replace(obs, t_s=None)
     write_observations(args.out, obs, machine)

@@ -301,7 +301,7 @@ def _model_pass(machine: Machine, obs: Observations, result: FitResult):
     ``Q0`` (3N, rank) of the identifiable model columns — shared by the score test, the
     leverages and the axis residuals."""
     d0 = design(machine, result.effects, obs)
-    _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta))
+    _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta), offsets_mm=obs.offsets_mm)
     J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
     Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
     return d_errors, d_axes, Q0

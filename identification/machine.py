@@ -433,8 +433,8 @@ def check_machine(machine, name: str = "machine") -> "Machine":
     return machine
 
 
-def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True):
-    """Tool point in the workpiece frame and its derivatives, for a batch of poses.
+def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True, offsets_mm=None):
+    """Tool point (or a point at an offset from it) in the workpiece frame and its derivatives, for a batch of poses.
 
     Parameters
     ----------
@@ -445,11 +445,14 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
         Error-joint values in ``machine.error_joints`` order, µm or µrad.
     jacobian : bool
         Also return the derivatives.
+    offsets_mm : array (N, 3) or (3,), optional
+        A point fixed to the tool, given in the ``tool`` frame relative to the tool point, mm
+        (where the camera and laser saw the mark); default the tool point itself.
 
     Returns
     -------
     p_mm : array (N, 3)
-        Tool point expressed in the workpiece frame, mm.
+        Tool point (plus ``offsets_mm`` in the tool frame) expressed in the workpiece frame, mm.
     d_errors : array (N, 3, n_errors)
         ∂p/∂(error joint value) in µm per µm (prismatic) or µm per µrad (revolute).
     d_axes : array (N, 3, n_axes)
@@ -462,6 +465,12 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
         raise DataError(f"must have shape ({len(machine.error_joints)},) or ({axes_user.shape[0]}, "
                         f"{len(machine.error_joints)}), got {errors_user.shape}", parameter="errors_user")
     check_array("errors_user", errors_user)
+    if offsets_mm is not None:
+        offsets_mm = np.asarray(offsets_mm, dtype=float)
+        if offsets_mm.shape not in ((3,), (axes_user.shape[0], 3)):
+            raise DataError(f"must have shape (3,) or ({axes_user.shape[0]}, 3), got {offsets_mm.shape}", parameter="offsets_mm")
+        check_array("offsets_mm", offsets_mm)
+        offsets_mm = np.broadcast_to(offsets_mm, (axes_user.shape[0], 3))
     model = machine.model
     data = _pinocchio_data(machine)
     n = axes_user.shape[0]
@@ -476,7 +485,8 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
     d_ax = np.empty((n, 3, len(av))) if jacobian else None
     for lo in range(0, n, EVALUATE_CHUNK):  # chunks keep the Pinocchio copies small whatever N is
         hi = min(lo + EVALUATE_CHUNK, n)
-        out = _evaluate_chunk(machine, data, qs[lo:hi], jacobian)
+        out = _evaluate_chunk(machine, data, qs[lo:hi], jacobian,
+                              None if offsets_mm is None else offsets_mm[lo:hi] * 1e-3)
         if jacobian:
             p[lo:hi], G = out
             d_err[lo:hi] = G[:, :, ev]
@@ -490,8 +500,10 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True)
 EVALUATE_CHUNK = 2048
 
 
-def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool):
+def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool, offsets_m=None):
     """Tool point (n, 3) mm and, with ``jacobian``, G (n, 3, nv) m per SI unit, for configurations ``qs``.
+
+    With ``offsets_m`` (n, 3), the point is the tool point plus that offset in the tool frame, m.
 
     One Pinocchio call per pose (``computeJointJacobians`` or ``forwardKinematics``); the loop then
     only copies the world-frame joint Jacobian ``data.J`` and the placements of the two frames' parent
@@ -519,6 +531,8 @@ def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool):
     Rw = Rw_j @ wf.placement.rotation
     pw = np.einsum("nij,j->ni", Rw_j, wf.placement.translation) + pw_j
     pt = np.einsum("nij,j->ni", Rt_j, tf.placement.translation) + pt_j
+    if offsets_m is not None:  # a point fixed to the tool: p_t + R_t d, R_t = R_joint · R_frame
+        pt = pt + np.einsum("nij,nj->ni", Rt_j @ tf.placement.rotation, offsets_m)
     delta = pt - pw
     p = np.einsum("nji,nj->ni", Rw, delta) * 1e3  # R_wᵀ (p_t − p_w), mm
     if not jacobian:

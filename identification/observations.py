@@ -2,7 +2,11 @@
 
 One row per alignment: the mark, its coordinates in the workpiece frame (mm)
 and the reading of every motion axis (mm / deg) at which the tool point
-coincided with it; optionally ``t_s`` and ``dir_<axis>`` columns.
+coincided with it; optionally ``t_s`` and ``dir_<axis>`` columns, and the
+offset columns ``mark_dx_mm``, ``mark_dy_mm``, ``mark_dz_mm``: where the mark
+was seen relative to the tool point, in the tool frame (a row with offsets
+says "at these readings the mark was at this offset"; without them it is an
+alignment, offset 0).
 """
 from __future__ import annotations
 
@@ -18,10 +22,12 @@ from kinid.errors import DataError
 from kinid.files import csv_number, read_csv_rows
 from .machine import Machine, axis_limits
 
-__all__ = ["Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
+__all__ = ["OFFSET_COLUMNS", "Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
            "read_csv_rows"]
 
 _MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
+#: Offset of the mark from the tool point in the tool frame, mm (optional columns).
+OFFSET_COLUMNS = ("mark_dx_mm", "mark_dy_mm", "mark_dz_mm")
 
 
 @dataclass(frozen=True)
@@ -41,6 +47,9 @@ class Observations:
         Source line of each row (1-based), for messages.
     source : str
         File name, for messages.
+    offsets_mm : array (N, 3) or None
+        Where the mark was seen relative to the tool point, in the ``tool`` frame, mm
+        (camera x, y and laser stand-off deviation); None for alignments (offset 0).
     """
 
     marks: tuple
@@ -50,6 +59,7 @@ class Observations:
     directions: dict = field(default_factory=dict)
     lines: tuple = ()
     source: str = "<memory>"
+    offsets_mm: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.marks)
@@ -65,6 +75,7 @@ class Observations:
             t_s=None if self.t_s is None else self.t_s[idx],
             directions={k: v[idx] for k, v in self.directions.items()},
             lines=tuple(self.lines[i] for i in idx) if self.lines else (),
+            offsets_mm=None if self.offsets_mm is None else self.offsets_mm[idx],
         )
 
 
@@ -124,6 +135,7 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
             if not match:
                 raise DataError(f"'dir_' column for unknown axis {name!r}; axes: {', '.join(a.name.lower() for a in machine.axes)}", path=path, line=header_line, column=h)
             directions_cols[match[0].name] = header.index(h)
+    offset_cols = [header.index(c) if c in header else None for c in OFFSET_COLUMNS]
     optional = set(optional_axes)
     for a in machine.axes:
         if a.name not in axis_cols and a.name not in optional:
@@ -142,6 +154,7 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     axes = np.full((n, len(machine.axes)), np.nan)
     t_s = np.empty(n) if "t_s" in header else None
     dirs = {k: np.empty(n) for k in directions_cols}
+    offsets = np.zeros((n, 3)) if any(c is not None for c in offset_cols) else None
     for i, (lineno, cells) in enumerate(data):
         if len(cells) != len(header):
             raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=lineno)
@@ -156,6 +169,8 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
                 axes[i, j] = number(lineno, cells, axis_cols[a.name])
         if t_s is not None:
             t_s[i] = number(lineno, cells, "t_s")
+        if offsets is not None:
+            offsets[i] = [0.0 if c is None else number(lineno, cells, c) for c in offset_cols]
         for name, idx in directions_cols.items():
             v = number(lineno, cells, idx)
             if v not in (1.0, -1.0):
@@ -174,7 +189,7 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
                                 f"({lo:g} .. {hi:g} {unit}); check the units and the column, or pass "
                                 f"--allow-outside-limits if the URDF's limits are wrong",
                                 path=path, line=lines[i], column=a.column)
-    return Observations(tuple(marks), w, axes, t_s, dirs, tuple(lines), str(path))
+    return Observations(tuple(marks), w, axes, t_s, dirs, tuple(lines), str(path), offsets)
 
 
 def check_observations(obs, name: str = "obs") -> Observations:
@@ -191,7 +206,8 @@ def exact_duplicates(obs: Observations) -> list:
     seen, out = {}, []
     for i in range(len(obs)):
         key = (obs.marks[i], *obs.w_mm[i], *obs.axes[i], None if obs.t_s is None else obs.t_s[i],
-               *(obs.directions[a][i] for a in sorted(obs.directions)))
+               *(obs.directions[a][i] for a in sorted(obs.directions)),
+               *(() if obs.offsets_mm is None else obs.offsets_mm[i]))
         key = tuple("nan" if isinstance(v, float) and v != v else v for v in key)
         if key in seen:
             out.append((i, seen[key]))
@@ -213,6 +229,8 @@ def observations_text(obs: Observations, machine: Machine, *, extra: dict | None
         header.append("t_s")
     dir_axes = [a for a in axes if a.name in obs.directions]
     header += [f"dir_{a.name.lower()}" for a in dir_axes]
+    if obs.offsets_mm is not None:
+        header += list(OFFSET_COLUMNS)
     extra = extra or {}
     header += list(extra)
     buf = io.StringIO()
@@ -225,6 +243,8 @@ def observations_text(obs: Observations, machine: Machine, *, extra: dict | None
         if obs.t_s is not None:
             row.append(f"{obs.t_s[i]:.3f}")
         row += [f"{int(obs.directions[a.name][i]):d}" for a in dir_axes]
+        if obs.offsets_mm is not None:
+            row += [f"{v:.6f}" for v in obs.offsets_mm[i]]
         row += [f"{extra[k][i]:.6g}" if isinstance(extra[k][i], (float, np.floating)) else str(extra[k][i]) for k in extra]
         writer.writerow(row)
     return buf.getvalue()

@@ -1,7 +1,8 @@
 """Residuals of alignment observations and their Jacobian with respect to effect parameters.
 
-The model's claim for a row (docs/formats.md, "Observation CSV"): the tool point, expressed in
-the workpiece frame, equals the mark. The residual is the difference in µm.
+The model's claim for a row (docs/formats.md, "Observation CSV"): the tool point (plus the row's
+measured offset in the tool frame, if any), expressed in the workpiece frame, equals the mark. The
+residual is the difference in µm.
 An effect's Jacobian column is its error joint's column (from Pinocchio) times
 the basis value, so every effect, and the whole candidate library, is scored
 from one kinematic pass.
@@ -65,7 +66,7 @@ def joint_values(machine: Machine, d: Design, theta: np.ndarray) -> np.ndarray:
 
 
 def residuals(machine: Machine, d: Design, obs: Observations, theta, *, jacobian: bool = True, axes_user=None):
-    """Residuals (tool point − mark, µm) and their Jacobian.
+    """Residuals (tool point + offset − mark, µm) and their Jacobian.
 
     Parameters
     ----------
@@ -87,9 +88,9 @@ def residuals(machine: Machine, d: Design, obs: Observations, theta, *, jacobian
     axes_user = obs.axes if axes_user is None else axes_user
     values = joint_values(machine, d, np.asarray(theta, float))
     if not jacobian:
-        p = evaluate(machine, axes_user, values, jacobian=False)
+        p = evaluate(machine, axes_user, values, jacobian=False, offsets_mm=obs.offsets_mm)
         return (p - obs.w_mm) * 1e3
-    p, d_err, _ = evaluate(machine, axes_user, values)
+    p, d_err, _ = evaluate(machine, axes_user, values, offsets_mm=obs.offsets_mm)
     return (p - obs.w_mm) * 1e3, effect_columns(d_err, d), d_err
 
 

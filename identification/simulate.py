@@ -18,10 +18,11 @@ from .alignment import solve_axes
 from .effects import parse_effect
 from kinid.errors import DataError
 from kinid.files import read_json
-from .machine import Machine
+from .machine import Machine, evaluate
 from .observations import Observations, read_observations
+from .residuals import design, joint_values
 
-__all__ = ["patent_plan", "load_plan", "load_errors", "simulate", "approach_directions", "PATENT_MARKS_MM"]
+__all__ = ["patent_plan", "load_plan", "load_errors", "simulate", "approach_directions", "mark_offsets_mm", "PATENT_MARKS_MM"]
 
 #: The four marks of the built-in plan, workpiece frame, mm.
 PATENT_MARKS_MM = ((40.0, 40.0, 0.0), (-40.0, 40.0, 0.0), (-40.0, -40.0, 0.0), (40.0, -40.0, 0.0))
@@ -139,7 +140,8 @@ def approach_directions(axes: np.ndarray, names) -> dict:
     return out
 
 
-def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: float = 0.0, rng=None, solve=None, directions: bool = True) -> Observations:
+def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: float = 0.0, rng=None, solve=None,
+             directions: bool = True, stop_scatter_um: float = 0.0) -> Observations:
     """Readings at which the machine with the true errors aligns the tool point with each mark.
 
     Parameters
@@ -157,6 +159,11 @@ def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: 
     directions : bool
         Add ``dir_<axis>`` columns from the order of the readings (and use them
         for reversal effects).
+    stop_scatter_um : float
+        If > 0, the operator stops near each alignment instead of on it: the solved
+        readings are scattered by this σ (µm, or millidegrees on a revolute axis), and
+        the rows record where the true machine then shows the mark relative to the tool
+        point, in the tool frame (``offsets_mm``, the ``mark_d*_mm`` columns).
     """
     rng = np.random.default_rng() if rng is None else rng
     names = machine.axis_names
@@ -167,12 +174,26 @@ def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: 
         first = solve_axes(machine, [e for e in effects if e.basis != "reversal"], _drop_reversal(effects, theta), plan, solve)
         obs = replace(plan, directions=approach_directions(first.axes, names))
     out = solve_axes(machine, effects, theta, obs, solve)
+    cols = [names.index(s) for s in solve]
+    if stop_scatter_um:
+        stopped = out.axes.copy()
+        stopped[:, cols] += rng.normal(0.0, stop_scatter_um, size=(len(out), len(cols))) * 1e-3
+        out = replace(out, axes=stopped, offsets_mm=mark_offsets_mm(machine, effects, theta, replace(out, axes=stopped)))
     if noise_um:
-        cols = [names.index(s) for s in solve]
         noisy = out.axes.copy()
         noisy[:, cols] += rng.normal(0.0, noise_um, size=(len(out), len(cols))) * 1e-3
         out = replace(out, axes=noisy)
     return replace(out, source="<simulated>")
+
+
+def mark_offsets_mm(machine: Machine, effects, theta, obs: Observations) -> np.ndarray:
+    """Where the machine with errors ``effects``/``theta`` shows each mark relative to the tool point
+    at the readings of ``obs``, in the tool frame, mm (N, 3)."""
+    values = joint_values(machine, design(machine, effects, obs), np.asarray(theta, float))
+    p0 = evaluate(machine, obs.axes, values, jacobian=False)
+    # the offset point is affine in the offset: p(d) = p0 + R d, R the tool frame's rotation in the workpiece frame
+    R = np.stack([evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=e) - p0 for e in np.eye(3)], axis=2)
+    return np.einsum("nji,nj->ni", R, obs.w_mm - p0)
 
 
 def _drop_reversal(effects, theta):
