@@ -33,6 +33,7 @@ __all__ = [
     "machine_from_urdf",
     "evaluate",
     "tool_in_workpiece_mm",
+    "tool_rotation_in_workpiece",
 ]
 
 _ERROR_CODE = re.compile(r"^E([XYZABC])(0?)([A-Z][A-Z0-9]*)$")
@@ -560,6 +561,15 @@ def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool, offs
                       delta[:, 2, None] * w[:, 0] - delta[:, 0, None] * w[:, 2],
                       delta[:, 0, None] * w[:, 1] - delta[:, 1, None] * w[:, 0]], axis=1)
     return p, np.einsum("nji,njk->nik", Rw, vt - vw + cross)
+
+
+def tool_rotation_in_workpiece(machine: Machine, axes_user, errors_user) -> np.ndarray:
+    """Rotation (N, 3, 3) of the ``tool`` frame in the workpiece frame: its columns are the tool
+    frame's x, y, z axes expressed in the workpiece frame."""
+    p0 = evaluate(machine, axes_user, errors_user, jacobian=False)
+    # the offset point is affine in the offset: p(d) = p0 + R d
+    return np.stack([evaluate(machine, axes_user, errors_user, jacobian=False, offsets_mm=e) - p0
+                     for e in np.eye(3)], axis=2)
 
 
 def _pinocchio_data(machine: Machine):

@@ -18,7 +18,7 @@ from .alignment import solve_axes
 from .effects import parse_effect
 from kinid.errors import DataError
 from kinid.files import read_json
-from .machine import Machine, evaluate
+from .machine import Machine, evaluate, tool_rotation_in_workpiece
 from .observations import Observations, read_observations
 from .residuals import design, joint_values
 
@@ -191,8 +191,7 @@ def mark_offsets_mm(machine: Machine, effects, theta, obs: Observations) -> np.n
     at the readings of ``obs``, in the tool frame, mm (N, 3)."""
     values = joint_values(machine, design(machine, effects, obs), np.asarray(theta, float))
     p0 = evaluate(machine, obs.axes, values, jacobian=False)
-    # the offset point is affine in the offset: p(d) = p0 + R d, R the tool frame's rotation in the workpiece frame
-    R = np.stack([evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=e) - p0 for e in np.eye(3)], axis=2)
+    R = tool_rotation_in_workpiece(machine, obs.axes, values)
     return np.einsum("nji,nj->ni", R, obs.w_mm - p0)
 
 

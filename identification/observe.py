@@ -1,0 +1,389 @@
+"""From images and axis readings to observations: ``kinid observe`` (docs/observe.md).
+
+At each pose of a measurement run the camera on the tool takes one image of the
+ring-coded board on the table and the axis readings (and the laser reading)
+are logged. For every image the ring-code locator finds and decodes the marks;
+the mark nearest the optical axis (or every mark, on request) becomes one row
+of the observation CSV: the mark's board position in the workpiece frame, the
+readings, and where the mark was seen relative to the tool point in the tool
+frame (``mark_dx_mm``, ``mark_dy_mm`` from the image, ``mark_dz_mm`` from the
+laser). Images that cannot be read with confidence are listed with the reason,
+never guessed.
+
+Sensor model (docs/formats.md, "Sensor file"): the camera looks along the tool
+frame's −z axis; the image x axis is the tool x axis turned by
+``image_x_angle_deg`` about tool z and the image y axis (down in the image) the
+tool −y axis turned by the same angle. The tool point appears at
+``optical_axis_px``. A pixel-equivalent sensor maps pixels to mm with
+``pixel_mm`` (a telecentric lens, or marks within the depth of field of the
+stand-off); a calibrated camera (``kinid.vision`` camera model) removes lens
+distortion and scales by the distance from the camera to the mark.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from kinid.errors import DataError, KinidError
+from kinid.files import csv_number, read_csv_rows, read_image, read_json
+from .machine import Machine, axis_limits, evaluate, tool_rotation_in_workpiece
+from .observations import Observations
+
+__all__ = ["Sensor", "load_sensor", "read_run_log", "RunLog", "observe", "Rejected", "ObserveResult",
+           "image_offsets_mm"]
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """The camera and laser on the tool.
+
+    Attributes
+    ----------
+    pixel_mm : float or None
+        Size of one pixel on the board at the stand-off, mm (pixel-equivalent sensor).
+    optical_axis_px : (float, float) or None
+        Pixel (x, y) where the tool point appears; None: the image centre.
+    image_x_angle_deg : float
+        Angle of the image x axis from the tool frame's x axis, about tool z, degrees.
+    laser_standoff_mm : float or None
+        Laser reading when the surface passes through the tool point, mm.
+    camera : CameraModel or None
+        A calibrated camera (intrinsics and distortion), used instead of ``pixel_mm``.
+    working_distance_mm : float or None
+        With ``camera``: distance from the camera's projection centre to the tool point, mm.
+    """
+
+    pixel_mm: float | None = None
+    optical_axis_px: tuple | None = None
+    image_x_angle_deg: float = 0.0
+    laser_standoff_mm: float | None = None
+    camera: object = None
+    working_distance_mm: float | None = None
+
+
+_SENSOR_KEYS = {"pixel_mm", "optical_axis_px", "image_x_angle_deg", "laser_standoff_mm", "camera", "working_distance_mm"}
+
+
+def load_sensor(path) -> Sensor:
+    """Read a sensor file (JSON, docs/formats.md "Sensor file").
+
+    Raises
+    ------
+    DataError
+        Naming the file and the key: unknown or missing keys, values that are not finite numbers.
+    """
+    path = Path(path)
+    data = read_json(path, what="sensor file")
+    if not isinstance(data, dict):
+        raise DataError("a sensor file is a JSON object (pixel_mm or camera, optical_axis_px, image_x_angle_deg, "
+                        "laser_standoff_mm)", path=path)
+    unknown = sorted(set(data) - _SENSOR_KEYS)
+    if unknown:
+        raise DataError(f"unknown key {unknown[0]!r}; keys: {', '.join(sorted(_SENSOR_KEYS))}", path=path, column=unknown[0])
+
+    def number(key, *, positive=False, default=None):
+        if key not in data or data[key] is None:
+            return default
+        v = data[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise DataError(f"expected a finite number, got {v!r}", path=path, column=key)
+        if positive and not v > 0:
+            raise DataError(f"must be > 0, got {v!r}", path=path, column=key)
+        return float(v)
+
+    axis_px = data.get("optical_axis_px")
+    if axis_px is not None:
+        if (not isinstance(axis_px, list) or len(axis_px) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in axis_px)):
+            raise DataError(f"expected [x, y] in pixels, got {axis_px!r}", path=path, column="optical_axis_px")
+        axis_px = (float(axis_px[0]), float(axis_px[1]))
+    camera = None
+    if data.get("camera") is not None:
+        from kinid.vision import CameraModel, load_camera
+
+        spec = data["camera"]
+        try:
+            if isinstance(spec, str):
+                camera = load_camera(path.parent / spec)
+            elif isinstance(spec, dict):
+                camera = CameraModel(spec.get("camera_matrix"), spec.get("dist_coeffs"), spec.get("image_size"),
+                                     spec.get("rms_px", math.nan))
+            else:
+                raise DataError("expected a camera file name or a camera object (docs/formats.md, 'Camera file')")
+        except KinidError as exc:
+            raise DataError(exc.message, path=path, column="camera") from None
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"not a camera model ({exc})", path=path, column="camera") from None
+    sensor = Sensor(number("pixel_mm", positive=True), axis_px, number("image_x_angle_deg", default=0.0),
+                    number("laser_standoff_mm"), camera, number("working_distance_mm", positive=True))
+    if (sensor.pixel_mm is None) == (sensor.camera is None):
+        raise DataError("give either pixel_mm (pixel equivalent on the board) or camera with working_distance_mm",
+                        path=path, column="pixel_mm")
+    if sensor.camera is not None and sensor.working_distance_mm is None:
+        raise DataError("a calibrated camera needs working_distance_mm (camera to tool point, mm)", path=path,
+                        column="working_distance_mm")
+    return sensor
+
+
+def image_offsets_mm(sensor: Sensor, xy_px, image_size, dz_mm=0.0) -> np.ndarray:
+    """Tool-frame (dx, dy) in mm of image points ``xy_px`` (N, 2).
+
+    ``image_size`` is (width, height); ``dz_mm`` (N,) the tool-frame z of the points (their depth
+    below the tool point is −dz), used by a calibrated camera's scale.
+    """
+    xy = np.atleast_2d(np.asarray(xy_px, float))
+    if sensor.camera is not None:
+        cam = sensor.camera
+        ideal = cam.undistort_points(xy)
+        k = cam.camera_matrix
+        y_n = (ideal[:, 1] - k[1, 2]) / k[1, 1]
+        x_n = (ideal[:, 0] - k[0, 2] - k[0, 1] * y_n) / k[0, 0]
+        if sensor.optical_axis_px is not None:  # the tool point's ray, if it is not the principal point
+            a = cam.undistort_points(np.array([sensor.optical_axis_px], float))[0]
+            ay = (a[1] - k[1, 2]) / k[1, 1]
+            x_n, y_n = x_n - (a[0] - k[0, 2] - k[0, 1] * ay) / k[0, 0], y_n - ay
+        depth = sensor.working_distance_mm - np.asarray(dz_mm, float)
+        u, v = x_n * depth, y_n * depth
+    else:
+        w, h = image_size
+        cx, cy = sensor.optical_axis_px if sensor.optical_axis_px is not None else ((w - 1) / 2.0, (h - 1) / 2.0)
+        u, v = (xy[:, 0] - cx) * sensor.pixel_mm, (xy[:, 1] - cy) * sensor.pixel_mm
+    # camera frame: x right, y down, looking along tool -z  ->  tool frame (x, -y) turned by the angle
+    a = math.radians(sensor.image_x_angle_deg)
+    c, s = math.cos(a), math.sin(a)
+    return np.column_stack([c * u + s * v, s * u - c * v])
+
+
+@dataclass(frozen=True)
+class RunLog:
+    """The log of a measurement run: one image per pose.
+
+    Attributes
+    ----------
+    images : tuple of str
+        Image file names as written in the log (relative to the log's folder).
+    axes : array (N, n_axes)
+        Readings in ``machine.axes`` order, mm / deg.
+    laser_mm : array (N,) or None
+    t_s : array (N,) or None
+    directions : dict axis -> array (N,)
+    lines : tuple of int
+    source : str
+    """
+
+    images: tuple
+    axes: np.ndarray
+    laser_mm: np.ndarray | None
+    t_s: np.ndarray | None
+    directions: dict
+    lines: tuple
+    source: str
+
+
+def read_run_log(path, machine: Machine, *, check_limits: bool = True) -> RunLog:
+    """Read a run log CSV: ``image``, every axis column (``x_mm`` ... ``c_deg``), optional
+    ``laser_mm``, ``t_s``, ``dir_<axis>`` (docs/formats.md, "Run log").
+
+    Raises
+    ------
+    DataError
+        Naming the file, line and column of the first problem.
+    """
+    path = Path(path)
+    rows = read_csv_rows(path, what="run log")
+    if not rows:
+        raise DataError("no header row and no data", path=path)
+    header_line, header = rows[0]
+    header = [h.strip() for h in header]
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise DataError("duplicate column", path=path, line=header_line, column=dup)
+    if "image" not in header:
+        raise DataError(f"missing required column 'image' (header: {', '.join(header)})", path=path, line=header_line)
+    for a in machine.axes:
+        if a.column not in header:
+            raise DataError(f"missing column {a.column!r} for axis {a.name}", path=path, line=header_line)
+    dir_cols = {}
+    for h in header:
+        if h.startswith("dir_"):
+            match = [a for a in machine.axes if a.name.lower() == h[4:]]
+            if not match:
+                raise DataError(f"'dir_' column for unknown axis {h[4:]!r}", path=path, line=header_line, column=h)
+            dir_cols[match[0].name] = header.index(h)
+    data = rows[1:]
+    if not data:
+        raise DataError("no data rows after the header", path=path, line=header_line)
+    n = len(data)
+    images, lines = [], []
+    axes = np.empty((n, len(machine.axes)))
+    laser = np.empty(n) if "laser_mm" in header else None
+    t_s = np.empty(n) if "t_s" in header else None
+    dirs = {k: np.empty(n) for k in dir_cols}
+    for i, (lineno, cells) in enumerate(data):
+        if len(cells) != len(header):
+            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=lineno)
+        name = cells[header.index("image")].strip()
+        if not name:
+            raise DataError("empty image name", path=path, line=lineno, column="image")
+        images.append(name)
+        lines.append(lineno)
+        for j, a in enumerate(machine.axes):
+            axes[i, j] = csv_number(cells, header.index(a.column), path=path, line=lineno, column=a.column)
+        if laser is not None:
+            laser[i] = csv_number(cells, header.index("laser_mm"), path=path, line=lineno, column="laser_mm")
+        if t_s is not None:
+            t_s[i] = csv_number(cells, header.index("t_s"), path=path, line=lineno, column="t_s")
+        for k, idx in dir_cols.items():
+            v = csv_number(cells, idx, path=path, line=lineno, column=header[idx])
+            if v not in (1.0, -1.0):
+                raise DataError(f"approach direction must be +1 or -1, found {cells[idx].strip()!r}", path=path,
+                                line=lineno, column=header[idx])
+            dirs[k][i] = v
+    if check_limits:
+        limits = axis_limits(machine)
+        for j, a in enumerate(machine.axes):
+            bad = np.flatnonzero((axes[:, j] < limits[j, 0]) | (axes[:, j] > limits[j, 1]))
+            if bad.size:
+                i = int(bad[0])
+                raise DataError(f"{axes[i, j]:g} is outside the travel of axis {a.name} in the URDF "
+                                f"({limits[j, 0]:g} .. {limits[j, 1]:g}); pass --allow-outside-limits if the URDF's "
+                                f"limits are wrong", path=path, line=lines[i], column=a.column)
+    return RunLog(tuple(images), axes, laser, t_s, dirs, tuple(lines), str(path))
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """An image that gave no observation, and why."""
+
+    line: int
+    image: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class ObserveResult:
+    """Observations made from a run's images.
+
+    Attributes
+    ----------
+    observations : Observations
+        With ``offsets_mm``; ``lines`` are the run log's lines.
+    images : tuple of str
+        The image each row comes from (as named in the log).
+    rejected : tuple of Rejected
+    """
+
+    observations: Observations
+    images: tuple
+    rejected: tuple
+
+
+def _board_mark_mm(board, row, col, origin_mm):
+    """Workpiece-frame position of a board mark: board x along workpiece x, board y (rows down the
+    printed board) along workpiece −y, the board lying face up on the workpiece x-y plane."""
+    x_b, y_b = board.mark_mm(row, col)
+    return np.array([origin_mm[0] + x_b, origin_mm[1] - y_b, origin_mm[2]])
+
+
+def default_board_origin_mm(board) -> tuple:
+    """Board placed with its centre on the workpiece origin: the position of mark (0, 0)."""
+    return (-(board.cols - 1) * board.pitch_mm / 2.0, (board.rows - 1) * board.pitch_mm / 2.0, 0.0)
+
+
+def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origin_mm=None, marks: str = "nearest",
+            progress=None) -> ObserveResult:
+    """Locate and decode the board's marks in every image of a run and make observation rows.
+
+    Parameters
+    ----------
+    machine : Machine
+    board : kinid.vision.Board
+    sensor : Sensor
+    log : RunLog
+    board_origin_mm : (3,), optional
+        Workpiece-frame position of mark (row 0, col 0); default: the board centred on the
+        workpiece origin (:func:`default_board_origin_mm`).
+    marks : {"nearest", "all"}
+        One row per image (the mark nearest the optical axis) or one per decoded mark.
+    progress : callable(done, total), optional
+
+    Returns
+    -------
+    ObserveResult
+    """
+    from kinid.vision import detect_markers
+
+    if marks not in ("nearest", "all"):
+        raise DataError(f"must be 'nearest' or 'all', got {marks!r}", parameter="marks")
+    origin = np.asarray(default_board_origin_mm(board) if board_origin_mm is None else board_origin_mm, float)
+    folder = Path(log.source).parent
+    n = len(log.images)
+    # nominal tool frame and tool point at each pose: the board's normal for the laser, and the expected marks
+    zero = np.zeros(len(machine.error_joints))
+    R_nominal = tool_rotation_in_workpiece(machine, log.axes, zero)
+    p_nominal = evaluate(machine, log.axes, zero, jacobian=False)
+    rows, rejected = [], []
+    for i, name in enumerate(log.images):
+        line = log.lines[i]
+        img = read_image(folder / name)
+        h, w = img.shape
+        found = detect_markers(img, bits=board.bits)
+        if not found:
+            rejected.append(Rejected(line, name, "no ring-coded mark decoded"))
+            continue
+        codes = [m.code for m in found]
+        on_board = [m for m in found if board.position_of(m.code) is not None and codes.count(m.code) == 1]
+        off = sorted({m.code for m in found if board.position_of(m.code) is None})
+        twice = sorted({c for c in codes if codes.count(c) > 1})
+        if not on_board:
+            why = (f"code {off[0]} is not on the board" if off else f"code {twice[0]} decoded twice in one image")
+            rejected.append(Rejected(line, name, why))
+            continue
+        # the laser spot: the surface on the tool axis at dz_spot; the board plane through it
+        dz_spot = 0.0 if log.laser_mm is None or sensor.laser_standoff_mm is None else -(log.laser_mm[i] - sensor.laser_standoff_mm)
+        normal = R_nominal[i].T @ np.array([0.0, 0.0, 1.0])  # board normal in the tool frame (nominal)
+        if abs(normal[2]) < 0.2:
+            rejected.append(Rejected(line, name, "the board is seen edge-on (tilted more than 78° from the camera axis)"))
+            continue
+        xy = np.array([[m.x_px, m.y_px] for m in on_board])
+        d_xy = image_offsets_mm(sensor, xy, (w, h), dz_spot)
+        dz = dz_spot - (normal[0] * d_xy[:, 0] + normal[1] * d_xy[:, 1]) / normal[2]
+        if sensor.camera is not None:  # depth changes a calibrated camera's scale: once more with the marks' depth
+            d_xy = image_offsets_mm(sensor, xy, (w, h), dz)
+            dz = dz_spot - (normal[0] * d_xy[:, 0] + normal[1] * d_xy[:, 1]) / normal[2]
+        offsets = np.column_stack([d_xy, dz])
+        w_mm = np.array([_board_mark_mm(board, *board.position_of(m.code), origin) for m in on_board])
+        # where the nominal machine expects each decoded mark: a misread code lands a pitch or more away
+        expected = np.einsum("ji,nj->ni", R_nominal[i], w_mm - p_nominal[i])
+        miss = np.linalg.norm(expected[:, :2] - offsets[:, :2], axis=1)
+        order = np.argsort(np.hypot(offsets[:, 0], offsets[:, 1]))
+        chosen = order[:1] if marks == "nearest" else order
+        kept = 0
+        for k in chosen:
+            if miss[k] > 0.5 * board.pitch_mm:
+                rejected.append(Rejected(line, name, f"code {on_board[k].code} decoded {miss[k]:.1f} mm from where the "
+                                                     f"readings put it (a misread code or a wrong board origin)"))
+                continue
+            rows.append((i, on_board[k].code, w_mm[k], offsets[k]))
+            kept += 1
+        if progress is not None:
+            progress(i + 1, n)
+    if not rows:
+        raise DataError(f"no image of the run gave an observation ({len(rejected)} rejected; the first: line "
+                        f"{rejected[0].line}, {rejected[0].image}: {rejected[0].reason})" if rejected else
+                        "the run log lists no image", path=log.source)
+    idx = np.array([r[0] for r in rows])
+    obs = Observations(
+        marks=tuple(f"M{r[1]}" for r in rows),
+        w_mm=np.array([r[2] for r in rows]),
+        axes=log.axes[idx],
+        t_s=None if log.t_s is None else log.t_s[idx],
+        directions={k: v[idx] for k, v in log.directions.items()},
+        lines=tuple(log.lines[j] for j in idx),
+        source=log.source,
+        offsets_mm=np.array([r[3] for r in rows]),
+    )
+    return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected))

@@ -1,0 +1,156 @@
+"""An independent simulator of a camera measurement run on the B/C double-turntable machine.
+
+Truth for the image-to-compensation tests. It does not use kinid's kinematics: the machine
+``five_axis_bc`` (urdf/five_axis_bc.urdf) is written out by hand in numpy with a few errors
+placed where that URDF places their error joints, and the camera's view is rendered by
+intersecting pixel rays with the board plane (kinid.vision.render only paints the board's
+ink at the plane points it is given).
+
+Errors (µm, µrad): a 10 mm-lead screw error of X (EXX, after the X carriage, along x), the C
+axis line offset in x and y (EX0C, EY0C, after the B rotation and the table drop), the tool
+length (EZ0T) and the camera's rotation about the tool axis (EC0T), which moves nothing but
+what the camera sees.
+"""
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+TRUTH = {"EX0C": 12.0, "EY0C": -8.0, "EZ0T": 15.0, "EC0T": 800.0, "EXX:periodic:10": [1.5, -0.8]}
+PITCH_MM = 16.0
+BOARD_ROWS = BOARD_COLS = 8
+PIXEL_MM = 0.045
+IMAGE_PX = 400
+IMAGE_X_ANGLE_DEG = 3.0
+LASER_STANDOFF_MM = 30.0
+
+
+def _ry(rad):
+    c, s = np.cos(rad), np.sin(rad)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _rz(rad):
+    c, s = np.cos(rad), np.sin(rad)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def exx_mm(x_mm, truth=TRUTH):
+    a, b = truth.get("EXX:periodic:10", (0.0, 0.0))
+    return (a * np.sin(2 * np.pi * x_mm / 10.0) + b * np.cos(2 * np.pi * x_mm / 10.0)) * 1e-3
+
+
+def workpiece(y, b_deg, c_deg, truth=TRUTH):
+    """Origin (mm) and rotation of the workpiece (board surface) frame in the machine frame."""
+    RB = _ry(np.radians(b_deg))
+    R = RB @ _rz(np.radians(c_deg))
+    loc = np.array([truth.get("EX0C", 0.0), truth.get("EY0C", 0.0), 0.0]) * 1e-3
+    p = np.array([0.0, y, 150.0]) + RB @ (np.array([0.0, 0.0, -50.0]) + loc) + R @ np.array([0.0, 0.0, 10.0])
+    return p, R
+
+
+def tool(x, z, truth=TRUTH):
+    """Tool point (mm) and rotation of the tool (camera) frame in the machine frame."""
+    p = np.array([x + exx_mm(x, truth), 0.0, z + 110.0 + truth.get("EZ0T", 0.0) * 1e-3])
+    return p, _rz(truth.get("EC0T", 0.0) * 1e-6)
+
+
+def align(mark_w, b_deg, c_deg, truth=TRUTH):
+    """Readings x, y, z (mm) that put the tool point on a mark (workpiece frame, mm)."""
+    p0, R = workpiece(0.0, b_deg, c_deg, truth)
+    target = p0 + R @ np.asarray(mark_w, float)  # the mark in the machine frame at y = 0
+    y = -target[1]  # the table moves the mark onto the tool's y = 0
+    x = target[0]
+    for _ in range(20):  # x + e(x) = target x
+        x = target[0] - exx_mm(x, truth)
+    z = target[2] - 110.0 - truth.get("EZ0T", 0.0) * 1e-3
+    return np.array([x, y, z])
+
+
+def seen_offset(readings, b_deg, c_deg, mark_w, truth=TRUTH):
+    """Where the mark lies relative to the tool point in the tool frame (mm) at these true readings."""
+    x, y, z = readings
+    pw, Rw = workpiece(y, b_deg, c_deg, truth)
+    pt, Rt = tool(x, z, truth)
+    return Rt.T @ (pw + Rw @ np.asarray(mark_w, float) - pt)
+
+
+def board_dict():
+    from kinid.vision import make_board
+
+    b = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
+    return {"pitch_mm": b.pitch_mm, "rows": b.rows, "cols": b.cols, "center_d_mm": b.center_d_mm,
+            "ring_inner_d_mm": b.ring_inner_d_mm, "ring_outer_d_mm": b.ring_outer_d_mm, "bits": b.bits,
+            "codes": [list(r) for r in b.codes]}
+
+
+def board_origin_w():
+    """Workpiece position of mark (0, 0): the board centred, rows running towards −y."""
+    half = (BOARD_COLS - 1) * PITCH_MM / 2.0
+    return np.array([-half, half, 0.0])
+
+
+def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0):
+    """The camera's image (uint8, IMAGE_PX²) and the laser reading (mm) at these true readings."""
+    from kinid.vision import board_coverage, make_board, render_pattern
+
+    board = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
+    x, y, z = readings
+    pw, Rw = workpiece(y, b_deg, c_deg, truth)
+    pt, Rt = tool(x, z, truth)
+    a = np.radians(IMAGE_X_ANGLE_DEG)
+    cam = np.array([[np.cos(a), np.sin(a), 0.0], [np.sin(a), -np.cos(a), 0.0], [0.0, 0.0, -1.0]]).T  # columns: camera x, y, z in tool axes
+    c0 = (IMAGE_PX - 1) / 2.0
+    origin = board_origin_w()
+
+    def image_to_plane(xy_px):
+        u = (xy_px[:, 0] - c0) * PIXEL_MM
+        v = (xy_px[:, 1] - c0) * PIXEL_MM
+        start = pt + (Rt @ (cam[:, 0:1] * u + cam[:, 1:2] * v)).T  # on the plane through the tool point
+        direction = Rt @ cam[:, 2]  # telecentric: every ray along the camera axis
+        s_w = (start - pw) @ Rw  # workpiece frame
+        d_w = Rw.T @ direction
+        t = -s_w[:, 2] / d_w[2]
+        hit = s_w + t[:, None] * d_w
+        return np.column_stack([hit[:, 0] - origin[0], -(hit[:, 1] - origin[1])])  # board frame
+
+    img = render_pattern(board_coverage(board), (IMAGE_PX, IMAGE_PX), image_to_plane, blur_px=0.7,
+                         noise_sigma=noise, rng=rng)
+    # laser: along the camera axis from the tool point to the board surface
+    s_w = Rw.T @ (pt - pw)
+    d_w = Rw.T @ (Rt @ np.array([0.0, 0.0, -1.0]))
+    laser = LASER_STANDOFF_MM + (-s_w[2] / d_w[2])
+    return img, laser
+
+
+def plan(tilts=(-40.0, 0.0, 40.0), turns=(0.0, 60.0, 120.0, 180.0, 240.0, 300.0), marks=((40.0, 40.0), (-40.0, 40.0), (-40.0, -40.0), (40.0, -40.0))):
+    return [(b, c, (mx, my, 0.0)) for b in tilts for c in turns for mx, my in marks]
+
+
+def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_noise_um=0.5, truth=TRUTH):
+    """Render a run into ``folder``: images, run log, sensor and board files. Returns the true readings."""
+    import cv2
+
+    folder = Path(folder)
+    (folder / "images").mkdir(parents=True, exist_ok=True)
+    rows, truth_rows = [], []
+    for k, (b, c, m) in enumerate(poses):
+        true = align(m, b, c, truth) + rng.normal(0.0, stop_mm, 3)
+        img, laser = render(true, b, c, rng, truth)
+        name = f"images/{k:03d}.png"
+        cv2.imwrite(str(folder / name), img)
+        logged = true + rng.normal(0.0, reading_noise_um * 1e-3, 3)
+        rows.append([name, *(f"{v:.6f}" for v in logged), f"{b:.6f}", f"{c:.6f}",
+                     f"{laser + rng.normal(0.0, laser_noise_um * 1e-3):.6f}"])
+        truth_rows.append((true, b, c, m))
+    with open(folder / "log.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["image", "x_mm", "y_mm", "z_mm", "b_deg", "c_deg", "laser_mm"])
+        w.writerows(rows)
+    (folder / "sensor.json").write_text(json.dumps({"pixel_mm": PIXEL_MM, "image_x_angle_deg": IMAGE_X_ANGLE_DEG,
+                                                    "laser_standoff_mm": LASER_STANDOFF_MM}))
+    (folder / "board.json").write_text(json.dumps(board_dict()))
+    return truth_rows
