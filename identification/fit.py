@@ -76,6 +76,9 @@ class FitResult:
     set_aside : tuple of SetAside
         Alignments left out as gross errors before this fit
         (:mod:`~kinid.identification.outliers`), with their CSV lines.
+    axis_ranges : dict axis name -> (low, high)
+        The readings the fitted data span, mm / deg (where a compensation table
+        may be trusted when the URDF gives an axis no limits).
     """
 
     machine: Machine
@@ -100,6 +103,7 @@ class FitResult:
     message: str
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
     set_aside: tuple = ()
+    axis_ranges: dict = field(default_factory=dict)
 
     @property
     def noise_um(self) -> float:
@@ -301,7 +305,19 @@ def fit(
         identifiable=free.copy(), aliases=ident.aliases, rank=rank, condition_number=stats.condition_number,
         o1=stats.o1, o3=stats.o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
         iterations=it, success=success, message=message, singular_values=stats.singular_values,
+        axis_ranges=_axis_ranges(machine, obs),
     )
+
+
+def _axis_ranges(machine: Machine, obs: Observations) -> dict:
+    """Axis name -> (min, max) of the readings in ``obs`` (axes with readings only)."""
+    out = {}
+    for j, a in enumerate(machine.axes):
+        q = obs.axes[:, j]
+        q = q[np.isfinite(q)]
+        if q.size:
+            out[a.name] = (float(q.min()), float(q.max()))
+    return out
 
 
 def _finite(x):
@@ -338,6 +354,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "singular_values": [_finite(v) for v in result.singular_values],
         "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": _finite(a.residual_um),
                        "sigmas": _finite(a.sigmas)} for a in result.set_aside],
+        "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
     }
 
 
@@ -388,7 +405,9 @@ def load_fit(path) -> FitResult:
             singular_values=np.array([np.nan if v is None else float(v) for v in data.get("singular_values", ())]),
             set_aside=tuple(SetAside(-1, None if a.get("line") is None else int(a["line"]), str(a.get("mark", "")),
                                      _number(a, "residual_um"), _number(a, "sigmas"))
-                            for a in data.get("set_aside", ())))
+                            for a in data.get("set_aside", ())),
+            axis_ranges={str(k): (float(v[0]), float(v[1])) for k, v in data.get("axis_ranges", {}).items()
+                         if str(k) in machine.axis_names and None not in v})
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

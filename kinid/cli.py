@@ -37,6 +37,7 @@ VERBS = {
     "identify": Verb("kinid.identification.commands", "fit the default model plus added effects to alignment observations"),
     "diagnose": Verb("kinid.identification.commands", "compare a fit with data and rank the effects that may be missing"),
     "predict": Verb("kinid.identification.commands", "axis readings at which the fitted machine aligns the tool point with each mark"),
+    "compensate": Verb("kinid.identification.compensate_cli", "axis error tables, constants, a calibrated URDF and controller files from a fit"),
     "observe": Verb("kinid.identification.observe_cli", "images + axis readings of a run -> observation CSV (marks located and decoded)"),
     "markers": Verb("kinid.vision.cli", "detect and decode ring-coded marks in an image"),
     "backlash": Verb("kinid.stages.backlash.cli", "pixel equivalent and X/Y/θ lead-screw backlash of an X-Y-θ stage from images"),
