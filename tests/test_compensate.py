@@ -21,6 +21,7 @@ from kinid.identification.machine import evaluate
 from kinid.identification.residuals import design, joint_values
 from kinid.identification.simulate import patent_plan, simulate
 from kinid.urdf import path as urdf_path
+from plain_machine import PlainMachine
 
 # --- controller formats against the examples of their documentation ------------------------------
 
@@ -100,54 +101,6 @@ def compensated(tmp_path_factory):
     assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(folder / "out"),
                  "--step-mm", "0.5", "--step-deg", "0.5"]) == 0
     return folder / "out", result
-
-
-def _tables(folder):
-    out = {}
-    for f in folder.glob("*.csv"):
-        rows = list(csv.reader(open(f)))
-        header, data = rows[0], np.array(rows[1:], float)
-        out[f.stem] = (data[:, 0], {h: data[:, k] for k, h in enumerate(header) if k})
-    return out
-
-
-class PlainMachine:
-    """calibrated.urdf in plain Pinocchio, error joints from the tables."""
-
-    def __init__(self, folder):
-        self.model = pin.buildModelFromUrdf(str(folder / "calibrated.urdf"))
-        self.data = self.model.createData()
-        self.tables = _tables(folder)
-
-    def joint_values(self, readings: dict, directions: dict) -> dict:
-        """Error joint -> value (m or rad): the table column of the approach direction, interpolated."""
-        values = {}
-        for axis, (grid, cols) in self.tables.items():
-            backwards = directions.get(axis, 1) < 0
-            for name, col in cols.items():
-                code, unit = name.split("_")[0], name.split("_")[-1]
-                reverse = name.endswith(f"_rev_{unit}")
-                wanted = backwards and f"{code}_rev_{unit}" in cols
-                if reverse == wanted:
-                    values[code] = np.interp(readings[axis], grid, col) * 1e-6  # µm -> m, µrad -> rad
-        return values
-
-    def tool_in_workpiece_mm(self, readings: dict, directions: dict | None = None) -> np.ndarray:
-        directions = directions or {}
-        q = pin.neutral(self.model)
-        values = {**{k: v * (1e-3 if k in "XYZ" else np.pi / 180) for k, v in readings.items()},
-                  **self.joint_values(readings, directions)}
-        for name, v in values.items():
-            jid = self.model.getJointId(name)
-            i = self.model.idx_qs[jid]
-            if self.model.nqs[jid] == 2:
-                q[i:i + 2] = np.cos(v), np.sin(v)
-            else:
-                q[i] = v
-        pin.framesForwardKinematics(self.model, self.data, q)
-        oMw = self.data.oMf[self.model.getFrameId("workpiece")]
-        oMt = self.data.oMf[self.model.getFrameId("tool")]
-        return oMw.actInv(oMt.translation) * 1e3
 
 
 def axes_nominal(result, axes):
