@@ -251,7 +251,7 @@ def axis_dependent_joints(machine: Machine) -> list:
         axis = machine.axis(e.axis)
         if (e.kind == "prismatic") != (axis.kind == "prismatic"):
             continue
-        je, jk = machine.model.getJointId(e.code), machine.model.getJointId(e.axis)
+        je, jk = machine.model.getJointId(e.code), machine.model.getJointId(machine.axis(e.axis).joint)
         de = data.oMi[je].rotation @ np.eye(3)["XYZABC".index(e.direction) % 3]
         dk = data.oMi[jk].rotation @ _joint_kind(machine.model.joints[jk])[1]
         if np.linalg.norm(np.cross(de, dk)) > 1e-9:

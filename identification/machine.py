@@ -37,7 +37,8 @@ __all__ = [
 ]
 
 _ERROR_CODE = re.compile(r"^E([XYZABC])(0?)([A-Z][A-Z0-9]*)$")
-_AXIS_NAME = re.compile(r"^[A-DF-Z][A-Z0-9]*$", re.IGNORECASE)
+_AXIS_NAME = re.compile(r"^[A-Z][A-Z0-9]*$", re.IGNORECASE)
+_LOOKS_LIKE_CODE = re.compile(r"^E([A-Z])(0?)([A-Z][A-Z0-9]*)$")
 _UNIT = {"prismatic": "mm", "revolute": "deg"}
 
 
@@ -48,7 +49,9 @@ class Axis:
     Attributes
     ----------
     name : str
-        Joint name in the URDF (``X``, ``B``, ``J1`` ...).
+        Short axis name (``X``, ``B``, ``J1`` ...): the URDF joint's name where that is letters and
+        digits, else the name the URDF's ``<kinid><axis joint=... name=.../></kinid>`` gives it, else
+        ``J<n>`` (its place among the motion joints, in URDF order). Used in CSV columns and error codes.
     kind : {"prismatic", "revolute"}
     chain : {"workpiece", "tool"}
     column : str
@@ -57,6 +60,8 @@ class Axis:
         Position in Pinocchio's configuration / velocity vector.
     nq : int
         1, or 2 for a continuous (unbounded revolute) joint stored as (cos, sin).
+    joint : str
+        The joint's name in the URDF (``shoulder_pan_joint``); the short name if empty.
     """
 
     name: str
@@ -66,6 +71,11 @@ class Axis:
     q_index: int
     v_index: int
     nq: int = 1
+    joint: str = ""
+
+    def __post_init__(self):
+        if not self.joint:
+            object.__setattr__(self, "joint", self.name)
 
 
 @dataclass(frozen=True)
@@ -243,6 +253,46 @@ def _urdf_origins(text: str, path) -> dict:
     return origins
 
 
+def _axis_names(model, text: str, path) -> dict:
+    """URDF joint name -> short axis name, for every motion joint (see :class:`Axis`).
+
+    ``<kinid><axis joint="shoulder_pan_joint" name="J1"/></kinid>`` in the URDF names a joint;
+    a joint whose own name is letters and digits keeps it; any other gets ``J<n>``.
+    """
+    import xml.etree.ElementTree as ET
+
+    motion = [model.names[j] for j in range(1, model.njoints) if not _ERROR_CODE.match(model.names[j])]
+    given = {}
+    for el in ET.fromstring(text).iter("kinid"):
+        for a in el.iter("axis"):
+            joint, name = a.get("joint"), a.get("name")
+            if joint not in motion:
+                raise MachineError(f"<kinid><axis joint={joint!r}>: no motion joint of that name", path=path)
+            if not name or not _AXIS_NAME.match(name) or _ERROR_CODE.match(name):
+                raise MachineError(f"<kinid><axis joint={joint!r} name={name!r}>: an axis name is letters and digits, "
+                                   f"not an error code (e.g. J1, X, B)", path=path)
+            given[joint] = name
+    out = {}
+    for n, joint in enumerate(motion, start=1):
+        out[joint] = given.get(joint) or (joint if _AXIS_NAME.match(joint) else f"J{n}")
+    # an error code with a slip of the pen would silently become a motion axis
+    others = lambda joint: {v for k, v in out.items() if k != joint} | {"W", "T"}  # noqa: E731
+    for joint in motion:
+        typo = _LOOKS_LIKE_CODE.match(joint)
+        if typo and joint not in given and (typo.group(3) in others(joint)
+                                            or typo.group(3) in {f"J{n}" for n in range(1, len(motion) + 1)}):
+            raise MachineError(f"joint {joint!r}: looks like an error joint of axis {typo.group(3)}, but "
+                               f"{typo.group(1)!r} is not an error direction; an ISO 230-1 error code is E<d><k> "
+                               f"or E<d>0<k> with d in XYZABC (e.g. EXX, EC0Y)", path=path)
+    seen = {}
+    for joint, name in out.items():
+        if name.upper() in seen:
+            raise MachineError(f"joints {seen[name.upper()]!r} and {joint!r} both get the axis name {name!r}; name them "
+                               f"in <kinid><axis joint=... name=.../></kinid>", path=path)
+        seen[name.upper()] = joint
+    return out
+
+
 def load_machine(path) -> Machine:
     """Load a machine URDF and check it against docs/machines.md.
 
@@ -289,6 +339,7 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
         frames[name] = model.getFrameId(name)
     chains = {c: set(_ancestors(model, model.frames[frames[c]].parentJoint)) for c in frames}
 
+    short = _axis_names(model, text, path)
     axes, errors, pending = [], [], []
     for jid in range(1, model.njoints):
         name = model.names[jid]
@@ -300,14 +351,8 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
             raise MachineError(f"{where} has type {jmodel.shortname()}; only 1-DOF prismatic/revolute joints are supported", path=path)
         if len(in_chain) != 1:
             raise MachineError(f"{where} is on neither the workpiece nor the tool chain" if not in_chain else f"{where} is on both chains", path=path)
-        if name.upper().startswith("E"):
-            m = _ERROR_CODE.match(name)
-            if not m:
-                raise MachineError(
-                    f"{where}: a joint name starting with 'E' must be an ISO 230-1 error code "
-                    "E<d><k> or E<d>0<k> with d in XYZABC (e.g. EXX, EC0Y)",
-                    path=path,
-                )
+        m = _ERROR_CODE.match(name)
+        if m:
             d, zero, k = m.group(1), m.group(2) == "0", m.group(3)
             want_kind = "prismatic" if d in "XYZ" else "revolute"
             if kind != want_kind:
@@ -323,23 +368,20 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
                 ErrorJoint(name, d, k, zero, kind, "um" if kind == "prismatic" else "urad", model.idx_qs[jid], model.idx_vs[jid])
             )
         else:
-            if not _AXIS_NAME.match(name):
-                raise MachineError(f"{where}: a motion axis name must be letters and digits (not starting with E)", path=path)
-            axes.append(
-                Axis(name, kind, in_chain[0], f"{name.lower()}_{_UNIT[kind]}", model.idx_qs[jid], model.idx_vs[jid], model.nqs[jid])
-            )
-
-    axis_ids = {model.names[model.getJointId(a.name)]: model.getJointId(a.name) for a in axes}
+            axis_name = short[name]
+            axes.append(Axis(axis_name, kind, in_chain[0], f"{axis_name.lower()}_{_UNIT[kind]}", model.idx_qs[jid],
+                             model.idx_vs[jid], model.nqs[jid], name))
+    axis_ids = {a.name: model.getJointId(a.joint) for a in axes}
     for jid, name, d, zero, k, chain in pending:
         _check_placement(model, jid, name, zero, k, chain, axis_ids, frames, path)
     if not axes:
-        raise MachineError("no motion axes (prismatic/revolute joints whose names do not start with E)", path=path)
+        raise MachineError("no motion axes (prismatic/revolute joints whose names are not error codes)", path=path)
     return Machine(str(path), text, model, tuple(axes), tuple(errors), frames["workpiece"], frames["tool"])
 
 
 def _check_placement(model, jid, name, zero, k, chain, axis_ids, frames, path):
     """Check that error joint ``name`` sits where docs/machines.md says for axis ``k``."""
-    is_error = lambda j: model.names[j].startswith("E") and _ERROR_CODE.match(model.names[j])  # noqa: E731
+    is_error = lambda j: _ERROR_CODE.match(model.names[j])  # noqa: E731
     where = f"joint {name!r}"
     if k in ("W", "T"):
         if not zero:

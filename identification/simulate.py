@@ -38,7 +38,7 @@ def _is_table_axis(machine: Machine, axis) -> bool:
     data = machine.model.createData()
     q = pin.neutral(machine.model)
     pin.forwardKinematics(machine.model, data, q)
-    jid = machine.model.getJointId(axis.name)
+    jid = machine.model.getJointId(axis.joint)
     from .machine import _joint_kind
 
     _, local = _joint_kind(machine.model.joints[jid])

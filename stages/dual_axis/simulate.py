@@ -203,7 +203,7 @@ class SimulatedGantry:
         self.texture = random_texture(self.rng) if texture is None else texture
         self.limits_mm = {}
         for a in self.machine.axes:
-            j = self.machine.model.getJointId(a.name)
+            j = self.machine.model.getJointId(a.joint)
             iq = self.machine.model.idx_qs[j]
             self.limits_mm[a.name] = (float(self.machine.model.lowerPositionLimit[iq]) * 1e3,
                                       float(self.machine.model.upperPositionLimit[iq]) * 1e3)
