@@ -303,6 +303,12 @@ def write_compensation(result: FitResult, folder, *, step_mm: float = 1.0, step_
         written.append(f"{a.name}.csv")
         tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(grid[0]), "to": float(grid[-1]),
                           "points": int(grid.size), "range_from": source, "columns": list(cols)}
+        span = result.axis_ranges.get(a.name)
+        if span and source == "URDF limits" and any(cols[c].any() for c in cols) and \
+                (span[1] - span[0]) < 0.9 * (grid[-1] - grid[0]):
+            unit_q = "deg" if a.kind == "revolute" else "mm"
+            notes.append(f"{a.name}.csv: the fitted data span {span[0]:.4g} .. {span[1]:.4g} {unit_q} of the travel "
+                         f"{grid[0]:.4g} .. {grid[-1]:.4g} {unit_q}; beyond them the table is the model's extrapolation")
         if f"E{a.name}{a.name}" not in machine.error_codes:
             continue
         unit = "µrad" if a.kind == "revolute" else "µm"

@@ -130,7 +130,7 @@ def plan(tilts=(-40.0, 0.0, 40.0), turns=(0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
     return [(b, c, (mx, my, 0.0)) for b in tilts for c in turns for mx, my in marks]
 
 
-def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_noise_um=0.5, truth=TRUTH):
+def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_noise_um=0.5, truth=TRUTH, image_noise=2.0):
     """Render a run into ``folder``: images, run log, sensor and board files. Returns the true readings."""
     import cv2
 
@@ -139,9 +139,9 @@ def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_no
     rows, truth_rows = [], []
     for k, (b, c, m) in enumerate(poses):
         true = align(m, b, c, truth) + rng.normal(0.0, stop_mm, 3)
-        img, laser = render(true, b, c, rng, truth)
+        img, laser = render(true, b, c, rng, truth, noise=image_noise)
         name = f"images/{k:03d}.png"
-        cv2.imwrite(str(folder / name), img)
+        cv2.imwrite(str(folder / name), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
         logged = true + rng.normal(0.0, reading_noise_um * 1e-3, 3)
         rows.append([name, *(f"{v:.6f}" for v in logged), f"{b:.6f}", f"{c:.6f}",
                      f"{laser + rng.normal(0.0, laser_noise_um * 1e-3):.6f}"])
