@@ -33,7 +33,9 @@ def solve_axes(machine: Machine, effects, theta, obs: Observations, solve=None, 
         Effect parameters.
     obs : Observations
         Poses: marks and the readings of the other axes (solved ones may be NaN;
-        non-NaN values are the starting guess).
+        non-NaN values are the starting guess). With offsets, the readings put the
+        point at that offset from the tool point on the mark (where the camera
+        would see the mark there).
     solve : sequence of str, optional
         Axes to solve; default the prismatic axes. Needs as many axes as the
         3 coordinates of a point.
@@ -71,7 +73,7 @@ def solve_axes(machine: Machine, effects, theta, obs: Observations, solve=None, 
     theta = np.asarray(theta, float)
     for _ in range(max_iter):
         d = design(machine, effects, obs, axes)
-        p, _, d_ax = evaluate(machine, axes, joint_values(machine, d, theta))
+        p, _, d_ax = evaluate(machine, axes, joint_values(machine, d, theta), offsets_mm=obs.offsets_mm)
         r_um = (p - obs.w_mm) * 1e3
         A = d_ax[:, :, cols]  # µm per (mm|deg)
         det = np.linalg.det(A)

@@ -122,3 +122,18 @@ def test_partial_offset_columns_default_to_zero(tmp_path):
     # M2 lies at the tool point but was seen 0.05 mm below it: residual -50 µm in z
     d = design(m, [], obs)
     np.testing.assert_allclose(residuals(m, d, obs, np.zeros(0), jacobian=False), [[0, 0, 0], [0, 0, -50.0]], atol=1e-6)
+
+
+def test_solve_axes_with_offsets_puts_the_offset_point_on_the_mark():
+    from dataclasses import replace
+
+    from kinid.identification import solve_axes
+
+    m = load_machine(path("five_axis_bc"))
+    plan = patent_plan(m).subset(slice(0, 12))
+    offsets = np.random.default_rng(4).normal(0, 0.3, (12, 3))
+    solved = solve_axes(m, [], np.zeros(0), replace(plan, offsets_mm=offsets))
+    d = design(m, [], solved)
+    np.testing.assert_allclose(residuals(m, d, solved, np.zeros(0), jacobian=False), 0.0, atol=1e-6)
+    plain = solve_axes(m, [], np.zeros(0), plan)
+    assert np.abs(plain.axes - solved.axes).max() > 0.1  # the offsets moved the solution
