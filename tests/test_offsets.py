@@ -137,3 +137,14 @@ def test_solve_axes_with_offsets_puts_the_offset_point_on_the_mark():
     np.testing.assert_allclose(residuals(m, d, solved, np.zeros(0), jacobian=False), 0.0, atol=1e-6)
     plain = solve_axes(m, [], np.zeros(0), plan)
     assert np.abs(plain.axes - solved.axes).max() > 0.1  # the offsets moved the solution
+
+
+def test_example_observation_files_read():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent / "examples"
+    m = load_machine(path("five_axis_bc"))
+    plain = read_observations(root / "observations.csv", m)
+    shifted = read_observations(root / "observations_offsets.csv", m)
+    assert plain.offsets_mm is None and shifted.offsets_mm is not None
+    assert plain.marks == shifted.marks and np.abs(shifted.offsets_mm).max() > 0.001
