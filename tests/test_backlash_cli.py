@@ -7,7 +7,7 @@ from kinid.cli import main
 
 
 def test_json_output_matches_truth(capsys):
-    status = main(["backlash", "--json", "--seed", "3", "--backlash-x-um", "6", "--backlash-y-um", "2",
+    status = main(["backlash", "--simulate", "--json", "--seed", "3", "--backlash-x-um", "6", "--backlash-y-um", "2",
                    "--backlash-theta-deg", "0.02", "--camera-angle-deg", "-11"])
     assert status == 0
     out = json.loads(capsys.readouterr().out)
@@ -23,7 +23,7 @@ def test_json_output_matches_truth(capsys):
 def test_readable_output_and_plot(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     png = tmp_path / "backlash.png"
-    status = main(["backlash", "--plot", str(png), "--repeats", "2"])
+    status = main(["backlash", "--simulate", "--plot", str(png), "--repeats", "2"])
     assert status == 0
     out = capsys.readouterr().out
     assert "33 moves (20 photos)" in out
@@ -43,14 +43,14 @@ def test_readable_output_and_plot(tmp_path, capsys, monkeypatch):
 def test_bad_input_one_line_exit_2(argv, match, capsys):
     import re
 
-    assert main(["backlash", *argv]) == 2
+    assert main(["backlash", "--simulate", *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("kinid backlash: ")
     assert re.search(match, err)
 
 
 def test_plot_into_missing_folder_is_an_error(tmp_path, capsys):
-    assert main(["backlash", "--plot", str(tmp_path / "no" / "x.png")]) == 2
+    assert main(["backlash", "--simulate", "--plot", str(tmp_path / "no" / "x.png")]) == 2
     err = capsys.readouterr().err
     assert "output folder" in err and "does not exist" in err
     assert err.count("\n") == 1

@@ -132,7 +132,7 @@ CASES = [
      r"bomb\.png: image of 100000 × 100000 pixels is larger than the limit"),
     ("image not an image", lambda d: ["markers", _text(d, "txt.png", "hello")], r"txt\.png: cannot decode"),
     # arguments
-    ("library argument named as its option", lambda d: ["backlash", "--targets", "0"], r"--targets must be an integer >= 1, got 0"),
+    ("library argument named as its option", lambda d: ["backlash", "--simulate", "--targets", "0"], r"--targets must be an integer >= 1, got 0"),
 ]
 
 

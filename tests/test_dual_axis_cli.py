@@ -9,7 +9,7 @@ from kinid.cli import main
 
 
 def test_json_report(capsys):
-    assert main(["dual-axis", "--steps", "12", "--step-mm", "20", "--seed", "4", "--json"]) == 0
+    assert main(["dual-axis", "--simulate", "--steps", "12", "--step-mm", "20", "--seed", "4", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["converged"] and rep["rounds"] <= 3 and len(rep["max_change_um"]) == rep["rounds"]
     assert rep["max_change_um"][0] > 5.0 and rep["max_change_um"][-1] <= 1.0
@@ -23,7 +23,7 @@ def test_json_report(capsys):
 
 def test_readable_report_and_plot(tmp_path, capsys):
     out = tmp_path / "offsets.png"
-    assert main(["dual-axis", "--steps", "6", "--step-mm", "25", "--plot", str(out)]) == 0
+    assert main(["dual-axis", "--simulate", "--steps", "6", "--step-mm", "25", "--plot", str(out)]) == 0
     text = capsys.readouterr().out
     assert "round  max entry change" in text and "converged after" in text
     assert "table (truth)" in text and "smooth (truth)" in text and "better on held-out positions" in text
@@ -38,24 +38,24 @@ def test_readable_report_and_plot(tmp_path, capsys):
     (["--steps", "60", "--step-mm", "10"], "outside its travel"),
 ])
 def test_bad_input_one_line_exit_2(argv, match, capsys):
-    assert main(["dual-axis", *argv]) == 2
+    assert main(["dual-axis", "--simulate", *argv]) == 2
     err = capsys.readouterr().err
     assert err.startswith("kinid dual-axis: ") and match in err and err.count("\n") == 1
 
 
 def test_plot_into_missing_folder_is_an_error(tmp_path, capsys):
-    assert main(["dual-axis", "--steps", "3", "--step-mm", "20", "--plot", str(tmp_path / "no" / "x.png")]) == 2
+    assert main(["dual-axis", "--simulate", "--steps", "3", "--step-mm", "20", "--plot", str(tmp_path / "no" / "x.png")]) == 2
     assert "does not exist" in capsys.readouterr().err
 
 
 def test_bad_degree(capsys):
-    assert main(["dual-axis", "--degree", "0"]) == 2
+    assert main(["dual-axis", "--simulate", "--degree", "0"]) == 2
     assert "degree must be an integer >= 1, got 0" in capsys.readouterr().err
 
 
 def test_offset_table_is_written_to_a_file(tmp_path, capsys):
     out = tmp_path / "table.csv"
-    assert main(["dual-axis", "--steps", "4", "--step-mm", "20", "--out", str(out), "--json"]) == 0
+    assert main(["dual-axis", "--simulate", "--steps", "4", "--step-mm", "20", "--out", str(out), "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     lines = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")]
     assert lines[0] == "camera_y_mm,head_dx_mm,head_dy_mm"

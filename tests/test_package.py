@@ -206,7 +206,7 @@ def test_library_errors_name_the_argument_and_the_cli_names_the_option(tmp_path)
 
     with pytest.raises(DataError, match=r"^n_targets must be an integer >= 1, got 0$"):
         plan_moves(0.8, 2.0, n_targets=0)
-    out = subprocess.run([sys.executable, "-m", "kinid", "backlash", "--targets", "0"],
+    out = subprocess.run([sys.executable, "-m", "kinid", "backlash", "--simulate", "--targets", "0"],
                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert out.returncode == 2
     assert out.stderr.strip() == "kinid backlash: --targets must be an integer >= 1, got 0"

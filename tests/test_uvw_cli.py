@@ -7,7 +7,7 @@ from kinid.cli import main
 
 
 def test_json_output(capsys):
-    assert main(["uvw", "--json", "--moves", "60", "--seed", "3"]) == 0
+    assert main(["uvw", "--simulate", "--json", "--validation-moves", "60", "--seed", "3"]) == 0
     out = json.loads(capsys.readouterr().out)
     w = out["worked_example"]
     assert (w["delta_xn_um"], w["delta_xm_um"], w["delta_x_um"]) == (2.02, 2.62, 2.29)
@@ -25,7 +25,7 @@ def test_json_output(capsys):
 
 def test_text_report_and_plot(tmp_path, capsys):
     png = tmp_path / "uvw.png"
-    assert main(["uvw", "--moves", "30", "--plot", str(png)]) == 0
+    assert main(["uvw", "--simulate", "--validation-moves", "30", "--plot", str(png)]) == 0
     text = capsys.readouterr().out
     assert "forward 0.96 µm, reverse 3.25 µm" in text
     assert "uncompensated" in text and "patent" in text and "model" in text
@@ -38,10 +38,10 @@ def test_text_report_and_plot(tmp_path, capsys):
     (["--lead-um", "-5"], "lead-um must be a positive number"),
     (["--noise-um", "-1"], "noise-um must be >= 0"),
     (["--repeats", "0"], "repeats must be a positive integer"),
-    (["--plot", "/nonexistent/dir/out.png", "--moves", "5"], "output folder"),
+    (["--plot", "/nonexistent/dir/out.png", "--validation-moves", "5"], "output folder"),
 ])
 def test_bad_arguments_exit_2_with_one_line(argv, message, capsys):
-    assert main(["uvw", *argv]) == 2
+    assert main(["uvw", "--simulate", *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("kinid uvw: ")
     assert message in err

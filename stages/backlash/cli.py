@@ -1,4 +1,4 @@
-"""``kinid backlash``: the backlash calibration on a simulated stage, measured vs truth."""
+"""``kinid backlash``: pixel equivalent and backlash from a recorded run, or on a simulated stage (``--simulate``)."""
 from __future__ import annotations
 
 import json
@@ -15,28 +15,39 @@ def register(subparsers) -> None:
     """Add the ``backlash`` verb to the ``kinid`` command line."""
     p = subparsers.add_parser(
         "backlash",
-        help="measure pixel equivalent and X/Y/θ lead-screw backlash from images (simulated stage)",
-        description="Run the image-based backlash calibration (CN105547173) on a simulated X-Y-θ stage "
-                    "and compare the measured pixel equivalent and backlash with the simulated truth.")
-    p.add_argument("--backlash-x-um", type=float, default=4.0, help="true X backlash, µm (default 4)")
-    p.add_argument("--backlash-y-um", type=float, default=3.0, help="true Y backlash, µm (default 3)")
-    p.add_argument("--backlash-theta-deg", type=float, default=0.01, help="true θ backlash, degrees (default 0.01)")
-    p.add_argument("--pixel-um", type=float, default=5.0, help="pixel size on the stage, µm (default 5)")
-    p.add_argument("--camera-angle-deg", type=float, default=7.0,
-                   help="rotation of the camera about the stage axes, degrees (default 7)")
-    p.add_argument("--theta-centre-mm", type=float, nargs=2, default=(-12.0, 8.0), metavar=("DX", "DY"),
-                   help="θ rotation centre relative to the fiducial, mm (default -12 8)")
-    p.add_argument("--noise", type=float, default=2.0, help="image noise, grey levels (default 2)")
-    p.add_argument("--repeatability-um", type=float, default=0.0,
-                   help="random X/Y positioning scatter per move, µm (default 0)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+        help="measure pixel equivalent and X/Y/θ lead-screw backlash from images",
+        description="Image-based backlash calibration of an X-Y-θ stage: write the move plan (--plan-out), run it "
+                    "on the stage saving an image after each photo move, and evaluate the run's log (--log); or "
+                    "learn the method on a simulated stage (--simulate), measured against the simulated truth.")
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--log", metavar="LOG.csv", help="the run's log: the plan's rows with image file names (docs/backlash.md)")
+    mode.add_argument("--plan-out", metavar="PLAN.csv", help="write the plan to run on the stage (commands and photos)")
+    mode.add_argument("--simulate", action="store_true", help="run the method on a simulated stage")
+    p.add_argument("--start", type=float, nargs=3, default=(0.0, 0.0, 0.0), metavar=("X", "Y", "THETA"),
+                   help="with --plan-out: the stage position the plan is centred on, mm mm deg (default 0 0 0)")
     p.add_argument("--travel-mm", type=float, default=0.8, help="X/Y travel about the start, mm (default 0.8)")
     p.add_argument("--travel-deg", type=float, default=2.0, help="θ travel about the start, degrees (default 2)")
     p.add_argument("--repeats", type=int, default=1, help="reversal cycles per axis and target (default 1)")
     p.add_argument("--targets", type=int, default=1, help="target positions per linear axis (default 1)")
-    p.add_argument("--plot", metavar="OUT.png", help="write a plot of fiducial positions and reversal gaps")
+    p.add_argument("--out", metavar="RESULT.json", help="write the measured values (µm, deg, with spreads) as JSON")
+    p.add_argument("--tables", metavar="DIR", help="write X and Y backlash as controller tables (LinuxCNC, TwinCAT CNC)")
+    p.add_argument("--plot", metavar="OUT.png", help="write a plot: reversal gaps before and after compensation")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    p.set_defaults(run=_run, parameter_options={"n_targets": "--targets"})
+    sim = p.add_argument_group("simulated stage (--simulate)")
+    sim.add_argument("--backlash-x-um", type=float, default=4.0, help="true X backlash, µm (default 4)")
+    sim.add_argument("--backlash-y-um", type=float, default=3.0, help="true Y backlash, µm (default 3)")
+    sim.add_argument("--backlash-theta-deg", type=float, default=0.01, help="true θ backlash, degrees (default 0.01)")
+    sim.add_argument("--pixel-um", type=float, default=5.0, help="pixel size on the stage, µm (default 5)")
+    sim.add_argument("--camera-angle-deg", type=float, default=7.0,
+                     help="rotation of the camera about the stage axes, degrees (default 7)")
+    sim.add_argument("--theta-centre-mm", type=float, nargs=2, default=(-12.0, 8.0), metavar=("DX", "DY"),
+                     help="θ rotation centre relative to the fiducial, mm (default -12 8)")
+    sim.add_argument("--noise", type=float, default=2.0, help="image noise, grey levels (default 2)")
+    sim.add_argument("--repeatability-um", type=float, default=0.0,
+                     help="random X/Y positioning scatter per move, µm (default 0)")
+    sim.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.set_defaults(run=_run, parameter_options={"n_targets": "--targets"},
+                   outputs={"out": "file", "plot": "file", "plan_out": "file", "tables": "folder"})
 
 
 def _truth(stage) -> dict:
@@ -51,8 +62,7 @@ def _truth(stage) -> dict:
     }
 
 
-def _run(args) -> int:
-    from .calibrate import calibrate
+def _simulated_stage(args):
     from .simulate import SimulatedStage
 
     if not args.pixel_um > 0:
@@ -65,56 +75,141 @@ def _run(args) -> int:
     for flag, vals in (("--camera-angle-deg", [args.camera_angle_deg]), ("--theta-centre-mm", args.theta_centre_mm)):
         if not np.all(np.isfinite(vals)):
             raise DataError(f"{flag} must be finite, got {' '.join(map(str, vals))}", column=flag)
-    if args.plot:
-        folder = Path(args.plot).parent
-        if not folder.is_dir():
-            raise DataError(f"output folder {str(folder)!r} does not exist", path=args.plot, column="--plot")
-    stage = SimulatedStage(
+    return SimulatedStage(
         pixel_mm=args.pixel_um * 1e-3, camera_angle_deg=args.camera_angle_deg,
         backlash_x_mm=args.backlash_x_um * 1e-3, backlash_y_mm=args.backlash_y_um * 1e-3,
         backlash_theta_deg=args.backlash_theta_deg, theta_centre_mm=tuple(args.theta_centre_mm),
         noise_sigma=args.noise, repeatability_mm=args.repeatability_um * 1e-3,
         rng=np.random.default_rng(args.seed))
+
+
+def _run(args) -> int:
+    from kinid.files import write_json, write_text
+    from .calibrate import calibrate
+    from .recorded import RecordedStage, plan_rows, plan_text
+
+    if args.plan_out:
+        if not np.all(np.isfinite(args.start)):
+            raise DataError("--start must be three finite numbers (x mm, y mm, theta deg)")
+        rows = plan_rows(args.travel_mm, args.travel_deg, repeats=args.repeats, n_targets=args.targets,
+                         start=tuple(args.start))
+        write_text(args.plan_out, plan_text(rows))
+        print(f"{len(rows)} moves, {sum(r[4] for r in rows)} photos; plan written to {args.plan_out}")
+        return 0
+    stage = _simulated_stage(args) if args.simulate else RecordedStage(args.log)
     res = calibrate(stage, travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
                     n_targets=args.targets)
+    if not args.simulate:
+        stage.check_complete()
     measured = res.summary()
-    truth = _truth(stage)
+    truth = _truth(stage) if args.simulate else None
+    source = "a simulated stage" if args.simulate else str(args.log)
+    if args.out:
+        write_json(args.out, _result_json(res, source, truth))
+    if args.tables:
+        _write_tables(res, args.tables, args.travel_mm)
     if args.plot:
-        plot_result(res, args.plot, truth=truth)
+        after = None
+        if args.simulate:  # measure again through the compensation: the gaps that are left
+            from .compensated import CompensatedStage
+
+            after = calibrate(CompensatedStage(stage, (res.backlash_x_mm, res.backlash_y_mm, res.backlash_theta_deg)),
+                              travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
+                              n_targets=args.targets)
+        plot_result(res, args.plot, truth=truth, after=after)
     if args.json:
-        errors = {k: measured[k] - truth[k] for k in truth if k in measured}
-        print(json.dumps({"measured": measured, "truth": truth, "errors": errors}, sort_keys=True))
+        out = {"measured": measured, "source": source}
+        if truth is not None:
+            out.update(truth=truth, errors={k: measured[k] - truth[k] for k in truth if k in measured})
+        print(json.dumps(out, sort_keys=True))
         return 0
-    print(f"backlash calibration on a simulated stage: pixel {args.pixel_um:g} µm, camera rotated "
-          f"{args.camera_angle_deg:g}°, fiducial {truth['theta_radius_mm']:.1f} mm from the θ centre, "
-          f"noise {args.noise:g} grey levels, seed {args.seed}")
+    if args.simulate:
+        print(f"backlash calibration on a simulated stage: pixel {args.pixel_um:g} µm, camera rotated "
+              f"{args.camera_angle_deg:g}°, fiducial {truth['theta_radius_mm']:.1f} mm from the θ centre, "
+              f"noise {args.noise:g} grey levels, seed {args.seed}")
+    else:
+        print(f"backlash calibration from {args.log}")
     print(f"{res.moves} moves ({sum(r.role != 'preload' for r in res.log)} photos)")
-    print(f"{'quantity':<24}{'measured':>12}{'simulated':>12}{'error':>12}")
     rows = [
-        ("pixel along X (µm/px)", "pixel_um_x", "{:.5f}", True),
-        ("pixel along Y (µm/px)", "pixel_um_y", "{:.5f}", True),
-        ("backlash X (µm)", "backlash_x_um", "{:.3f}", False),
-        ("backlash Y (µm)", "backlash_y_um", "{:.3f}", False),
-        ("backlash θ (deg)", "backlash_theta_deg", "{:.5f}", False),
-        ("camera rotation (deg)", "camera_rotation_deg", "{:.3f}", False),
-        ("θ radius (mm)", "theta_radius_mm", "{:.3f}", False),
+        ("pixel along X", "pixel_um_x", "µm/px", "{:.5f}", True, None),
+        ("pixel along Y", "pixel_um_y", "µm/px", "{:.5f}", True, None),
+        ("backlash X", "backlash_x_um", "µm", "{:.3f}", False, ("spread_x_um", res.reversals_x_mm.size)),
+        ("backlash Y", "backlash_y_um", "µm", "{:.3f}", False, ("spread_y_um", res.reversals_y_mm.size)),
+        ("backlash θ", "backlash_theta_deg", "deg", "{:.5f}", False, ("spread_theta_deg", res.reversals_theta_deg.size)),
+        ("camera rotation", "camera_rotation_deg", "deg", "{:.3f}", False, None),
+        ("θ radius", "theta_radius_mm", "mm", "{:.3f}", False, None),
     ]
-    for label, key, fmt, relative in rows:
-        m, t = measured[key], truth[key]
-        err = f"{(m / t - 1) * 100:+.4f} %" if relative else ("{:+" + fmt[2:]).format(m - t)
-        print(f"{label:<24}{fmt.format(m):>12}{fmt.format(t):>12}{err:>12}")
+    if truth is not None:
+        print(f"{'quantity':<22}{'measured':>12}{'simulated':>12}{'error':>14}")
+        for label, key, unit, fmt, relative, _ in rows:
+            m, t = measured[key], truth[key]
+            err = f"{(m / t - 1) * 100:+.4f} %" if relative else ("{:+" + fmt[2:]).format(m - t) + f" {unit}"
+            print(f"{label + ' (' + unit + ')':<22}{fmt.format(m):>12}{fmt.format(t):>12}{err:>14}")
+    else:
+        print(f"{'quantity':<22}{'measured':>12}  spread of the single reversals")
+        for label, key, unit, fmt, _, spread in rows:
+            extra = ("" if not spread else f"  ± {fmt.format(measured[spread[0]])} {unit} ({spread[1]} reversals)"
+                     if spread[1] > 1 else "  (one reversal: no spread; --repeats 3 gives one)")
+            print(f"{label + ' (' + unit + ')':<22}{fmt.format(measured[key]):>12}{extra}")
     print(f"ISO 230-2 reversal value B: X {measured['iso_reversal_x_um']:.3f} µm, "
           f"Y {measured['iso_reversal_y_um']:.3f} µm; mean reversal X {measured['iso_mean_reversal_x_um']:+.3f} µm, "
           f"Y {measured['iso_mean_reversal_y_um']:+.3f} µm")
     print(f"patent formula r·|p1-p2|: X {res.backlash_x_patent_mm * 1e3:.3f} µm, "
           f"Y {res.backlash_y_patent_mm * 1e3:.3f} µm, θ {res.backlash_theta_patent_deg:.5f}°")
-    if args.plot:
-        print(f"plot written to {args.plot}")
+    for flag, value in (("result", args.out), ("tables", args.tables), ("plot", args.plot)):
+        if value:
+            print(f"{flag} written to {value}")
     return 0
 
 
-def plot_result(res, path, *, truth=None) -> None:
-    """Write a PNG: fiducial per photo, reversal gap vectors, per-move pixel equivalent.
+def _result_json(res, source, truth) -> dict:
+    """The measured values for a file: units in the keys, the spreads and counts of the single reversals."""
+    out = {"source": source, "measured": res.summary(),
+           "reversals": {"x_um": (res.reversals_x_mm * 1e3).tolist(), "y_um": (res.reversals_y_mm * 1e3).tolist(),
+                         "theta_deg": res.reversals_theta_deg.tolist()},
+           "sign": "backlash = position approached from + minus position approached from −, along the axis"}
+    if truth is not None:
+        out["truth"] = truth
+    return out
+
+
+def _write_tables(res, folder, travel_mm) -> None:
+    """X and Y backlash as bidirectional axis tables: forward −B/2, reverse +B/2 (error = actual − commanded)
+    over the measured range, in every controller format of kinid.axis_tables."""
+    from kinid.axis_tables import FORMATS, AxisErrorTable, format_text, neutral_csv_text
+    from kinid.files import write_text
+
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    for k, (axis, b_mm) in enumerate((("X", res.backlash_x_mm), ("Y", res.backlash_y_mm))):
+        centre = res.start[k]
+        q = np.array([centre - travel_mm, centre + travel_mm])
+        half_um = 0.5 * b_mm * 1e3
+        table = AxisErrorTable(axis, False, q, np.full(2, -half_um), np.full(2, half_um))
+        write_text(Path(folder) / f"{axis}.csv", neutral_csv_text(f"{axis.lower()}_mm", q, {
+            f"E{axis}{axis}_um": table.forward, f"E{axis}{axis}_rev_um": table.reverse}))
+        for fmt, (pattern, _, _) in FORMATS.items():
+            options = {"axis_number": k + 1} if fmt == "twincat" else {}
+            write_text(Path(folder) / pattern.format(axis=axis), format_text(fmt, table, **options))
+
+
+def _gaps_um(res):
+    """Reversal gaps (down − up) along each axis: X µm, Y µm, θ as the arc at the fiducial, µm."""
+    out = {}
+    for axis in ("x", "y", "theta"):
+        ups = [r for r in res.log if r.axis == axis and r.role == "up"]
+        downs = [r for r in res.log if r.axis == axis and r.role == "down"]
+        d = res.matrix.to_machine(np.array([[b.x_px - a.x_px, b.y_px - a.y_px] for a, b in zip(ups, downs)])) * 1e3
+        if axis == "theta":
+            v = -np.asarray(res.theta_centre_mm, float)
+            tangent = np.array([-v[1], v[0]]) / np.hypot(*v)
+            out[axis] = d @ tangent
+        else:
+            out[axis] = d[:, 0 if axis == "x" else 1]
+    return out
+
+
+def plot_result(res, path, *, truth=None, after=None) -> None:
+    """Write a PNG: fiducial per photo, reversal gaps before (and after) compensation, pixel equivalent.
 
     Parameters
     ----------
@@ -122,13 +217,14 @@ def plot_result(res, path, *, truth=None) -> None:
     path : str or path-like
         Output PNG, written whole or not at all.
     truth : dict or None
-        Simulated truth (keys ``backlash_x_um``, ``backlash_y_um``,
-        ``backlash_theta_deg``, ``pixel_um_x``, ``pixel_um_y``) drawn for comparison.
+        Simulated truth (keys ``backlash_x_um``, ``backlash_y_um``, ``backlash_theta_deg``,
+        ``pixel_um_x``, ``pixel_um_y``) drawn for comparison.
+    after : BacklashResult or None
+        The same plan run again through the compensation: its gaps are drawn as "after".
     """
     from kinid.figures import new_figure, save_figure
 
-
-    fig = new_figure((13, 4.2))
+    fig = new_figure((13, 4.4))
     ax0, ax1, ax2 = fig.subplots(1, 3)
     colours = {"scale": "tab:blue", "up": "tab:green", "down": "tab:red", "centre": "tab:purple"}
     for role, col in colours.items():
@@ -138,52 +234,52 @@ def plot_result(res, path, *, truth=None) -> None:
                      mfc="none" if role == "down" else col)
     for r in res.log:
         if r.role == "scale" or r.role == "centre":
-            ax0.annotate(str(r.index), (r.x_px, r.y_px), fontsize=7, xytext=(3, 3), textcoords="offset points")
+            ax0.annotate(str(r.index), (r.x_px, r.y_px), fontsize=8, xytext=(3, 3), textcoords="offset points")
     ax0.invert_yaxis()
     ax0.set_aspect("equal", adjustable="datalim")
     ax0.set_xlabel("image x (px)")
     ax0.set_ylabel("image y (px)")
     ax0.set_title(f"fiducial per photo ({res.moves} moves)")
-    ax0.legend(fontsize=7)
+    ax0.legend(fontsize=8)
 
-    # Gap vectors down - up in machine µm (θ: the arc of the fiducial about the θ centre).
-    for axis, col in (("x", "tab:blue"), ("y", "tab:orange"), ("theta", "tab:green")):
-        ups = [r for r in res.log if r.axis == axis and r.role == "up"]
-        downs = [r for r in res.log if r.axis == axis and r.role == "down"]
-        d = res.matrix.to_machine(np.array([[b.x_px - a.x_px, b.y_px - a.y_px] for a, b in zip(ups, downs)])) * 1e3
-        label = {"x": "X", "y": "Y", "theta": "θ (arc)"}[axis]
-        ax1.plot(d[:, 0], d[:, 1], "o", color=col, label=f"{label} measured")
+    # reversal gaps along each axis, before and after compensation
+    before = _gaps_um(res)
+    labels = {"x": "X", "y": "Y", "theta": "θ (arc)"}
+    for k, axis in enumerate(("x", "y", "theta")):
+        g = before[axis]
+        ax1.plot(np.full(g.size, k - 0.12), g, "o", color="tab:red", ms=7, label="before" if k == 0 else None)
+        if after is not None:
+            a = _gaps_um(after)[axis]
+            ax1.plot(np.full(a.size, k + 0.12), a, "o", color="tab:green", ms=7, label="after" if k == 0 else None)
     if truth is not None:
-        ax1.plot([truth["backlash_x_um"]], [0.0], "x", color="tab:blue", ms=10, label="X true")
-        ax1.plot([0.0], [truth["backlash_y_um"]], "x", color="tab:orange", ms=10, label="Y true")
-        # True θ gap: an arc of R·Bθ along the tangent at the fiducial (centre is relative to it).
-        v = -np.asarray(res.theta_centre_mm, float)
-        tangent = np.array([-v[1], v[0]]) / np.hypot(*v)
-        arc = tangent * np.radians(truth["backlash_theta_deg"]) * np.hypot(*v) * 1e3
-        ax1.plot([arc[0]], [arc[1]], "x", color="tab:green", ms=10, label="θ true")
+        arc = np.radians(truth["backlash_theta_deg"]) * res.theta_radius_mm * 1e3
+        ax1.plot([-0.3, 0.3], [truth["backlash_x_um"]] * 2, "k--", lw=1, label="simulated backlash")
+        ax1.plot([0.7, 1.3], [truth["backlash_y_um"]] * 2, "k--", lw=1)
+        ax1.plot([1.7, 2.3], [arc] * 2, "k--", lw=1)
     ax1.axhline(0, color="0.7", lw=0.8)
-    ax1.axvline(0, color="0.7", lw=0.8)
-    ax1.set_aspect("equal", adjustable="datalim")
-    ax1.set_xlabel("machine X gap (µm)")
-    ax1.set_ylabel("machine Y gap (µm)")
-    title = (f"reversal gaps: X {res.backlash_x_mm * 1e3:.3f} µm, Y {res.backlash_y_mm * 1e3:.3f} µm,\n"
-             f"θ {res.backlash_theta_deg:.5f}° at r = {res.theta_radius_mm:.2f} mm")
-    if truth is not None:
-        title += (f" (true {truth['backlash_x_um']:.3f}, {truth['backlash_y_um']:.3f} µm, "
-                  f"{truth['backlash_theta_deg']:.5f}°)")
-    ax1.set_title(title, fontsize=8)
-    ax1.legend(fontsize=7)
+    ax1.set_xticks([0, 1, 2], [labels[a] for a in ("x", "y", "theta")])
+    ax1.set_xlim(-0.6, 2.6)
+    ax1.set_ylabel("reversal gap along the axis (µm)")
+    title = (f"backlash X {res.backlash_x_mm * 1e3:.3f} µm, Y {res.backlash_y_mm * 1e3:.3f} µm, "
+             f"θ {res.backlash_theta_deg:.5f}°")
+    if after is not None:
+        title += (f"\nafter compensation: X {after.backlash_x_mm * 1e3:+.3f} µm, Y {after.backlash_y_mm * 1e3:+.3f} µm, "
+                  f"θ {after.backlash_theta_deg:+.5f}°")
+    else:
+        title += "\n(after: run the plan again with the compensation on)"
+    ax1.set_title(title, fontsize=9)
+    ax1.legend(fontsize=8, loc="upper right")
 
     per = res.scale.per_move * 1e3
     idx = np.arange(1, per.size + 1)
     cols = ["tab:blue" if a == "x" else "tab:orange" if a == "y" else "0.4" for a in res.scale.axes]
     ax2.scatter(idx, per, c=cols)
     for i, a in zip(idx, res.scale.axes):
-        ax2.annotate(a.upper(), (i, per[i - 1]), fontsize=7, xytext=(4, 2), textcoords="offset points")
+        ax2.annotate(a.upper(), (i, per[i - 1]), fontsize=8, xytext=(4, 2), textcoords="offset points")
     if truth is not None:
         ax2.axhline(truth["pixel_um_x"], color="tab:blue", ls="--", lw=1, label="true along X")
         ax2.axhline(truth["pixel_um_y"], color="tab:orange", ls=":", lw=1, label="true along Y")
-        ax2.legend(fontsize=7)
+        ax2.legend(fontsize=8)
     ax2.set_xticks(idx)
     ax2.set_xlabel("non-reversal move")
     ax2.set_ylabel("pixel equivalent (µm/px)")

@@ -20,25 +20,32 @@ def register(subparsers) -> None:
     """Add the ``dual-axis`` verb to the ``kinid`` command line."""
     p = subparsers.add_parser(
         "dual-axis",
-        help="calibrate two parallel Y axes (camera Y / head Y) on a simulated gantry",
-        description="Dual-axis offset table method on the simulated gantry urdf/gantry_dual_y.urdf: both Y axes step together, "
-                    "the camera images the plate on the head, the offset table is refined round by round; "
-                    "then a smooth model (parallelism + straightness polynomial) is compared with the table "
-                    "at held-out positions.")
-    p.add_argument("--y-start-mm", type=float, default=0.0, help="camera Y at the start, mm (default 0)")
-    p.add_argument("--step-mm", type=float, default=10.0, help="step of both Y axes, mm (default 10)")
-    p.add_argument("--steps", type=int, default=30, help="number of steps (default 30)")
+        help="offset table between two parallel Y axes (camera Y / head Y) of a gantry",
+        description="Dual-axis offset table method: from one measured round (--data: camera Y and the plate's "
+                    "shift in the image at each step), the new offset table and the smooth model "
+                    "(parallelism + straightness polynomial); or the whole method on the simulated gantry "
+                    "urdf/gantry_dual_y.urdf, rounds until the spec is met and held-out checks (--simulate).")
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--data", metavar="MEAS.csv", help="one measured round: camera_y_mm,shift_x_px,shift_y_px"
+                                                          "[,table_dx_mm,table_dy_mm] (docs/dual_axis.md)")
+    mode.add_argument("--simulate", action="store_true", help="the whole method on the simulated gantry")
+    p.add_argument("--pixel-to-mm", type=float, nargs=4, metavar=("A", "B", "C", "D"),
+                   help="with --data: the 2 x 2 matrix from image shift (px) to head X/Y move (mm), row by row")
     p.add_argument("--spec-um", type=float, default=1.0, help="acceptance limit per table entry, µm (default 1)")
-    p.add_argument("--max-rounds", type=int, default=5, help="rounds before giving up (default 5)")
     p.add_argument("--degree", type=int, default=3, help="degree of the smooth model's polynomial (default 3)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulation (texture, noise)")
-    p.add_argument("--random-errors", action="store_true",
-                   help="draw a random error set from the seed instead of the built-in one")
-    p.add_argument("--noise", type=float, default=1.5, help="image noise, grey levels (default 1.5)")
-    p.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
     p.add_argument("--plot", metavar="OUT.png", help="plot of the plate offset before/after compensation")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--out", metavar="TABLE.csv", help="write the offset table: camera_y_mm,head_dx_mm,head_dy_mm")
+    sim = p.add_argument_group("simulated gantry (--simulate)")
+    sim.add_argument("--y-start-mm", type=float, default=0.0, help="camera Y at the start, mm (default 0)")
+    sim.add_argument("--step-mm", type=float, default=10.0, help="step of both Y axes, mm (default 10)")
+    sim.add_argument("--steps", type=int, default=30, help="number of steps (default 30)")
+    sim.add_argument("--max-rounds", type=int, default=5, help="rounds before giving up (default 5)")
+    sim.add_argument("--seed", type=int, default=0, help="seed of the simulation (texture, noise)")
+    sim.add_argument("--random-errors", action="store_true",
+                     help="draw a random error set from the seed instead of the built-in one")
+    sim.add_argument("--noise", type=float, default=1.5, help="image noise, grey levels (default 1.5)")
+    sim.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
     p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"})
 
 
@@ -195,11 +202,67 @@ def _format(rep: dict) -> str:
     return "\n".join(lines)
 
 
+def _measured(args) -> int:
+    from kinid.files import write_text
+    from .measured import read_round, table_from_round
+    from .smooth import fit_smooth
+
+    if args.pixel_to_mm is None:
+        raise DataError("--data needs --pixel-to-mm A B C D (image shift px -> head move mm; measure it as "
+                        "docs/dual_axis.md shows)")
+    if not (np.isfinite(args.spec_um) and args.spec_um > 0):
+        raise DataError(f"--spec-um must be a positive number, got {args.spec_um!r}")
+    y, shift, used = read_round(args.data)
+    table = table_from_round(y, shift, used, np.reshape(args.pixel_to_mm, (2, 2)), args.spec_um)
+    smooth = fit_smooth(table, args.degree)
+    if args.out:
+        write_text(args.out, table.csv_text())
+    if args.plot:
+        _plot_measured(args.plot, table, smooth)
+    report = {"source": str(args.data), "table": table.to_dict(), "message": table.message,
+              "smooth": {"degree": smooth.degree, "parallelism_urad": smooth.parallelism_urad,
+                         "scale_um_per_m": smooth.scale_um_per_m, "fit_rms_um": smooth.rms_um.tolist()}}
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print(f"dual-axis offset table from {args.data}: {len(y)} vertices, camera Y {y[0]:g} .. {y[-1]:g} mm")
+    print(f"{'camera Y (mm)':>14}{'head dx (µm)':>14}{'head dy (µm)':>14}")
+    for yy, (dx, dy) in zip(table.y_mm, table.offset_mm * 1e3):
+        print(f"{yy:14.3f}{dx:14.3f}{dy:14.3f}")
+    print(table.message)
+    print(f"smooth model (degree {smooth.degree}): parallelism {smooth.parallelism_urad:.2f} µrad, "
+          f"scale {smooth.scale_um_per_m:.2f} µm/m, fit RMS x {smooth.rms_um[0]:.3f} µm, y {smooth.rms_um[1]:.3f} µm")
+    for flag, value in (("offset table", args.out), ("plot", args.plot)):
+        if value:
+            print(f"{flag} written to {value}")
+    return 0
+
+
+def _plot_measured(path, table, smooth) -> None:
+    from kinid.figures import new_figure, save_figure
+
+    fig = new_figure((10, 4))
+    ax0, ax1 = fig.subplots(1, 2)
+    yy = np.linspace(table.y_mm[0], table.y_mm[-1], 400)
+    fitted = smooth.correction_mm(yy) * 1e3
+    for k, (ax, label) in enumerate(((ax0, "head X"), (ax1, "head Y"))):
+        ax.plot(table.y_mm, table.offset_mm[:, k] * 1e3, "o", ms=4, label="offset table (measured)")
+        ax.plot(yy, fitted[:, k], "-", lw=1.2, label=f"smooth model (degree {smooth.degree})")
+        ax.set_xlabel("camera Y (mm)")
+        ax.set_ylabel(f"{label} correction (µm)")
+        ax.set_title(f"{label}: fit RMS {smooth.rms_um[k]:.3f} µm", fontsize=10)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)
+
+
 def _run(args) -> int:
     from pathlib import Path
 
     if args.plot and not Path(args.plot).resolve().parent.is_dir():
         raise DataError(f"output folder {str(Path(args.plot).parent)!r} does not exist", path=args.plot)
+    if args.data:
+        return _measured(args)
     result = run_simulation(y_start_mm=args.y_start_mm, step_mm=args.step_mm, n_steps=args.steps,
                             spec_um=args.spec_um, max_rounds=args.max_rounds, degree=args.degree,
                             seed=args.seed, random_errors=args.random_errors, noise_sigma=args.noise,

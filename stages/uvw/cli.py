@@ -1,9 +1,8 @@
-"""``kinid uvw``: the patent's UVW compensation against the fitted model, on a simulated stage."""
+"""``kinid uvw``: the UVW actuator error models from measured moves, or the whole story on a simulated stage."""
 from __future__ import annotations
 
 import json
 import math
-import os
 
 from .demo import run_demo, plot_demo
 from .kinematics import ACTUATORS
@@ -14,20 +13,97 @@ __all__ = ["register"]
 def register(subparsers) -> None:
     """Add the ``uvw`` verb."""
     p = subparsers.add_parser(
-        "uvw", help="UVW alignment stage: patent compensation vs fitted error model (simulated stage)",
-        description="Calibrate a simulated UVW stage (scale error, backlash, periodic lead error, vision noise) "
-                    "with the patent's method and with a fitted per-actuator error model, then drive "
-                    "random 50-2000 µm alignment moves uncompensated and with each compensation.")
-    p.add_argument("--seed", type=int, default=0, help="seed of the noise and the random moves (default 0)")
-    p.add_argument("--noise-um", type=float, default=0.1, help="vision noise of the simulated stage, µm (default 0.1)")
+        "uvw", help="UVW alignment stage: actuator error models and compensation from measured moves",
+        description="Fit each actuator's error model (offset, scale, backlash, bow, lead harmonics; chosen by "
+                    "BIC) to the moves measured on a UVW stage (--moves), and write the model and the "
+                    "actuators' compensation tables; or calibrate a simulated UVW stage with the patent's method "
+                    "and with the fitted model and compare them on random alignment moves (--simulate).")
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--moves", metavar="MOVES.csv", help="measured moves: actuator,command_um,direction,measured_um")
+    mode.add_argument("--simulate", action="store_true", help="the whole story on a simulated stage")
     p.add_argument("--lead-um", type=float, default=2000.0, help="screw lead, µm (default 2000)")
-    p.add_argument("--repeats", type=int, default=3, help="bidirectional sweeps of the model's test plan (default 3)")
-    p.add_argument("--patent-repeats", type=int, default=18,
-                   help="measurements per stroke in the patent's test (default 18, as in its example)")
-    p.add_argument("--moves", type=int, default=200, help="validation moves per actuator (default 200)")
+    p.add_argument("--noise-um", type=float, default=None,
+                   help="vision noise, µm (measured: for the uncertainties, default from the residuals; "
+                        "simulated: default 0.1)")
+    p.add_argument("--out", metavar="MODEL.json", help="write the fitted actuator models as JSON")
+    p.add_argument("--tables", metavar="DIR", help="write each actuator's error table (CSV, LinuxCNC, TwinCAT CNC)")
     p.add_argument("--plot", metavar="OUT.png", help="write errors before/after and residual vs position mod lead")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    p.set_defaults(run=_run)
+    sim = p.add_argument_group("simulated stage (--simulate)")
+    sim.add_argument("--seed", type=int, default=0, help="seed of the noise and the random moves (default 0)")
+    sim.add_argument("--repeats", type=int, default=3, help="bidirectional sweeps of the model's test plan (default 3)")
+    sim.add_argument("--patent-repeats", type=int, default=18,
+                     help="measurements per stroke in the patent's test (default 18, as in its example)")
+    sim.add_argument("--validation-moves", dest="moves_n", type=int, default=200,
+                     help="validation moves per actuator (default 200)")
+    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "tables": "folder"})
+
+
+def _measured(args) -> int:
+    from pathlib import Path
+
+    from kinid.axis_tables import FORMATS, format_text, neutral_csv_text
+    from kinid.errors import DataError
+    from kinid.files import write_json, write_text
+    from .measured import actuator_tables, fit_moves, models_json, read_moves
+
+    if args.noise_um is not None and not (args.noise_um > 0 and math.isfinite(args.noise_um)):
+        raise DataError(f"--noise-um must be a positive number, got {args.noise_um!r}")
+    models = fit_moves(read_moves(args.moves), args.lead_um, noise_um=args.noise_um)
+    doc = models_json(models, str(args.moves))
+    if args.out:
+        write_json(args.out, doc)
+    if args.tables:
+        Path(args.tables).mkdir(parents=True, exist_ok=True)
+        for k, (a, table) in enumerate(actuator_tables(models).items(), start=1):
+            write_text(Path(args.tables) / f"{a}.csv", neutral_csv_text(f"{a.lower()}_mm", table.positions, {
+                f"E{a}_um": table.forward, f"E{a}_rev_um": table.reverse}))
+            for fmt, (pattern, _, _) in FORMATS.items():
+                write_text(Path(args.tables) / pattern.format(axis=a),
+                           format_text(fmt, table, **({"axis_number": k} if fmt == "twincat" else {})))
+    if args.plot:
+        _plot_measured(models, args.plot)
+    if args.json:
+        print(json.dumps(doc))
+        return 0
+    print(f"UVW actuator models from {args.moves} (lead {args.lead_um:g} µm; terms chosen by BIC): value ± std")
+    for a, m in models.items():
+        parts = [f"{n} {v:.3f} ± {s:.3f}" for n, v, s in zip(m.names, m.values, m.std)]
+        print(f"  {a} ({m.commands_um.size} moves, degree {m.degree}, {m.harmonics} harmonics): " + ", ".join(parts))
+        print(f"      residual RMS {m.rms_um:.3f} µm over {m.span_um[0]:g} .. {m.span_um[1]:g} µm")
+    for flag, value in (("model", args.out), ("tables", args.tables), ("plot", args.plot)):
+        if value:
+            print(f"{flag} written to {value}")
+    return 0
+
+
+def _plot_measured(models, path) -> None:
+    """Measured error against command per actuator with the model (both directions), and the residuals."""
+    import numpy as np
+
+    from kinid.figures import new_figure, save_figure
+
+    fig = new_figure((12, 6.5))
+    axes = fig.subplots(2, len(models), squeeze=False)
+    for k, (a, m) in enumerate(models.items()):
+        c, d = m.commands_um, m.directions
+        measured_err = m.error_um(c, d) + m.residuals_um
+        grid = np.linspace(*m.span_um, 400)
+        top, bottom = axes[0, k], axes[1, k]
+        for sign, col, label in ((1.0, "tab:blue", "approached +"), (-1.0, "tab:red", "approached −")):
+            sel = d == sign
+            top.plot(c[sel] * 1e-3, measured_err[sel], "o", ms=3, color=col, label=f"measured, {label}")
+            top.plot(grid * 1e-3, m.error_um(grid, sign), "-", lw=1, color=col)
+            bottom.plot(c[sel] * 1e-3, m.residuals_um[sel], "o", ms=3, color=col)
+        top.set_title(f"{a}: error before compensation (model lines)", fontsize=10)
+        top.set_ylabel("measured − commanded (µm)")
+        top.legend(fontsize=8)
+        bottom.axhline(0, color="0.6", lw=0.8)
+        bottom.set_title(f"{a}: left after compensation, RMS {m.rms_um:.3f} µm", fontsize=10)
+        bottom.set_xlabel("command (mm)")
+        bottom.set_ylabel("residual (µm)")
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)
 
 
 def _run(args) -> int:
@@ -35,20 +111,24 @@ def _run(args) -> int:
 
     if not (args.lead_um > 0 and math.isfinite(args.lead_um)):
         raise DataError(f"--lead-um must be a positive number (screw lead, µm), got {args.lead_um!r}")
-    if not (args.noise_um >= 0 and math.isfinite(args.noise_um)):
-        raise DataError(f"--noise-um must be >= 0, got {args.noise_um!r}")
-    for flag, value in (("--repeats", args.repeats), ("--patent-repeats", args.patent_repeats)):
+    if args.moves:
+        return _measured(args)
+    noise_um = 0.1 if args.noise_um is None else args.noise_um
+    if not (noise_um >= 0 and math.isfinite(noise_um)):
+        raise DataError(f"--noise-um must be >= 0, got {noise_um!r}")
+    for flag, value in (("--repeats", args.repeats), ("--patent-repeats", args.patent_repeats),
+                        ("--validation-moves", args.moves_n)):
         if value < 1:
             raise DataError(f"{flag} must be a positive integer, got {value!r}")
-    if args.plot:
-        folder = os.path.dirname(os.path.abspath(args.plot))
-        if not os.path.isdir(folder):
-            raise DataError(f"output folder {folder!r} does not exist", path=args.plot)
-    result = run_demo(seed=args.seed, noise_um=args.noise_um, lead_um=args.lead_um, repeats=args.repeats,
-                      patent_repeats=args.patent_repeats, moves=args.moves, progress=None)
+    result = run_demo(seed=args.seed, noise_um=noise_um, lead_um=args.lead_um, repeats=args.repeats,
+                      patent_repeats=args.patent_repeats, moves=args.moves_n, progress=None)
     if args.plot:
         plot_demo(result, args.plot)
     public = {k: v for k, v in result.items() if not k.startswith("_")}
+    if args.out:
+        from kinid.files import write_json
+
+        write_json(args.out, public)
     if args.json:
         print(json.dumps(public))
         return 0
