@@ -39,6 +39,7 @@ VERBS = {
     "predict": Verb("kinid.identification.commands", "axis readings at which the fitted machine aligns the tool point with each mark"),
     "compensate": Verb("kinid.identification.compensate_cli", "axis error tables, constants, a calibrated URDF and controller files from a fit"),
     "observe": Verb("kinid.identification.observe_cli", "images + axis readings of a run -> observation CSV (marks located and decoded)"),
+    "board": Verb("kinid.vision.board_cli", "a printable ring-coded board (SVG and PDF at true scale) and its board file"),
     "markers": Verb("kinid.vision.cli", "detect and decode ring-coded marks in an image"),
     "backlash": Verb("kinid.stages.backlash.cli", "pixel equivalent and X/Y/θ lead-screw backlash of an X-Y-θ stage from images"),
     "uvw": Verb("kinid.stages.uvw.cli", "UVW alignment stage: compensation from measured moves"),

@@ -21,10 +21,15 @@ def register(subparsers) -> None:
                     "with the programmed path. TRACK.csv: frame,t_s,x_mm,y_mm,error_um (camera frame: x right, "
                     "y down, mm relative to the first frame; frames not located keep their row with empty "
                     "x_mm, y_mm and error_um).")
-    p.add_argument("--frames", required=True, metavar="DIR",
+    p.add_argument("--frames", metavar="DIR",
                    help="folder of image files (read in name order) or a video file")
-    p.add_argument("--board", required=True, metavar="BOARD.json", help="board description file")
-    scale = p.add_mutually_exclusive_group(required=True)
+    p.add_argument("--board", metavar="BOARD.json", help="board description file")
+    p.add_argument("--simulate", action="store_true",
+                   help="render a circular contour run of a simulated machine (known errors) and measure it: "
+                        "measured against true track and contour error; --keep DIR keeps the frames")
+    p.add_argument("--keep", metavar="DIR", help="with --simulate: write the frames, board.json and camera.json here")
+    p.add_argument("--sim-frames", type=int, default=40, help="with --simulate: frames over one turn (default 40)")
+    scale = p.add_mutually_exclusive_group()
     scale.add_argument("--pixel-mm", type=float, metavar="S", help="object-side pixel size, mm per pixel")
     scale.add_argument("--camera", metavar="CAMERA.json", help="camera calibration (lens distortion is removed)")
     p.add_argument("--path", choices=("circle", "line", "polyline"), default="circle",
@@ -37,18 +42,22 @@ def register(subparsers) -> None:
     p.add_argument("--path-file", metavar="PATH.csv", help="polyline vertices: CSV with columns x_mm,y_mm")
     p.add_argument("--fps", type=float, metavar="F",
                    help="frame rate: t_s = frame / F (default: the video's rate; for a folder t_s is left empty)")
-    p.add_argument("--out", required=True, metavar="TRACK.csv", help="track and contour error per frame")
+    p.add_argument("--out", metavar="TRACK.csv", help="track and contour error per frame (required on measured frames)")
     p.add_argument("--json", action="store_true", help="print the JSON summary only")
     p.add_argument("--plot", metavar="OUT.png", help="polar plot of the radial deviation (circle) or error plot")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--scheduler", metavar="ADDRESS|local",
+                   help="map the frames on a Dask cluster: its scheduler's address (tcp://host:8786), or 'local' "
+                        "for a local cluster of --workers processes (pip install 'kinid[dask]')")
     p.add_argument("--roi-px", metavar="X0,Y0,W,H", help="decode marks only inside this window of each frame")
     p.add_argument("--downsample", default="auto", metavar="N|auto",
                    help="decode on an N-times box-filtered copy of each frame (faster for large marks); "
                         "default auto: 2 when the centre circle keeps a radius of >= 20 px, else 1")
     p.add_argument("--refine", choices=("fit", "centroid"), default="fit",
                    help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
+    p.add_argument("--seed", type=int, default=0, help="with --simulate: seed of the image noise (default 0)")
     p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
-    p.set_defaults(run=_run)
+    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "keep": "folder"})
 
 
 def _pair(text, option):
@@ -80,10 +89,80 @@ def _path_from_args(args):
     return PolylinePath(load_polyline(args.path_file))
 
 
+def _simulate(args) -> int:
+    """Render a run of a simulated machine, measure it like real frames, print measured against true."""
+    import tempfile
+    from pathlib import Path
+
+    import numpy as np
+
+    from kinid.files import write_text
+    from kinid.vision import make_board, save_board, save_camera
+    from .measure import measure_contour, track_csv
+    from .paths import CirclePath, contour_error
+    from .simulate import circle_motion, render_sequence, simulation_camera
+    from .track import FrameSettings
+
+    if not 8 <= args.sim_frames <= 2000:
+        raise DataError(f"--sim-frames must be 8 .. 2000, got {args.sim_frames}")
+    board = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
+    camera = simulation_camera((512, 512), 0.03, k1=-0.05)
+    motion = circle_motion(args.sim_frames, 8.0, fps=80.0, lag_deg=0.03, spike_um=6.0, spike_width_deg=20.0,
+                           scale_x_ppm=150.0)
+    folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="kinid-contour-"))
+    frames = folder / "frames"
+    frames.mkdir(parents=True, exist_ok=True)
+    seq = render_sequence(frames, board, camera, motion, noise_sigma=2.0, rng=np.random.default_rng(args.seed))
+    save_board(board, folder / "board.json")
+    save_camera(camera, folder / "camera.json")
+    m = measure_contour(frames, board, FrameSettings(camera=camera, bits=board.bits), CirclePath(), fps=80.0,
+                        workers=args.workers, scheduler=args.scheduler)
+    if args.out:
+        write_text(args.out, track_csv(m))
+    if args.plot:
+        from .plot import plot_contour
+
+        plot_contour(m, args.plot)
+    ok = m.track.located
+    track_err = np.sqrt(np.mean(np.sum(((m.track.xy_mm - seq.track_mm) * 1e3)[ok] ** 2, axis=1)))
+    truth = contour_error(seq.track_mm, CirclePath())
+    summary = {"frames": int(len(ok)), "located": int(ok.sum()), "track_rms_error_um": float(track_err),
+               "contour_rms_um": m.contour.rms_um, "true_contour_rms_um": truth.rms_um,
+               "contour_max_um": m.contour.max_um, "true_contour_max_um": truth.max_um}
+    if args.json:
+        import json as _json
+
+        print(_json.dumps(summary))
+    else:
+        print(f"simulated circular run: radius 8 mm, {len(ok)} frames of 512 x 512 px at 30 µm, lens distortion, "
+              f"a 0.03° servo lag, 150 ppm X scale error and 6 µm reversal spikes; seed {args.seed}")
+        print(f"{'':24}{'measured':>12}{'true':>12}")
+        print(f"{'contour error RMS (µm)':<24}{m.contour.rms_um:12.3f}{truth.rms_um:12.3f}")
+        print(f"{'contour error max (µm)':<24}{m.contour.max_um:12.3f}{truth.max_um:12.3f}")
+        print(f"track against the truth: {track_err:.3f} µm RMS over {int(ok.sum())} located frames")
+        where = f"kept in {folder}" if args.keep else "rendered in a temporary folder"
+        print(f"frames, board.json and camera.json {where}")
+        if args.keep:
+            print(f"measure them as real frames: kinid contour --frames {frames} --board {folder / 'board.json'} "
+                  f"--camera {folder / 'camera.json'} --out TRACK.csv")
+    if not args.keep:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+    return 0
+
+
 def _run(args) -> int:
     from kinid.files import write_text
     from kinid.progress import Progress
     from kinid.vision import load_board
+
+    if args.simulate:
+        return _simulate(args)
+    missing = [o for o, v in (("--frames", args.frames), ("--board", args.board), ("--out", args.out)) if not v]
+    if missing or (args.pixel_mm is None and args.camera is None):
+        need = missing + ([] if args.pixel_mm is not None or args.camera is not None else ["--pixel-mm or --camera"])
+        raise DataError(f"measured frames need {', '.join(need)} (or run --simulate to learn the method)")
 
     from .frames import open_frames
     from .measure import measure_contour, track_csv
@@ -126,7 +205,8 @@ def _run(args) -> int:
     source = open_frames(args.frames)
     progress = Progress(source.count, "frames", enabled=True if args.progress else None)
     try:
-        m = measure_contour(source, board, settings, path, fps=args.fps, workers=args.workers, progress=progress)
+        m = measure_contour(source, board, settings, path, fps=args.fps, workers=args.workers, progress=progress,
+                            scheduler=args.scheduler)
     finally:
         progress.close()
     write_text(args.out, track_csv(m))

@@ -20,7 +20,7 @@ import numpy as np
 from kinid.errors import DataError, ImageError
 from kinid.files import read_image
 
-__all__ = ["IMAGE_SUFFIXES", "FrameSource", "open_frames", "map_frames"]
+__all__ = ["IMAGE_SUFFIXES", "FrameSource", "open_frames", "map_frames", "map_frames_dask"]
 
 #: File name endings read as frames from a folder (case-insensitive).
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg", ".pgm", ".ppm", ".webp")
@@ -208,3 +208,65 @@ def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
         finally:
             for f in pending:
                 f.cancel()
+
+
+def _work_batch_on(items, board, settings):
+    """A Dask task: a batch of frames on a worker of a Dask cluster (one OpenCV thread, as the local pool)."""
+    import cv2
+
+    cv2.setNumThreads(1)
+    return [_work(item, board, settings) for item in items]
+
+
+def map_frames_dask(source, board, settings, scheduler, *, workers=2, batch=4, progress=None):
+    """:func:`map_frames` on a Dask cluster: ``scheduler`` is its address, or ``"local"`` for a local cluster.
+
+    The frames are read by the workers from their file names (a folder source; the workers must see the
+    same paths), ``board`` and ``settings`` are sent once, at most ``4 * workers`` batches are in flight,
+    and the results come back in frame order, identical to the local pool's.
+
+    Raises
+    ------
+    DataError
+        When Dask is not installed, the source is a video, or the scheduler cannot be reached.
+    """
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise DataError("a Dask scheduler needs Dask: pip install 'kinid[dask]'") from None
+    if getattr(source, "kind", "folder") != "folder":
+        raise DataError("a Dask cluster reads the frames by file name: give a folder of images, not a video")
+    workers, batch = int(workers), int(batch)
+    if workers < 1 or batch < 1:
+        raise DataError(f"workers and batch must be >= 1, got {workers} and {batch}", column="workers")
+    cluster = None
+    try:
+        if scheduler == "local":
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+            client = Client(cluster)
+        else:
+            client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        if cluster is not None:
+            cluster.close()
+        raise DataError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc})", column="--scheduler") from None
+    try:
+        b, s = client.scatter([board, settings], broadcast=True)
+        in_flight = max(4 * workers, 4 * len(client.scheduler_info().get("workers", {})))
+        pending = deque()
+        for items in _batches(source, batch):
+            pending.append(client.submit(_work_batch_on, list(items), b, s, pure=False))
+            if len(pending) >= in_flight:
+                for r in pending.popleft().result():
+                    if progress is not None:
+                        progress.update()
+                    yield r
+        while pending:
+            for r in pending.popleft().result():
+                if progress is not None:
+                    progress.update()
+                yield r
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

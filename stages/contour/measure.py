@@ -8,7 +8,7 @@ import numpy as np
 
 from kinid.errors import DataError
 
-from .frames import map_frames, open_frames
+from .frames import map_frames, map_frames_dask, open_frames
 from .paths import CirclePath, circular_test, contour_error
 from .track import TrackBuilder
 
@@ -94,7 +94,7 @@ def choose_downsample(source, board, settings, *, probe_frames=5) -> int:
     return int(max(1, min(AUTO_MAX_FACTOR, radius_px // AUTO_MIN_RADIUS_PX)))
 
 
-def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, progress=None):
+def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, progress=None, scheduler=None):
     """Measure the reference mark's track and its contour error from a sequence.
 
     Parameters
@@ -110,8 +110,11 @@ def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, 
         Frame rate; ``t_s = frame / fps``. Default: the video's frame rate,
         else unknown (NaN times).
     workers : int
-        Worker processes.
+        Worker processes (of the local pool, or of a local Dask cluster).
     progress : kinid.progress.Progress or None
+    scheduler : str or None
+        Map the frames on a Dask cluster: its scheduler's address, or ``"local"`` for a local cluster
+        (:func:`~kinid.stages.contour.frames.map_frames_dask`); default the local process pool.
 
     Returns
     -------
@@ -128,7 +131,11 @@ def measure_contour(frames, board, settings, path=None, *, fps=None, workers=2, 
 
         settings = replace(settings, downsample=choose_downsample(source, board, settings))
     builder = TrackBuilder(board, settings)
-    for result in map_frames(source, board, settings, workers=workers, progress=progress):
+    if scheduler is None:
+        results = map_frames(source, board, settings, workers=workers, progress=progress)
+    else:
+        results = map_frames_dask(source, board, settings, scheduler, workers=workers, progress=progress)
+    for result in results:
         builder.add(result)
     track = builder.finish()
     n = len(track.located)

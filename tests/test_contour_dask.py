@@ -1,0 +1,54 @@
+"""``kinid contour --scheduler``: frames mapped on a local Dask cluster give the local pool's tracks, bit for bit."""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from kinid.cli import main
+from kinid.stages.contour.measure import measure_contour
+from kinid.stages.contour.simulate import circle_motion, render_sequence, simulation_camera
+from kinid.stages.contour.track import FrameSettings
+from kinid.vision.board import make_board, save_board
+
+pytest.importorskip("dask.distributed")
+
+SIZE, PIXEL_MM, N = (512, 512), 0.03, 12
+BOARD = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
+
+
+@pytest.fixture(scope="module")
+def frames(tmp_path_factory):
+    root = tmp_path_factory.mktemp("dask")
+    (root / "frames").mkdir()
+    cam = simulation_camera(SIZE, PIXEL_MM, k1=0.0)
+    render_sequence(root / "frames", BOARD, cam, circle_motion(N, 4.0, fps=50.0), noise_sigma=2.0,
+                    rng=np.random.default_rng(5))
+    save_board(BOARD, root / "board.json")
+    return root
+
+
+def test_local_dask_cluster_gives_the_pools_tracks_bit_for_bit(frames):
+    settings = FrameSettings(pixel_mm=PIXEL_MM, bits=BOARD.bits)
+    pool = measure_contour(frames / "frames", BOARD, settings, workers=2)
+    dask = measure_contour(frames / "frames", BOARD, settings, workers=2, scheduler="local")
+    assert int(pool.track.located.sum()) == N
+    assert np.array_equal(pool.track.xy_mm, dask.track.xy_mm)
+    assert np.array_equal(pool.contour.error_um, dask.contour.error_um)
+
+
+def test_contour_cli_with_scheduler(frames, tmp_path, capsys):
+    args = ["contour", "--frames", str(frames / "frames"), "--board", str(frames / "board.json"),
+            "--pixel-mm", str(PIXEL_MM)]
+    assert main([*args, "--out", str(tmp_path / "a.csv")]) == 0
+    assert main([*args, "--out", str(tmp_path / "b.csv"), "--scheduler", "local"]) == 0
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+    assert len(list(csv.reader(open(tmp_path / "b.csv")))) == N + 1
+
+
+def test_unreachable_scheduler_is_one_line(frames, tmp_path, capsys):
+    status = main(["contour", "--frames", str(frames / "frames"), "--board", str(frames / "board.json"),
+                   "--pixel-mm", str(PIXEL_MM), "--out", str(tmp_path / "a.csv"), "--scheduler", "tcp://127.0.0.1:9"])
+    err = capsys.readouterr().err
+    assert status == 2 and "cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'" in err and err.count("\n") == 1, err

@@ -1,0 +1,26 @@
+"""``kinid contour --simulate``: a rendered run measured like real frames, against its truth; the kept frames
+measure the same through the ordinary command."""
+from __future__ import annotations
+
+import json
+
+from kinid.cli import main
+
+
+def test_simulate_reports_measured_against_true_and_keeps_the_frames(tmp_path, capsys):
+    assert main(["contour", "--simulate", "--sim-frames", "24", "--json", "--keep", str(tmp_path / "run"),
+                 "--out", str(tmp_path / "sim.csv")]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["located"] == s["frames"] == 24
+    assert s["track_rms_error_um"] < 0.5
+    assert abs(s["contour_rms_um"] - s["true_contour_rms_um"]) < 0.1 and s["true_contour_rms_um"] > 1.0
+    run = tmp_path / "run"
+    assert main(["contour", "--frames", str(run / "frames"), "--board", str(run / "board.json"), "--camera",
+                 str(run / "camera.json"), "--out", str(tmp_path / "real.csv")]) == 0
+    rows = lambda p: [ln.split(",")[2:4] for ln in p.read_text().splitlines()[1:]]  # noqa: E731
+    assert rows(tmp_path / "real.csv") == rows(tmp_path / "sim.csv")
+
+
+def test_measured_frames_need_their_inputs(capsys):
+    assert main(["contour", "--frames", "x"]) == 2
+    assert "measured frames need --board, --out, --pixel-mm or --camera" in capsys.readouterr().err
