@@ -21,8 +21,11 @@ from kinid.files import write_text
 from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG
 from kinid.errors import DataError
 from kinid.figures import new_figure, save_figure
+from kinid.report_html import Figure, Section, Table, report_page
 
-__all__ = ["diagnosis_report", "selection_report", "plot_maps", "plot_residuals_vs_axes", "plot_periodogram", "plot_singular_values", "plot_selection"]
+__all__ = ["diagnosis_report", "selection_report", "plot_maps", "plot_residuals_vs_axes", "plot_periodogram",
+           "plot_singular_values", "plot_selection", "plot_identified_errors", "plot_binned_residuals", "errors_table",
+           "tool_motion_um"]
 
 
 def _outdir(folder) -> Path:
@@ -53,7 +56,7 @@ def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against ax
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xlabel(a.column)
     axs[0, 0].set_ylabel("residual (µm), workpiece frame")
-    axs[0, 0].legend(fontsize=6, markerscale=2)
+    axs[0, 0].legend(fontsize=8, markerscale=2)
     fig.suptitle(title)
     save_figure(fig, path)
 
@@ -112,13 +115,16 @@ def plot_singular_values(fit_result, path) -> None:
     fig = new_figure((7, 3.2))
     ax = fig.subplots()
     s = np.sort(fit_result.singular_values)[::-1]
+    from matplotlib.ticker import MaxNLocator
+
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
-    ax.set_xlabel("index")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("index (largest first)")
     ax.set_ylabel("singular value (unit columns)")
     ax.set_title(f"Rank {fit_result.rank}/{len(fit_result.param_names)}, condition {fit_result.condition_number:.3g}")
     if fit_result.aliases:
         text = "\n".join(a.message for a in fit_result.aliases[:8])
-        ax.text(1.02, 1.0, "held fixed:\n" + text, transform=ax.transAxes, fontsize=6, va="top")
+        ax.text(1.02, 1.0, "held fixed:\n" + text, transform=ax.transAxes, fontsize=8, va="top")
     save_figure(fig, path)
 
 
@@ -139,32 +145,6 @@ def plot_selection(steps, path) -> None:
     save_figure(fig, path)
 
 
-def _figures(prefix, machine, obs, fit_result, folder: Path):
-    r = fit_result.residuals_um
-    figs = []
-    plot_residuals_vs_axes(machine, obs, r, folder / f"{prefix}residuals_axes.png")
-    figs.append(("Residuals against axis positions", f"{prefix}residuals_axes.png"))
-    if plot_time(obs, r, folder / f"{prefix}residuals_time.png"):
-        figs.append(("Residuals against time", f"{prefix}residuals_time.png"))
-    plot_periodogram(machine, obs, r, folder / f"{prefix}periodogram.png")
-    figs.append(("Residual periodogram", f"{prefix}periodogram.png"))
-    plot_singular_values(fit_result, folder / f"{prefix}singular_values.png")
-    figs.append(("Singular values and held parameters", f"{prefix}singular_values.png"))
-    return figs
-
-
-def _page(title, sections) -> str:
-    body = [f"<h1>{html.escape(title)}</h1>"]
-    for heading, text, figs in sections:
-        body.append(f"<h2>{html.escape(heading)}</h2>")
-        if text:
-            body.append(f"<pre>{html.escape(text)}</pre>")
-        for caption, name in figs:
-            body.append(f'<figure><img src="{name}" alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>')
-    style = "body{font-family:sans-serif;max-width:1200px;margin:auto}pre{background:#f4f4f4;padding:8px;font-size:12px}img{max-width:100%}"
-    return f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title><style>{style}</style></head><body>{''.join(body)}</body></html>\n"
-
-
 def residuals_csv(diagnosis, obs) -> str:
     """One row per alignment: pose, residual in the workpiece frame and in axis readings (µm), outlier statistics."""
     machine = diagnosis.fit.machine
@@ -183,39 +163,27 @@ def residuals_csv(diagnosis, obs) -> str:
 
 
 def plot_measured_vs_model(diagnosis, obs, path) -> None:
-    """Measured minus model readings of each solved axis, alignment by alignment, coloured by mark."""
+    """Measured minus model readings of each solved axis, alignment by alignment, a colour per mark
+    (no red: red circles mark the outliers)."""
     names = diagnosis.axis_names
-    fig = new_figure((9, 1.9 * len(names)))
+    fig = new_figure((9, 1.9 * len(names) + 0.6))
     axs = fig.subplots(len(names), 1, sharex=True, squeeze=False)
     marks = np.asarray(obs.marks)
+    colours = ["tab:blue", "tab:green", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:gray", "tab:pink",
+               "tab:orange"]
     for k, (ax, n) in enumerate(zip(axs[:, 0], names)):
-        for mark in dict.fromkeys(obs.marks):
+        for m_i, mark in enumerate(dict.fromkeys(obs.marks)):
             sel = np.flatnonzero(marks == mark)
-            ax.plot(sel + 1, diagnosis.axis_residuals_um[sel, k], ".", ms=3, label=mark if k == 0 else None)
+            ax.plot(sel + 1, diagnosis.axis_residuals_um[sel, k], ".", ms=3, color=colours[m_i % len(colours)],
+                    label=mark if k == 0 and m_i < 12 else None)
         for i in diagnosis.outliers:
-            ax.plot(i + 1, diagnosis.axis_residuals_um[i, k], "o", mfc="none", mec="tab:red", ms=7)
+            ax.plot(i + 1, diagnosis.axis_residuals_um[i, k], "o", mfc="none", mec="tab:red", ms=8)
         ax.axhline(0, color="k", lw=0.5)
         ax.set_ylabel(f"{n} (µm)")
-    axs[-1, 0].set_xlabel("alignment (red circles: outliers)")
-    axs[0, 0].legend(fontsize=6, ncol=8, markerscale=3)
+    axs[-1, 0].set_xlabel("alignment (red circles: possible outliers)")
+    axs[0, 0].legend(fontsize=8, ncol=6, markerscale=3, loc="upper right")
     fig.suptitle("Measured minus model readings")
     save_figure(fig, path)
-
-
-def diagnosis_report(diagnosis, obs, folder) -> Path:
-    """Write the plots, ``residuals.csv`` and ``index.html`` of one diagnosis into ``folder``; returns the page's path."""
-    folder = _outdir(folder)
-    machine = diagnosis.fit.machine
-    figs = _figures("", machine, obs, diagnosis.fit, folder)
-    write_text(folder / "residuals.csv", residuals_csv(diagnosis, obs))
-    if diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
-        plot_measured_vs_model(diagnosis, obs, folder / "measured_vs_model.png")
-        figs.append(("Measured minus model readings (table: residuals.csv)", "measured_vs_model.png"))
-    if plot_maps(diagnosis.fit, folder / "maps.png"):
-        figs.append(("Identified error maps with ±2σ band", "maps.png"))
-    page = folder / "index.html"
-    write_text(page, _page("kinid diagnosis", [("Diagnosis", diagnosis.text(top=15), figs), ("Fit", diagnosis.fit.table(), [])]))
-    return page
 
 
 def plot_maps(fit_result, path) -> bool:
@@ -246,21 +214,314 @@ def plot_maps(fit_result, path) -> bool:
     return True
 
 
-def selection_report(steps, obs, folder, *, preface: str = "") -> Path:
+def _covariance(fit_result, obs) -> np.ndarray:
+    """Covariance of the parameters (P, P), zero rows for held ones: the fit's standard deviations with the
+    correlations of the Jacobian at the fit."""
+    from .residuals import design, residuals
+
+    machine = fit_result.machine
+    d = design(machine, fit_result.effects, obs)
+    _, J, _ = residuals(machine, d, obs, fit_result.theta)
+    ok = np.asarray(fit_result.identifiable, bool)
+    A = J.reshape(-1, J.shape[2])[:, ok]
+    inv = np.linalg.pinv(A.T @ A)
+    sd = np.sqrt(np.clip(np.diag(inv), 1e-300, None))
+    corr = inv / np.outer(sd, sd)
+    std = np.nan_to_num(np.asarray(fit_result.std, float)[ok])
+    cov = np.zeros((ok.size, ok.size))
+    cov[np.ix_(ok, ok)] = corr * np.outer(std, std)
+    return cov
+
+
+def _varying_joints(fit_result) -> dict:
+    """Error code -> list of (effect, parameter slice) for effects driven by an axis position."""
+    out, k = {}, 0
+    for e in fit_result.effects:
+        if e.basis in ("poly", "periodic", "map"):
+            out.setdefault(e.code, []).append((e, slice(k, k + e.n_params)))
+        k += e.n_params
+    return out
+
+
+def plot_identified_errors(fit_result, obs, path) -> bool:
+    """Each identified position-dependent error against its axis over the measured range, with its ±2σ
+    band (k = 2, from the parameters' covariance). False if the model has none."""
+    from .effects import basis_values
+
+    joints = _varying_joints(fit_result)
+    if not joints:
+        return False
+    machine = fit_result.machine
+    cov = _covariance(fit_result, obs)
+    theta = fit_result.theta
+    fig = new_figure((7.5, 2.9 * len(joints) + 0.4))
+    axes = fig.subplots(len(joints), 1, squeeze=False)[:, 0]
+    for ax, (code, parts) in zip(axes, joints.items()):
+        axis = parts[0][0].axis
+        j = machine.axis_names.index(axis)
+        q = obs.axes[:, j]
+        grid = np.linspace(np.nanmin(q), np.nanmax(q), 600)
+        poses = np.zeros((grid.size, len(machine.axes)))
+        poses[:, j] = grid
+        B = np.zeros((grid.size, theta.size))
+        for e, sl in parts:
+            B[:, sl] = basis_values(e, machine, poses)
+        value = B @ theta
+        band = 2 * np.sqrt(np.clip(np.einsum("np,pq,nq->n", B, cov, B), 0, None))
+        unit = "µm" if parts[0][0].unit == "um" else "µrad"
+        axis_unit = "mm" if machine.axis(axis).kind == "prismatic" else "deg"
+        ax.fill_between(grid, value - band, value + band, color="tab:blue", alpha=0.25, label="±2σ (k = 2)")
+        ax.plot(grid, value, color="tab:blue", lw=1.4, label=" + ".join(e.name for e, _ in parts))
+        ax.axhline(0, color="0.5", lw=0.8)
+        ax.set_xlabel(f"{axis} position ({axis_unit})")
+        ax.set_ylabel(f"{code} ({unit})")
+        from .names import axis_directions, plain_name
+
+        ax.set_title(f"{code}: {plain_name(code, axis_directions(machine))}", fontsize=10)
+        ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)
+    return True
+
+
+def plot_binned_residuals(machine, obs, r_um, sigma_um, path) -> None:
+    """Mean residual per bin of each axis position, each component, against the noise band ±2σ/√n:
+    structure the scatter hides (a periodic error of a few µm) stands out of the band."""
+    n_ax = len(machine.axes)
+    fig = new_figure((3.3 * n_ax, 3.4))
+    axs = fig.subplots(1, n_ax, sharey=True, squeeze=False)[0]
+    colours = ("tab:blue", "tab:orange", "tab:green")
+    for j, (ax, a) in enumerate(zip(axs, machine.axes)):
+        q = obs.axes[:, j]
+        values = np.unique(q[np.isfinite(q)])
+        if values.size <= 16:  # preset positions (rotary axes of a plan): one bin each
+            edges = np.r_[values - 1e-9, values[-1] + 1e-9] if values.size else np.array([0.0, 1.0])
+            centres = values
+            which = np.searchsorted(values, q)
+        else:  # equal-count bins, narrow enough to show a lead error of a few mm
+            n_bins = int(np.clip(q.size // 10, 8, 40))
+            edges = np.quantile(q, np.linspace(0, 1, n_bins + 1))
+            edges[-1] += 1e-9
+            centres = 0.5 * (edges[:-1] + edges[1:])
+            which = np.clip(np.searchsorted(edges, q, side="right") - 1, 0, len(centres) - 1)
+        counts = np.array([(which == b).sum() for b in range(len(centres))])
+        keep = counts > 0
+        half = 2 * sigma_um / np.sqrt(np.maximum(counts, 1))
+        ax.fill_between(centres[keep], -half[keep], half[keep], color="0.85", step="mid", label="±2σ/√n")
+        for comp in range(3):
+            mean = np.array([r_um[which == b, comp].mean() if counts[b] else np.nan for b in range(len(centres))])
+            ax.plot(centres[keep], mean[keep], "o-", ms=3, lw=1, color=colours[comp], label=f"{'xyz'[comp]}")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel(a.column)
+    axs[0].set_ylabel("mean residual per bin (µm)")
+    axs[0].legend(fontsize=8, loc="upper left")
+    fig.suptitle(f"Residuals binned by axis position (grey: where the mean of noise σ = {sigma_um:.3g} µm falls)")
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)
+
+
+def _figures(prefix, machine, obs, fit_result, folder: Path):
+    r = fit_result.residuals_um
+    figs = []
+    plot_binned_residuals(machine, obs, r, fit_result.noise_um, folder / f"{prefix}residuals_binned.png")
+    figs.append(Figure(f"{prefix}residuals_binned.png", "Mean residual per bin of each axis position, against the "
+                       "band where the mean of pure noise falls (95 %)"))
+    plot_residuals_vs_axes(machine, obs, r, folder / f"{prefix}residuals_axes.png")
+    figs.append(Figure(f"{prefix}residuals_axes.png", "Every residual against the axis positions"))
+    if plot_time(obs, r, folder / f"{prefix}residuals_time.png"):
+        figs.append(Figure(f"{prefix}residuals_time.png", "Residuals against time"))
+    plot_periodogram(machine, obs, r, folder / f"{prefix}periodogram.png")
+    figs.append(Figure(f"{prefix}periodogram.png", "Residual periodogram (red lines: the library's periods)"))
+    plot_singular_values(fit_result, folder / f"{prefix}singular_values.png")
+    figs.append(Figure(f"{prefix}singular_values.png", "Singular values of the scaled Jacobian, and the parameters "
+                       "held fixed"))
+    return figs
+
+
+def _fmt(v: float, u: float) -> tuple:
+    """Value and expanded uncertainty as strings with the uncertainty's two significant digits."""
+    if not np.isfinite(u) or u <= 0:
+        return f"{v:.4g}", "—"
+    digits = max(0, 1 - int(np.floor(np.log10(u))))
+    return f"{v:.{digits}f}", f"{u:.{digits}f}"
+
+
+def errors_table(fit_result, *, caption="") -> Table:
+    """The identified parameters: code, plain name, how it varies, value, unit, U (k = 2)."""
+    from .names import axis_directions, effect_description, plain_name
+
+    axes = axis_directions(fit_result.machine)
+    rows, k = [], 0
+    for e in fit_result.effects:
+        axis_unit = ""
+        if e.axis:
+            axis_unit = "mm" if fit_result.machine.axis(e.axis).kind == "prismatic" else "deg"
+        for i, name in enumerate(e.param_names()):
+            unit = fit_result.units[k + i].replace("um", "µm").replace("urad", "µrad")
+            if fit_result.identifiable[k + i]:
+                v, u = _fmt(fit_result.values[k + i], 2 * fit_result.std[k + i])
+            else:
+                v, u = "held", "—"
+            rows.append((name, plain_name(e.code, axes) if i == 0 else "",
+                         effect_description(e, axis_unit) if i == 0 else "", v, u, unit))
+        k += e.n_params
+    return Table(("error", "what it is", "how it varies", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(3, 4),
+                 caption=caption or "U: expanded uncertainty, k = 2 (twice the standard deviation at the σ used); "
+                                    "held: not identifiable from these data (see below)")
+
+
+def tool_motion_um(fit_result, obs, *, setup: bool = False) -> float:
+    """Largest displacement of the tool point, over the measured poses, that the identified errors cause, µm;
+    without the set-up of the workpiece and the sensor (W, T) unless ``setup``."""
+    from .machine import evaluate
+    from .residuals import design, joint_values
+
+    machine = fit_result.machine
+    d = design(machine, fit_result.effects, obs)
+    values = joint_values(machine, d, fit_result.theta)
+    if not setup:
+        values[:, [j.axis in ("W", "T") for j in machine.error_joints]] = 0.0
+    moved = evaluate(machine, obs.axes, values, jacobian=False)
+    nominal = evaluate(machine, obs.axes, np.zeros(len(machine.error_joints)), jacobian=False)
+    return float(np.max(np.linalg.norm(moved - nominal, axis=1)) * 1e3)
+
+
+def _num(x: float) -> str:
+    """A number for a sentence: 3 significant digits, no exponent below a million."""
+    return f"{x:.3g}" if abs(x) < 100 else f"{x:,.0f}"
+
+
+def _largest(fit_result, n=3) -> str:
+    """The identified errors of largest size relative to their uncertainty, in words."""
+    from .names import axis_directions, plain_name
+
+    axes = axis_directions(fit_result.machine)
+    scored, k = [], 0
+    for e in fit_result.effects:
+        sl = slice(k, k + e.n_params)
+        if e.code.endswith(("0W", "0T")):  # where the board and the sensor sit: not the machine's error
+            k += e.n_params
+            continue
+        ok = np.asarray(fit_result.identifiable[sl], bool)
+        if ok.any():
+            v = np.asarray(fit_result.values[sl])[ok]
+            sd = np.asarray(fit_result.std[sl])[ok]
+            size = float(np.hypot.reduce(v)) if v.size > 1 else float(abs(v[0]))
+            z = size / max(float(np.hypot.reduce(sd)), 1e-300)
+            unit = fit_result.units[k].replace("um", "µm").replace("urad", "µrad").split("/")[0]
+            scored.append((z, f"{plain_name(e.code, axes)} ({e.name}, {_num(size)} {unit})"))
+        k += e.n_params
+    scored.sort(reverse=True)
+    return "; ".join(t for z, t in scored[:n] if z > 3) or "no error stands out of its uncertainty"
+
+
+def _provenance(fit_result, obs, extra=()) -> list:
+    import hashlib
+
+    from kinid.report_html import file_provenance, now_utc
+
+    m = fit_result.machine
+    urdf = hashlib.sha256(m.urdf.encode()).hexdigest()
+    rows = [("machine", f"{Path(m.path).name} (URDF SHA-256 {urdf})")]
+    if obs is not None and obs.source and not obs.source.startswith("<"):
+        rows.append(("data", file_provenance(obs.source)))
+    elif obs is not None:
+        rows.append(("data", f"{obs.source} ({len(obs)} rows)"))
+    rows += list(extra)
+    rows += [("alignments", f"{fit_result.n_observations}" + (f" ({len(fit_result.set_aside)} set aside as gross "
+                                                                f"errors)" if fit_result.set_aside else "")),
+             ("noise σ used", f"{fit_result.noise_um:.3g} µm per coordinate ({fit_result.noise_source})"),
+             ("made", now_utc())]
+    return rows
+
+
+def _summary(diagnosis, obs) -> list:
+    f = diagnosis.fit
+    moved = tool_motion_um(f, obs)
+    first = (f"The machine's identified errors (the board's and the sensor's set-up aside) move the tool point by "
+             f"up to {_num(moved)} µm over the measured poses; the clearest: {_largest(f)}.")
+    if diagnosis.verdict == "noise":
+        second = (f"The model explains the data to the noise (residual {diagnosis.rms_um:.3g} µm per coordinate, "
+                  f"σ {diagnosis.noise_um:.3g} µm){': ' + diagnosis.note if diagnosis.note else ''}; next: load the "
+                  f"compensation (kinid compensate --fit FIT.json --out DIR).")
+    else:
+        best = diagnosis.live[0] if diagnosis.live else None
+        if best is not None and best.p_value < diagnosis.threshold:
+            second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
+                      f"shows an effect the model lacks, most likely {best.effect} (p = {best.p_value:.2g}); next: "
+                      f"kinid identify ... --add {best.effect}.")
+        else:
+            second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate) exceeds the noise "
+                      f"(σ {diagnosis.noise_um:.3g} µm) but no candidate explains it; look at the binned residuals "
+                      f"below, or check the URDF for missing error joints.")
+    return [first, second]
+
+
+def diagnosis_report(diagnosis, obs, folder, *, provenance=()) -> Path:
+    """Write the plots, ``residuals.csv`` and ``index.html`` of one diagnosis into ``folder``; returns the page's path."""
+    folder = _outdir(folder)
+    f = diagnosis.fit
+    machine = f.machine
+    figs = _figures("", machine, obs, f, folder)
+    write_text(folder / "residuals.csv", residuals_csv(diagnosis, obs))
+    if diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
+        plot_measured_vs_model(diagnosis, obs, folder / "measured_vs_model.png")
+        figs.append(Figure("measured_vs_model.png", "Measured minus model readings, alignment by alignment "
+                                                    "(the numbers: residuals.csv)"))
+    error_figs = []
+    if plot_identified_errors(f, obs, folder / "errors.png"):
+        error_figs.append(Figure("errors.png", "Identified position-dependent errors against their axes, with the "
+                                               "±2σ band (k = 2)"))
+    if plot_maps(f, folder / "maps.png"):
+        error_figs.append(Figure("maps.png", "Identified error maps at their knots with the ±2σ band"))
+    live = diagnosis.live[:10]
+    cand = Table(("rank", "effect", "p-value", "RMS after (µm)", "size", "± std"),
+                 tuple((str(i), c.effect, f"{c.p_value:.2g}", f"{c.rms_after_um:.3f}", f"{c.size:.4g}",
+                        f"{c.size_std:.2g} {c.size_unit.replace('um', 'µm').replace('urad', 'µrad')}")
+                       for i, c in enumerate(live, 1)), numeric=(0, 2, 3, 4, 5),
+                 caption=f"Threshold for a missing effect: p < {diagnosis.threshold:.3g} (0.001 over the candidates tested)")
+    sections = [
+        Section("Identified errors", tables=(errors_table(f),), figures=tuple(error_figs)),
+        Section("Where the model fails", paragraphs=(f"Verdict: {diagnosis.verdict}. Residual {diagnosis.rms_um:.3f} µm "
+                                                     f"per coordinate; σ {diagnosis.noise_um:.3f} µm ({diagnosis.noise_source}).",),
+                tables=(cand,) if live else (), figures=tuple(figs), details=diagnosis.text(top=15) + "\n\n" + f.table()),
+    ]
+    page = folder / "index.html"
+    write_text(page, report_page("Machine diagnosis", f"kinid diagnose: {Path(machine.path).name}",
+                                 _provenance(f, obs, provenance), _summary(diagnosis, obs), sections))
+    return page
+
+
+def selection_report(steps, obs, folder, *, preface: str = "", provenance=()) -> Path:
     """Write the forward-selection report (falling error, first and last residual plots) into ``folder``."""
     folder = _outdir(folder)
     machine = steps[0].fit.machine
     plot_selection(steps, folder / "rms_steps.png")
-    sections = [("The error falls as effects are added", preface, [("Residual RMS per step against σ", "rms_steps.png")])]
     first = steps[0].data if getattr(steps[0], "data", None) is not None else obs  # gross errors set aside
     last = steps[-1].data if getattr(steps[-1], "data", None) is not None else obs
-    sections.append(("Default model: where it fails", steps[0].diagnosis.text(top=10), _figures("before_", machine, first, steps[0].fit, folder)))
+    final = steps[-1].fit
+    table = Table(("step", "model", "residual RMS (µm)", "σ (µm)", "verdict"),
+                  tuple((str(i), "default model" if i == 0 else f"+ {s.added}", f"{s.diagnosis.rms_um:.3f}",
+                         f"{s.diagnosis.noise_um:.3f}", s.diagnosis.verdict) for i, s in enumerate(steps)),
+                  numeric=(0, 2, 3))
+    error_figs = []
+    if plot_identified_errors(final, last, folder / "errors.png"):
+        error_figs.append(Figure("errors.png", "Identified position-dependent errors against their axes, with the "
+                                               "±2σ band (k = 2)"))
+    if plot_maps(final, folder / "maps.png"):
+        error_figs.append(Figure("maps.png", "Identified error maps at their knots with the ±2σ band"))
+    sections = [
+        Section("The error falls as effects are added", paragraphs=tuple(p.strip() for p in preface.splitlines() if p.strip()),
+                tables=(table,), figures=(Figure("rms_steps.png", "Residual RMS per step against the noise σ"),)),
+        Section("Identified errors (final model)", tables=(errors_table(final),), figures=tuple(error_figs)),
+        Section("Default model: where it fails", figures=tuple(_figures("before_", machine, first, steps[0].fit, folder)),
+                details=steps[0].diagnosis.text(top=10)),
+    ]
     if len(steps) > 1:
-        sections.append(("Final model", steps[-1].diagnosis.text(top=5), _figures("after_", machine, last, steps[-1].fit, folder)))
-    if plot_maps(steps[-1].fit, folder / "maps.png"):
-        sections.append(("Non-parametric error maps", "", [("Identified maps with ±2σ band", "maps.png")]))
+        sections.append(Section("Final model: what is left", figures=tuple(_figures("after_", machine, last, final, folder)),
+                                details=steps[-1].diagnosis.text(top=5) + "\n\n" + final.table()))
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
-    sections.append(("Final fit", steps[-1].fit.table(), []))
     page = folder / "index.html"
-    write_text(page, _page("kinid: compare, diagnose, add, watch the error fall", sections))
+    write_text(page, report_page("Machine calibration: compare, diagnose, add", f"kinid: {Path(machine.path).name}",
+                                 _provenance(final, last, provenance), _summary(steps[-1].diagnosis, last), sections))
     return page

@@ -1,0 +1,130 @@
+"""One HTML page layout for every kinid report: provenance, a summary, tables, figures, details.
+
+Plain Python string building with :func:`html.escape`; no template engine. A report is made of a
+title, provenance rows (what was measured, with which files and checksums, when, by which kinid),
+a summary of a few sentences, and sections holding paragraphs, tables and figures (PNG files beside
+the page), with the full text output folded away at the end.
+"""
+from __future__ import annotations
+
+import hashlib
+import html
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+__all__ = ["Table", "Figure", "Section", "report_page", "file_provenance", "now_utc"]
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table: header cells and rows of cells (str); columns in ``numeric`` are right-aligned."""
+
+    header: tuple
+    rows: tuple
+    numeric: tuple = ()
+    caption: str = ""
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A PNG beside the page and its caption."""
+
+    file: str
+    caption: str
+
+
+@dataclass(frozen=True)
+class Section:
+    """A heading with paragraphs, tables, figures and an optional folded block of plain text."""
+
+    heading: str
+    paragraphs: tuple = ()
+    tables: tuple = ()
+    figures: tuple = ()
+    details: str = ""
+    details_title: str = "Full text output"
+
+
+def now_utc() -> str:
+    """The date and time, UTC, to the second."""
+    return datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def file_provenance(path) -> str:
+    """``name (sha256 abcd…, N bytes)`` of a file, or its name alone when it cannot be read."""
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except OSError:
+        return p.name
+    return f"{p.name} (SHA-256 {hashlib.sha256(data).hexdigest()}, {len(data):,} bytes)"
+
+
+_STYLE = """
+body{font-family:-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;color:#1d2327;max-width:1080px;margin:2em auto;
+padding:0 1.5em;line-height:1.45;font-size:15px}
+h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.2em;margin-top:1.8em;border-bottom:1px solid #d0d7de;padding-bottom:.2em}
+.sub{color:#57606a;margin-top:0}
+table{border-collapse:collapse;margin:.6em 0 1em 0;font-size:14px}
+th,td{padding:3px 10px;border-bottom:1px solid #e5e8eb;text-align:left;vertical-align:top}
+th{background:#f4f6f8;font-weight:600}td.num,th.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+table.prov td:first-child{color:#57606a;white-space:nowrap}table.prov td{border:none;padding:1px 12px 1px 0;word-break:break-all}
+.summary{background:#f0f6ff;border-left:4px solid #2f6fbf;padding:.6em 1em;margin:1em 0}
+.summary p{margin:.3em 0}
+figure{margin:1em 0 1.6em 0}figure img{max-width:100%;border:1px solid #e5e8eb}
+figcaption{color:#57606a;font-size:13px;margin-top:.3em}
+caption{caption-side:bottom;text-align:left;color:#57606a;font-size:13px;padding-top:.3em}
+details{margin:1em 0}summary{cursor:pointer;color:#2f6fbf}
+pre{background:#f6f8fa;padding:10px;font-size:12px;overflow-x:auto;line-height:1.3}
+"""
+
+
+def _table(t: Table) -> str:
+    num = set(t.numeric)
+    head = "".join(f'<th class="num">{html.escape(h)}</th>' if i in num else f"<th>{html.escape(h)}</th>"
+                   for i, h in enumerate(t.header))
+    rows = []
+    for row in t.rows:
+        rows.append("<tr>" + "".join(f'<td class="num">{html.escape(str(c))}</td>' if i in num
+                                     else f"<td>{html.escape(str(c))}</td>" for i, c in enumerate(row)) + "</tr>")
+    caption = f"<caption>{html.escape(t.caption)}</caption>" if t.caption else ""
+    return f"<table>{caption}<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def _figure(f: Figure) -> str:
+    return (f'<figure><img src="{html.escape(f.file)}" alt="{html.escape(f.caption)}">'
+            f"<figcaption>{html.escape(f.caption)}</figcaption></figure>")
+
+
+def report_page(title: str, subtitle: str, provenance, summary, sections) -> str:
+    """The HTML text of a report.
+
+    Parameters
+    ----------
+    title, subtitle : str
+    provenance : sequence of (label, value)
+        Shown under the title: what, with which files, when, by which version.
+    summary : sequence of str
+        A few sentences: what is wrong, how much it matters, what to do next.
+    sections : sequence of Section
+    """
+    from kinid import __version__
+
+    out = [f"<h1>{html.escape(title)}</h1>", f'<p class="sub">{html.escape(subtitle)}</p>']
+    prov = list(provenance) + [("report made by", f"kinid {__version__}")]
+    out.append('<table class="prov"><tbody>' + "".join(
+        f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in prov) + "</tbody></table>")
+    if summary:
+        out.append('<div class="summary">' + "".join(f"<p>{html.escape(s)}</p>" for s in summary) + "</div>")
+    for s in sections:
+        out.append(f"<h2>{html.escape(s.heading)}</h2>")
+        out += [f"<p>{html.escape(p)}</p>" for p in s.paragraphs]
+        out += [_table(t) for t in s.tables]
+        out += [_figure(f) for f in s.figures]
+        if s.details:
+            out.append(f"<details><summary>{html.escape(s.details_title)}</summary><pre>{html.escape(s.details)}</pre>"
+                       f"</details>")
+    return (f"<!doctype html><html lang='en'><head><meta charset='utf-8'><meta name='viewport' "
+            f"content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title><style>{_STYLE}</style>"
+            f"</head><body>{''.join(out)}</body></html>\n")

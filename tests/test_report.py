@@ -1,0 +1,81 @@
+"""The HTML report: provenance with checksums, identified errors with plain names and k = 2 uncertainties,
+figures that exist, one unit style."""
+from __future__ import annotations
+
+import hashlib
+import html
+import re
+
+import pytest
+
+from kinid.cli import main
+from kinid.identification.names import plain_name
+from kinid.urdf import path as urdf_path
+
+MACHINE = str(urdf_path("five_axis_bc"))
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    d = tmp_path_factory.mktemp("report")
+    (d / "errors.json").write_text('{"EX0C": 12.0, "EXX:periodic:10": [2.0, 1.0]}')
+    assert main(["simulate", "--machine", MACHINE, "--errors", str(d / "errors.json"), "--noise-um", "1",
+                 "--out", str(d / "obs.csv")]) == 0
+    assert main(["identify", "--machine", MACHINE, "--data", str(d / "obs.csv"), "--add", "EXX:periodic:10",
+                 "--noise-um", "1", "--out", str(d / "fit.json")]) == 0
+    assert main(["diagnose", "--fit", str(d / "fit.json"), "--data", str(d / "obs.csv"), "--report", str(d / "rep")]) == 0
+    return d, (d / "rep" / "index.html").read_text()
+
+
+def _text(page):
+    body = page[page.index("<body>"):]
+    return re.sub(r"\s+", " ", html.unescape(re.sub(r"<[^>]+>", " ", body)))
+
+
+def test_provenance_names_files_with_their_checksums(report):
+    d, page = report
+    text = _text(page)
+    assert hashlib.sha256((d / "obs.csv").read_bytes()).hexdigest() in text
+    assert hashlib.sha256((d / "fit.json").read_bytes()).hexdigest() in text
+    assert hashlib.sha256(open(MACHINE, encoding="utf-8").read().encode()).hexdigest() in text
+    assert "noise σ used" in text and "1 µm per coordinate (fit)" in text and "report made by kinid" in text
+    assert re.search(r"made\s+\d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC", text)
+
+
+def test_identified_errors_table(report):
+    _, page = report
+    rows = re.findall(r"<tr>(.*?)</tr>", page)
+    cells = [[html.unescape(c) for c in re.findall(r"<td[^>]*>(.*?)</td>", r)] for r in rows]
+    by_name = {c[0]: c for c in cells if c}
+    sin = by_name["EXX:periodic:10[sin]"]
+    assert sin[1] == "positioning error of X" and sin[2] == "periodic in X, period 10 mm" and sin[5] == "µm"
+    assert float(sin[3]) == pytest.approx(2.0, abs=0.5) and 0 < float(sin[4]) < 0.6  # U = 2σ
+    assert by_name["EX0C"][1] == "position of the C axis line in X"
+    assert by_name["EX0T"][3] == "held"
+
+
+def test_summary_and_figures(report):
+    d, page = report
+    text = _text(page)
+    assert "The model explains the data to the noise" in text and "move the tool point by up to" in text
+    images = re.findall(r'<img src="([^"]+)"', page)
+    assert {"errors.png", "residuals_binned.png", "measured_vs_model.png"} <= set(images)
+    for name in images:
+        assert (d / "rep" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_one_unit_style(report):
+    _, page = report
+    text = _text(page)
+    assert not re.search(r"\d\s?um\b|\burad\b|\+-", text), re.findall(r".{30}(?:\d\s?um\b|\burad\b|\+-).{10}", text)[:3]
+
+
+@pytest.mark.parametrize("code, name", [
+    ("EXX", "positioning error of X"), ("EYX", "straightness of X in Y"), ("EAX", "roll of X"),
+    ("ECC", "angular positioning error of C"), ("EXC", "radial motion of C in X"), ("EZC", "axial motion of C"),
+    ("EAC", "tilt motion of C about X"), ("EC0Y", "squareness of Y about Z"), ("EX0C", "position of the C axis line in X"),
+    ("EB0C", "tilt of the C axis line about Y"), ("EX0W", "workpiece (board) set-up offset in X"),
+    ("EC0T", "tool (sensor) set-up rotation about Z"), ("XX", "XX"),
+])
+def test_plain_names(code, name):
+    assert plain_name(code) == name
