@@ -127,3 +127,14 @@ def test_dual_axis_bad_input(capsys, argv, message):
     assert main(["dual-axis", "--data", str(EX / "dual_axis.csv"), *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1, err
+
+
+def test_backlash_report(tmp_path, capsys):
+    import hashlib
+
+    assert main(["backlash", "--log", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4", "--report",
+                 str(tmp_path / "rep")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert hashlib.sha256((EX / "backlash" / "log.csv").read_bytes()).hexdigest() in page
+    assert "backlash of X</td><td class=\"num\">4.003" in page and "The stage loses" in page
+    assert (tmp_path / "rep" / "backlash.png").read_bytes()[:4] == b"\x89PNG"

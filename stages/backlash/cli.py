@@ -33,6 +33,7 @@ def register(subparsers) -> None:
     p.add_argument("--tables", metavar="DIR", help="write X and Y backlash as controller tables (LinuxCNC, TwinCAT CNC)")
     p.add_argument("--plot", metavar="OUT.png", help="write a plot: reversal gaps before and after compensation")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument("--report", metavar="DIR", help="write an HTML report (with the plot) into DIR")
     sim = p.add_argument_group("simulated stage (--simulate)")
     sim.add_argument("--backlash-x-um", type=float, default=4.0, help="true X backlash, µm (default 4)")
     sim.add_argument("--backlash-y-um", type=float, default=3.0, help="true Y backlash, µm (default 3)")
@@ -47,7 +48,7 @@ def register(subparsers) -> None:
                      help="random X/Y positioning scatter per move, µm (default 0)")
     sim.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.set_defaults(run=_run, parameter_options={"n_targets": "--targets"},
-                   outputs={"out": "file", "plot": "file", "plan_out": "file", "tables": "folder"})
+                   outputs={"out": "file", "plot": "file", "plan_out": "file", "tables": "folder", "report": "folder"})
 
 
 def _truth(stage) -> dict:
@@ -108,15 +109,17 @@ def _run(args) -> int:
         write_json(args.out, _result_json(res, source, truth))
     if args.tables:
         _write_tables(res, args.tables, args.travel_mm)
-    if args.plot:
-        after = None
-        if args.simulate:  # measure again through the compensation: the gaps that are left
-            from .compensated import CompensatedStage
+    after = None
+    if (args.plot or args.report) and args.simulate:  # measure again through the compensation: the gaps left
+        from .compensated import CompensatedStage
 
-            after = calibrate(CompensatedStage(stage, (res.backlash_x_mm, res.backlash_y_mm, res.backlash_theta_deg)),
-                              travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
-                              n_targets=args.targets)
+        after = calibrate(CompensatedStage(stage, (res.backlash_x_mm, res.backlash_y_mm, res.backlash_theta_deg)),
+                          travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
+                          n_targets=args.targets)
+    if args.plot:
         plot_result(res, args.plot, truth=truth, after=after)
+    if args.report:
+        _report(res, args, truth, after, source)
     if args.json:
         out = {"measured": measured, "source": source}
         if truth is not None:
@@ -156,10 +159,60 @@ def _run(args) -> int:
           f"Y {measured['iso_mean_reversal_y_um']:+.3f} µm")
     print(f"patent formula r·|p1-p2|: X {res.backlash_x_patent_mm * 1e3:.3f} µm, "
           f"Y {res.backlash_y_patent_mm * 1e3:.3f} µm, θ {res.backlash_theta_patent_deg:.5f}°")
-    for flag, value in (("result", args.out), ("tables", args.tables), ("plot", args.plot)):
+    for flag, value in (("result", args.out), ("tables", args.tables), ("plot", args.plot),
+                        ("report", args.report and str(Path(args.report) / "index.html"))):
         if value:
             print(f"{flag} written to {value}")
     return 0
+
+
+def _report(res, args, truth, after, source) -> None:
+    """The HTML report of a backlash calibration (kinid.report_html)."""
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_result(res, folder / "backlash.png", truth=truth, after=after)
+    m = res.summary()
+
+    def u(spread, n):  # expanded uncertainty of the mean of n single reversals, k = 2
+        return f"{2 * spread / np.sqrt(n):.3g}" if n > 1 else "—"
+
+    rows = [("backlash of X", f"{m['backlash_x_um']:.3f}", u(m["spread_x_um"], res.reversals_x_mm.size), "µm",
+             str(res.reversals_x_mm.size)),
+            ("backlash of Y", f"{m['backlash_y_um']:.3f}", u(m["spread_y_um"], res.reversals_y_mm.size), "µm",
+             str(res.reversals_y_mm.size)),
+            ("backlash of θ", f"{m['backlash_theta_deg']:.5f}", u(m["spread_theta_deg"], res.reversals_theta_deg.size),
+             "deg", str(res.reversals_theta_deg.size)),
+            ("pixel equivalent along X", f"{m['pixel_um_x']:.5f}", "", "µm/px", ""),
+            ("pixel equivalent along Y", f"{m['pixel_um_y']:.5f}", "", "µm/px", ""),
+            ("camera rotation", f"{m['camera_rotation_deg']:.3f}", "", "deg", ""),
+            ("ISO 230-2 reversal value B of X", f"{m['iso_reversal_x_um']:.3f}", "", "µm", ""),
+            ("ISO 230-2 reversal value B of Y", f"{m['iso_reversal_y_um']:.3f}", "", "µm", "")]
+    if truth is not None:
+        rows = [r + (f"{truth[k]:.5g}" if k in truth else "",) for r, k in zip(rows, (
+            "backlash_x_um", "backlash_y_um", "backlash_theta_deg", "pixel_um_x", "pixel_um_y", "camera_rotation_deg",
+            "backlash_x_um", "backlash_y_um"))]
+    header = ("quantity", "measured", "U (k = 2)", "unit", "reversals") + (("simulated",) if truth is not None else ())
+    table = Table(header, tuple(rows), numeric=tuple(range(1, len(header))),
+                  caption="U: expanded uncertainty of the mean of the single reversals (k = 2); one reversal gives "
+                          "none — run the plan with --repeats 3 or more")
+    summary = [f"The stage loses {m['backlash_x_um']:.3g} µm on X, {m['backlash_y_um']:.3g} µm on Y and "
+               f"{m['backlash_theta_deg']:.3g}° on θ at each reversal.",
+               "Next: load the bidirectional tables (kinid backlash --tables DIR) or the controller's backlash "
+               "parameters, then run the plan again with the compensation on to check what is left."]
+    prov = [("measured", "a simulated stage" if args.simulate else file_provenance(args.log)),
+            ("plan", f"travel ±{args.travel_mm:g} mm, ±{args.travel_deg:g}°, {args.repeats} repeat(s), "
+                     f"{args.targets} target(s); {res.moves} moves"),
+            ("made", now_utc())]
+    sections = [Section("Results", tables=(table,)),
+                Section("Photos, reversal gaps and pixel equivalent",
+                        figures=(Figure("backlash.png", "Left: the fiducial in every photo. Middle: each reversal "
+                                                        "gap along its axis, before"
+                                        + (" and after compensation" if after is not None else "")
+                                        + ". Right: the pixel equivalent of each non-reversal move."),))]
+    write_text(folder / "index.html", report_page("Stage backlash calibration", "kinid backlash", prov, summary, sections))
 
 
 def _result_json(res, source, truth) -> dict:

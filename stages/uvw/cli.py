@@ -39,6 +39,13 @@ def register(subparsers) -> None:
     p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "tables": "folder"})
 
 
+def _quantity(name: str, value: float, std: float, truth: str = "") -> str:
+    """``offset_um`` 1.653, 0.007 -> "offset 1.653 ± 0.007 µm" (the unit out of the parameter's name)."""
+    stem, _, unit = name.rpartition("_")
+    unit = {"um": "µm", "ppm": "ppm"}.get(unit, unit)
+    return f"{stem} {value:.3f} ± {std:.3f} {unit}{truth}"
+
+
 def _measured(args) -> int:
     from pathlib import Path
 
@@ -68,7 +75,7 @@ def _measured(args) -> int:
         return 0
     print(f"UVW actuator models from {args.moves} (lead {args.lead_um:g} µm; terms chosen by BIC): value ± std")
     for a, m in models.items():
-        parts = [f"{n} {v:.3f} ± {s:.3f}" for n, v, s in zip(m.names, m.values, m.std)]
+        parts = [_quantity(n, v, s) for n, v, s in zip(m.names, m.values, m.std)]
         print(f"  {a} ({m.commands_um.size} moves, degree {m.degree}, {m.harmonics} harmonics): " + ", ".join(parts))
         print(f"      residual RMS {m.rms_um:.3f} µm over {m.span_um[0]:g} .. {m.span_um[1]:g} µm")
     for flag, value in (("model", args.out), ("tables", args.tables), ("plot", args.plot)):
@@ -158,7 +165,7 @@ def _report(r: dict, plot) -> str:
         parts = []
         for name, v in m["parameters"].items():
             t = f" ({v['truth']:g})" if "truth" in v else ""
-            parts.append(f"{name} {v['value']:.3f} ± {v['std']:.3f}{t}")
+            parts.append(_quantity(name, v["value"], v["std"], t))
         lines.append(f"  {n} (degree {m['degree']}, {m['harmonics']} harmonics): " + ", ".join(parts))
         lines.append(f"      residual rms {m['rms_um']:.3f} µm; without the periodic terms "
                      f"{m['linear_only_rms_um']:.3f} µm (what the patent's linear model misses)")
@@ -174,7 +181,7 @@ def _report(r: dict, plot) -> str:
     lines += ["", "Stage moves (x, y and rotation together; max |error|):"]
     for k, s in r["stage"].items():
         lines.append(f"  {k:14s} x {s['max_x_um']:.2f} µm  y {s['max_y_um']:.2f} µm  "
-                     f"theta {s['max_theta_urad']:.2f} urad")
+                     f"theta {s['max_theta_urad']:.2f} µrad")
     if plot:
         lines += ["", f"plot written to {plot}"]
     return "\n".join(lines)
