@@ -548,11 +548,12 @@ def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool, offs
 
     With ``offsets_m`` (n, 3), the point is the tool point plus that offset in the tool frame, m.
 
-    One Pinocchio call per pose (``computeJointJacobians`` or ``forwardKinematics``); the loop then
-    only copies the world-frame joint Jacobian ``data.J`` and the placements of the two frames' parent
-    joints. The frames' placements and their LOCAL_WORLD_ALIGNED Jacobians are formed afterwards for
-    all poses at once: the velocity of a point p of a body is v_O + ω × p, so its Jacobian is
-    J_lin − [p]× J_ang over the columns of the joints that carry the body.
+    One Pinocchio call per pose (``computeJointJacobians`` or ``forwardKinematics``); the loop then only
+    copies, from live views into Pinocchio's data, the world-frame joint Jacobian ``data.J`` and the
+    placements of the two frames' parent joints. The rest is done for all poses at once. The point p_t
+    rides on the tool chain and the workpiece frame on the other chain, so their supports are disjoint,
+    and the derivative of R_wᵀ (p_t − p_w) with respect to joint k is ±R_wᵀ (J_lin,k − p_t × J_ang,k):
+    + on the tool chain, − on the workpiece chain (the workpiece frame turns about the same point).
     """
     model = machine.model
     n = qs.shape[0]
@@ -562,47 +563,44 @@ def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool, offs
     Rt_j, pt_j = np.empty((n, 3, 3)), np.empty((n, 3))
     J = np.empty((n, 6, model.nv)) if jacobian else None
     kinematics = pin.computeJointJacobians if jacobian else pin.forwardKinematics
-    oMi = data.oMi
+    # live views into Pinocchio's data: refreshed by every call, copied out without conversion
+    Mw, Mt = data.oMi[jw], data.oMi[jt]
+    rw, tw, rt, tt = Mw.rotation, Mw.translation, Mt.rotation, Mt.translation
+    Jv = data.J
     for i in range(n):
         kinematics(model, data, qs[i])
-        Mw, Mt = oMi[jw], oMi[jt]
-        Rw_j[i], pw_j[i] = Mw.rotation, Mw.translation
-        Rt_j[i], pt_j[i] = Mt.rotation, Mt.translation
+        Rw_j[i], pw_j[i], Rt_j[i], pt_j[i] = rw, tw, rt, tt
         if jacobian:
-            J[i] = data.J
+            J[i] = Jv
     # frame placements: oMf = oMi · (frame placement in its joint)
     Rw = Rw_j @ wf.placement.rotation
-    pw = np.einsum("nij,j->ni", Rw_j, wf.placement.translation) + pw_j
-    pt = np.einsum("nij,j->ni", Rt_j, tf.placement.translation) + pt_j
+    pw = Rw_j @ wf.placement.translation + pw_j
+    pt = Rt_j @ tf.placement.translation + pt_j
     if offsets_m is not None:  # a point fixed to the tool: p_t + R_t d, R_t = R_joint · R_frame
-        pt = pt + np.einsum("nij,nj->ni", Rt_j @ tf.placement.rotation, offsets_m)
-    delta = pt - pw
-    p = np.einsum("nji,nj->ni", Rw, delta) * 1e3  # R_wᵀ (p_t − p_w), mm
+        pt = pt + ((Rt_j @ tf.placement.rotation) @ offsets_m[:, :, None])[:, :, 0]
+    RwT = Rw.transpose(0, 2, 1)
+    p = (RwT @ (pt - pw)[:, :, None])[:, :, 0] * 1e3  # R_wᵀ (p_t − p_w), mm
     if not jacobian:
         return p
     lin, ang = J[:, :3], J[:, 3:]
+    x, y, z = pt[:, 0, None], pt[:, 1, None], pt[:, 2, None]
+    D = np.empty((n, 3, model.nv))
+    D[:, 0] = lin[:, 0] - (y * ang[:, 2] - z * ang[:, 1])
+    D[:, 1] = lin[:, 1] - (z * ang[:, 0] - x * ang[:, 2])
+    D[:, 2] = lin[:, 2] - (x * ang[:, 1] - y * ang[:, 0])
+    D *= _chain_signs(machine, jw, jt)
+    return p, RwT @ D
 
-    def point_jacobian(point, joint):
-        """Linear velocity Jacobian (n, 3, nv) of a point carried by ``joint``: J_lin − [p]× J_ang, its columns only."""
-        cols = _support_columns(machine, joint)
-        out = np.zeros((n, 3, model.nv))
-        x, y, z = point[:, 0, None], point[:, 1, None], point[:, 2, None]
-        a = ang[:, :, cols]
-        out[:, 0, cols] = lin[:, 0, cols] - (y * a[:, 2] - z * a[:, 1])
-        out[:, 1, cols] = lin[:, 1, cols] - (z * a[:, 0] - x * a[:, 2])
-        out[:, 2, cols] = lin[:, 2, cols] - (x * a[:, 1] - y * a[:, 0])
-        return out
 
-    vt = point_jacobian(pt, jt)
-    vw = point_jacobian(pw, jw)
-    cols_w = _support_columns(machine, jw)
-    w = np.zeros((n, 3, model.nv))
-    w[:, :, cols_w] = ang[:, :, cols_w]  # angular velocity Jacobian of the workpiece
-    # d(R_wᵀ δ) = R_wᵀ (v_t − v_w + δ × ω_w)
-    cross = np.stack([delta[:, 1, None] * w[:, 2] - delta[:, 2, None] * w[:, 1],
-                      delta[:, 2, None] * w[:, 0] - delta[:, 0, None] * w[:, 2],
-                      delta[:, 0, None] * w[:, 1] - delta[:, 1, None] * w[:, 0]], axis=1)
-    return p, np.einsum("nji,njk->nik", Rw, vt - vw + cross)
+def _chain_signs(machine: Machine, jw: int, jt: int) -> np.ndarray:
+    """(nv,) +1 on the velocity columns of the tool chain, −1 on the workpiece chain's, 0 elsewhere."""
+    cache = machine.__dict__.setdefault("_sign_cache", {})
+    if (jw, jt) not in cache:
+        signs = np.zeros(machine.model.nv)
+        signs[_support_columns(machine, jt)] = 1.0
+        signs[_support_columns(machine, jw)] = -1.0
+        cache[(jw, jt)] = signs
+    return cache[(jw, jt)]
 
 
 def tool_rotation_in_workpiece(machine: Machine, axes_user, errors_user) -> np.ndarray:
