@@ -24,7 +24,8 @@ import numpy as np
 
 from .errors import DataError
 
-__all__ = ["check_number", "check_positive", "check_nonnegative", "check_int", "check_array", "check_choice"]
+__all__ = ["check_number", "check_positive", "check_nonnegative", "check_int", "check_array", "check_choice",
+           "check_image", "check_instance", "check_methods"]
 
 
 def check_number(name: str, value, *, error=DataError) -> float:
@@ -95,6 +96,45 @@ def check_choice(name: str, value, choices, *, error=DataError):
     """``value`` if it is one of ``choices``."""
     if value not in choices:
         raise error(f"must be one of {', '.join(map(repr, choices))}, got {value!r}", parameter=name)
+    return value
+
+
+def check_image(name: str, value, *, error=DataError) -> np.ndarray:
+    """``value`` as an image array: 2-D (grey) or 3-D with 1, 3 or 4 channels, real numbers, not empty.
+
+    A file name is refused with the hint to read it first (kinid.files.read_image).
+    """
+    if isinstance(value, (str, bytes)) or hasattr(value, "__fspath__"):
+        raise error(f"must be an image array, got a path {str(value)!r}; read it with kinid.files.read_image(path)",
+                    parameter=name)
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        arr = np.asarray(None)
+    if arr.dtype.kind not in "uif" or not (arr.ndim == 2 or (arr.ndim == 3 and arr.shape[2] in (1, 3, 4))):
+        raise error(f"must be a 2-D grey image or an (H, W, 3) colour image of numbers, got "
+                    f"{type(value).__name__} with shape {getattr(arr, 'shape', ())}", parameter=name)
+    if arr.size == 0:
+        raise error("must not be empty", parameter=name)
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise error("must hold finite numbers (found NaN or infinity)", parameter=name)
+    return arr
+
+
+def check_instance(name: str, value, kind, *, hint: str = "", error=DataError):
+    """``value`` if it is an instance of ``kind`` (a class or tuple of classes)."""
+    if not isinstance(value, kind):
+        want = kind.__name__ if isinstance(kind, type) else " or ".join(k.__name__ for k in kind)
+        raise error(f"must be a {want}{' (' + hint + ')' if hint else ''}, got {type(value).__name__}", parameter=name)
+    return value
+
+
+def check_methods(name: str, value, methods, *, error=DataError):
+    """``value`` if it has every method in ``methods`` (a hardware protocol, docs/hardware.md)."""
+    missing = [m for m in methods if not callable(getattr(value, m, None))]
+    if missing:
+        raise error(f"must have the method(s) {', '.join(m + '()' for m in missing)} (docs/hardware.md), got "
+                    f"{type(value).__name__}", parameter=name)
     return value
 
 

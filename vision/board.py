@@ -107,9 +107,13 @@ def make_board(rows=14, cols=14, pitch_mm=16.0, bits=12, center_d_mm=5.0, ring_i
     Defaults are the patent's board: 14 x 14 marks, 16 mm pitch, 12-bit rings,
     centre Ø5 mm, ring Ø9-Ø13 mm.
     """
-    rows, cols = int(rows), int(cols)
-    if rows < 1 or cols < 1:
-        raise DataError(f"rows and cols must be >= 1, got {rows} x {cols}", column="rows")
+    from kinid.checks import check_int, check_positive
+
+    rows, cols = check_int("rows", rows, minimum=1), check_int("cols", cols, minimum=1)
+    bits = check_int("bits", bits, minimum=3, maximum=30)
+    for name, v in (("pitch_mm", pitch_mm), ("center_d_mm", center_d_mm), ("ring_inner_d_mm", ring_inner_d_mm),
+                    ("ring_outer_d_mm", ring_outer_d_mm)):
+        check_positive(name, v)
     codes = board_codes(rows * cols, bits)
     grid = tuple(tuple(codes[r * cols:(r + 1) * cols]) for r in range(rows))
     board = Board(float(pitch_mm), rows, cols, float(center_d_mm), float(ring_inner_d_mm), float(ring_outer_d_mm),
@@ -241,6 +245,9 @@ def match_to_board(board: Board, markers, *, tolerance_pitch=0.3) -> list:
         In board order (row, then column). A lone marker (nothing to check it
         against) is returned as it is.
     """
+    from kinid.checks import check_instance
+
+    check_instance("board", board, Board, hint="load it with kinid.vision.load_board(path)")
     cand = []
     for m in markers:
         pos = board.position_of(int(m.code))

@@ -88,8 +88,10 @@ class CameraModel:
     rms_px: float = math.nan
 
     def __post_init__(self):
-        k = np.array(self.camera_matrix, dtype=float)
-        d = np.array(self.dist_coeffs, dtype=float).ravel()
+        from kinid.checks import check_array
+
+        k = np.array(check_array("camera_matrix", self.camera_matrix, finite=False), dtype=float)
+        d = np.array(check_array("dist_coeffs", self.dist_coeffs, finite=False), dtype=float).ravel()
         if k.shape != (3, 3) or not np.all(np.isfinite(k)):
             raise DataError(f"camera_matrix must be a finite 3x3 matrix, got shape {k.shape}")
         if k[0, 0] <= 0 or k[1, 1] <= 0 or not np.allclose(k[2], [0, 0, 1]) or k[1, 0] != 0:
@@ -240,11 +242,11 @@ def _read_gray(image, index):
     import cv2
 
     if isinstance(image, (str, Path)):
-        data = cv2.imread(str(image), cv2.IMREAD_GRAYSCALE)
-        if data is None:
-            raise ImageError("cannot read image (missing file or unknown format)", path=image)
-        return data
-    arr = np.asarray(image)
+        from kinid.files import read_image
+
+        arr = read_image(image)  # header-checked, limited, errors name the file
+    else:
+        arr = np.asarray(image)
     if arr.ndim == 3 and arr.shape[2] in (3, 4):
         arr = cv2.cvtColor(arr.astype(np.uint8), cv2.COLOR_BGR2GRAY if arr.shape[2] == 3 else cv2.COLOR_BGRA2GRAY)
     if arr.ndim != 2 or arr.size == 0:

@@ -134,7 +134,10 @@ class MatrixResult:
 
 
 def _as_points(name, value, n=None) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise DataError(f"must be an (N, 2) array of numbers, got {type(value).__name__}", parameter=name) from None
     if arr.ndim == 1 and arr.shape[0] == 2 and n == 1:
         arr = arr.reshape(1, 2)
     if arr.ndim != 2 or arr.shape[1] != 2:
@@ -191,7 +194,9 @@ def pixel_equivalent(moves_mm, shifts_px, *, axes=None, axis_tol=1e-6) -> ScaleR
     >>> round(r.mm_per_px, 6), round(r.mm_per_px_y, 6)
     (0.005, 0.005)
     """
-    moves = np.asarray(moves_mm, dtype=float)
+    from kinid.checks import check_array
+
+    moves = check_array("moves_mm", moves_mm, finite=False)
     if moves.ndim == 1:
         lengths = np.abs(moves)
         n = lengths.shape[0]
@@ -270,7 +275,9 @@ def backlash_from_reversals(p1_px, p2_px, mm_per_px, *, axis_mm=None) -> Reversa
     if n < 1:
         raise DataError("backlash_from_reversals needs at least one reversal, got none", column="p1_px")
     diff = p2 - p1
-    scale = np.asarray(mm_per_px, dtype=float)
+    from kinid.checks import check_array
+
+    scale = check_array("mm_per_px", mm_per_px, finite=False)
     if scale.ndim == 0:
         if not (np.isfinite(scale) and scale > 0):
             raise DataError(f"mm_per_px must be a positive number, got {mm_per_px!r}", column="mm_per_px")

@@ -29,12 +29,14 @@ __all__ = [
 
 
 def _check_shape(image_shape):
+    from kinid.errors import DataError
+
     try:
         h, w = (int(v) for v in image_shape[:2])
     except (TypeError, ValueError):
-        raise ValueError(f"image_shape must be (height, width), got {image_shape!r}") from None
+        raise DataError(f"must be (height, width), got {image_shape!r}", parameter="image_shape") from None
     if h < 1 or w < 1:
-        raise ValueError(f"image_shape must be positive (height, width), got {image_shape!r}")
+        raise DataError(f"must be positive (height, width), got {image_shape!r}", parameter="image_shape")
     return h, w
 
 
@@ -81,7 +83,12 @@ def render_pattern(coverage, image_shape, image_to_plane, *, low=30, high=220, s
     between pixel centres may be missed. Pixels on the image border are always
     supersampled.
     """
+    from kinid.errors import DataError
+
     h, w = _check_shape(image_shape)
+    for name, f in (("coverage", coverage), ("image_to_plane", image_to_plane)):
+        if not callable(f):
+            raise DataError(f"must be a function of (N, 2) points, got {type(f).__name__}", parameter=name)
     s = int(supersample)
     if s < 1:
         raise ValueError(f"supersample must be >= 1, got {supersample!r}")

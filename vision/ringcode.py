@@ -330,13 +330,12 @@ def detect_markers(image, bits=12, *, polarity="auto", refine="fit") -> list:
     """
     import cv2
 
-    n = int(bits)
-    if not 3 <= n <= 30:
-        raise ValueError(f"bits must be in 3..30, got {bits!r}")
-    if polarity not in ("auto", "dark", "light"):
-        raise ValueError(f"polarity must be 'auto', 'dark' or 'light', got {polarity!r}")
-    if refine not in ("fit", "centroid"):
-        raise ValueError(f"refine must be 'fit' or 'centroid', got {refine!r}")
+    from kinid.checks import check_choice, check_image, check_int
+
+    n = check_int("bits", bits, minimum=3, maximum=30)
+    check_image("image", image)
+    check_choice("polarity", polarity, ("auto", "dark", "light"))
+    check_choice("refine", refine, ("fit", "centroid"))
     arr = np.asarray(image)
     img = arr if (arr.ndim == 2 and arr.dtype == np.uint8) else as_gray(arr)
     h, w = img.shape

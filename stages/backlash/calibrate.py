@@ -230,6 +230,9 @@ def calibrate(stage, travel_mm=0.8, travel_deg=2.0, *, repeats=1, n_targets=1, l
     backlash ``d = r * |p1 - p2|`` across reversals. ISO 230-2:2014, reversal
     value B and mean reversal value.
     """
+    from kinid.checks import check_methods
+
+    check_methods("stage", stage, ("move_to", "grab"))
     plan = plan_moves(travel_mm, travel_deg, repeats=repeats, n_targets=n_targets)
     start = _start_of(stage)
     locate = locate_fiducial if locate is None else locate

@@ -59,6 +59,14 @@ class CirclePath:
     centre_mm: tuple | None = None
     radius_mm: float | None = None
 
+    def __post_init__(self):
+        from kinid.checks import check_array, check_positive
+
+        if self.radius_mm is not None:
+            object.__setattr__(self, "radius_mm", check_positive("radius_mm", self.radius_mm))
+        if self.centre_mm is not None:
+            object.__setattr__(self, "centre_mm", tuple(check_array("centre_mm", self.centre_mm, shape=(2,))))
+
 
 @dataclass(frozen=True)
 class LinePath:
@@ -234,6 +242,10 @@ def contour_error(track_xy_mm, path) -> ContourError:
     -------
     ContourError
     """
+    from kinid.checks import check_array, check_instance
+
+    check_array("track_xy_mm", track_xy_mm, finite=False)
+    check_instance("path", path, (CirclePath, LinePath, PolylinePath))
     xy, ok = _finite_points(track_xy_mm)
     err = np.full(len(xy), np.nan)
     p = xy[ok]

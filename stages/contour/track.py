@@ -160,10 +160,12 @@ def process_frame(image, board, settings) -> FrameResult:
     FrameResult
         ``n == 0`` with a ``reason`` when nothing usable was decoded.
     """
-    from kinid.vision import match_to_board
-    from kinid.vision import detect_markers
+    from kinid.checks import check_image, check_instance
+    from kinid.vision import Board, detect_markers, match_to_board
 
-    img = np.asarray(image)
+    img = check_image("image", image)
+    check_instance("board", board, Board, hint="load it with kinid.vision.load_board(path)")
+    check_instance("settings", settings, FrameSettings)
     h, w = img.shape[:2]
     x0 = y0 = 0
     if settings.roi_px is not None:

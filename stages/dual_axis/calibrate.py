@@ -187,6 +187,9 @@ def calibrate(gantry, y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, 
     >>> t.rounds, t.converged                               # doctest: +SKIP
     (2, True)
     """
+    from kinid.checks import check_methods
+
+    check_methods("gantry", gantry, ("move", "grab"))
     y0, head0, step, spec, m = check_plan(y_start_mm, head_start_mm, step_mm, n_steps, pixel_to_mm, spec_um,
                                           max_rounds)
     n = int(n_steps)

@@ -125,7 +125,11 @@ def inverse_kinematics(geometry: UVWGeometry, x_um: float, y_um: float, theta_de
     >>> round(s.x1_um, 3), round(s.x2_um, 3), round(s.y_um, 3)
     (-8.727, 8.727, 8.727)
     """
-    th = math.radians(theta_deg)
+    from kinid.checks import check_instance, check_number
+
+    check_instance("geometry", geometry, UVWGeometry)
+    th = math.radians(check_number("theta_deg", theta_deg))
+    check_number("x_um", x_um), check_number("y_um", y_um)
     s, c1 = math.sin(th), math.cos(th) - 1.0
     g = geometry
     return Strokes(
