@@ -62,7 +62,7 @@ def _effects_by_axis(result: FitResult):
     out, k = {}, 0
     theta = result.theta
     for e in result.effects:
-        if e.basis in ("poly", "periodic", "map", "reversal"):
+        if e.basis in ("poly", "periodic", "map", "local", "reversal"):
             out.setdefault(e.axis, []).append((e, theta[k:k + e.n_params]))
         k += e.n_params
     return out

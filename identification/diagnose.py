@@ -455,7 +455,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
             size, size_std = _size(e, beta, cov, obs, machine)
             rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
-            note = _map_description(e, beta, machine) if e.basis == "map" else ""
+            note = _map_description(e, beta, machine) if e.basis in ("map", "local") else ""
             out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)),
                                  rms_after, size, size_std, unit, note=note))
     return out
@@ -520,9 +520,10 @@ def _map_description(effect, beta, machine) -> str:
     i = int(np.argmax(np.abs(beta)))
     unit = "mm" if machine.axis(effect.axis).kind == "prismatic" else "deg"
     width = effect.knots[1] - effect.knots[0]
+    knots = effect.knots[2:-2] if effect.basis == "local" else effect.knots
     big = np.flatnonzero(np.abs(beta) > 0.5 * abs(beta[i]))
     extent = (big.max() - big.min() + 1) * width
-    return (f"a local error of {effect.axis} near {effect.axis.lower()} = {effect.knots[i]:+g} {unit}, "
+    return (f"a local error of {effect.axis} near {effect.axis.lower()} = {knots[i]:+g} {unit}, "
             f"{abs(beta[i]):.2g} {'µm' if effect.unit == 'um' else 'µrad'} peak over about {extent:g} {unit}, "
             f"not described by any parametric effect")
 
@@ -579,18 +580,59 @@ def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
     if not live:
         return []
     best = min(live, key=lambda c: c.log10_p)
-    # a map must beat the best parametric candidate by more than its extra parameters gain by chance
-    import scipy.stats
+    # a local error: windows of the best map's knots, zero at their ends, scored the same way; fewer
+    # parameters than the whole map, so a bump is described without a map's noise along the whole travel
+    whole = next(m for m in fresh if m.name == best.effect)
+    windows = _local_windows(whole, machine)
+    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
+                                         d_errors=d_errors, q0=q0) if c.status == "live"] if windows else []
+    if local:
+        best_local = min(local, key=lambda c: c.log10_p)
+        log10_local = best_local.log10_p + math.log10(len(windows) * len(fresh))
+        if log10_local < best.log10_p + math.log10(len(fresh)):
+            from dataclasses import replace as _replace
 
-    parametric = [c for c in scored if c.status == "live"]
-    top = max(parametric, key=lambda c: c.statistic, default=None)
-    if top is not None and best.k > top.k and \
-            best.statistic - top.statistic < scipy.stats.chi2.isf(MAP_GAIN_ALPHA, best.k - top.k):
+            return [_replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
+                             trials=float(len(windows) * len(fresh)))] if _beats_parametric(best_local, scored) else []
+    if not _beats_parametric(best, scored):
         return []
     log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
     from dataclasses import replace
 
     return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
+
+
+def _beats_parametric(candidate, scored) -> bool:
+    """A map must beat the best parametric candidate by more than its extra parameters gain by chance."""
+    import scipy.stats
+
+    parametric = [c for c in scored if c.status == "live"]
+    top = max(parametric, key=lambda c: c.statistic, default=None)
+    return not (top is not None and candidate.k > top.k and
+                candidate.statistic - top.statistic < scipy.stats.chi2.isf(MAP_GAIN_ALPHA, candidate.k - top.k))
+
+
+#: Knot intervals of the local windows tried inside a proposed map (each zero at its ends).
+LOCAL_WIDTHS = (5, 6, 7, 8, 10)
+
+
+def _local_windows(whole, machine) -> list:
+    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the map ``whole``."""
+    from kinid.errors import DataError
+
+    from .effects import parse_effect
+
+    out = []
+    coarse = whole.knots[1] - whole.knots[0]
+    for step in (coarse,):
+        knots = np.arange(whole.knots[0], whole.knots[-1] + step / 2, step)
+        for width in LOCAL_WIDTHS:
+            for i in range(0, len(knots) - width):
+                try:
+                    out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
+                except DataError:
+                    continue
+    return out
 
 
 def _f_log10_p(c: Candidate, rss: float, dof: int) -> float:
@@ -624,7 +666,7 @@ def _chi2_logsf(x: float, k: int) -> float:
 
 
 def _size(effect, beta, cov, obs, machine):
-    if effect.basis == "map":  # the peak value of the map (the part the model does not already hold)
+    if effect.basis in ("map", "local"):  # the peak value of the map (the part the model does not already hold)
         i = int(np.argmax(np.abs(beta)))
         return float(beta[i]), float(np.sqrt(max(cov[i, i], 0.0)))
     if effect.basis == "periodic":

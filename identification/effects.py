@@ -8,6 +8,10 @@ name                   value of the error joint                        parameter
 ``EXX:periodic:<P>``   a·sin(2πq/P) + b·cos(2πq/P), P in mm or deg     2
 ``EXX:reversal``       β·s/2, s = approach direction (column dir_x)    1
 ``<code>:drift``       γ·t, t = column ``t_s``                          1
+``EXX:map:<h>``        piecewise linear, knots every h (constant        knots
+                       beyond the ends)
+``EXX:local:<h>:<a>:<b>``  cubic B-splines every h whose support lies    knots − 4
+                       in [a, b]: smooth, zero outside: a local error
 =====================  ==============================================  ==========
 
 Parameter units: the joint's unit u (µm for a translation, µrad for a
@@ -30,7 +34,8 @@ ROTARY_PERIODS_DEG = (360, 180, 120, 90)
 _SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 _NUM = r"[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?"
 _BASIS = re.compile(rf"^(?:poly(?P<deg>[1-9])|periodic:(?P<period>{_NUM})|(?P<rev>reversal)|(?P<drift>drift)"
-                    rf"|map:(?P<step>{_NUM})(?::(?P<lo>[-+]?{_NUM}):(?P<hi>[-+]?{_NUM}))?)$")
+                    rf"|map:(?P<step>{_NUM})(?::(?P<lo>[-+]?{_NUM}):(?P<hi>[-+]?{_NUM}))?"
+                    rf"|local:(?P<lstep>{_NUM}):(?P<llo>[-+]?{_NUM}):(?P<lhi>[-+]?{_NUM}))$")
 #: Knots a map effect may have at most.
 MAX_MAP_KNOTS = 200
 
@@ -45,7 +50,7 @@ class Effect:
         As written by users: ``EXX:periodic:10``.
     code : str
         The error joint.
-    basis : {"constant", "poly", "periodic", "reversal", "drift", "map"}
+    basis : {"constant", "poly", "periodic", "reversal", "drift", "map", "local"}
     degree : int
         Polynomial degree (poly only).
     period : float
@@ -72,6 +77,8 @@ class Effect:
     def n_params(self) -> int:
         if self.basis == "map":
             return len(self.knots)
+        if self.basis == "local":
+            return len(self.knots) - 4
         return {"poly": self.degree, "periodic": 2}.get(self.basis, 1)
 
     def param_names(self) -> list[str]:
@@ -81,6 +88,8 @@ class Effect:
             return [f"{self.name}[sin]", f"{self.name}[cos]"]
         if self.basis == "map":
             return [f"{self.name}[{k:g}]" for k in self.knots]
+        if self.basis == "local":
+            return [f"{self.name}[{k:g}]" for k in self.knots[2:-2]]
         return [self.name]
 
     def param_units(self, machine: Machine) -> list[str]:
@@ -120,7 +129,7 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
     m = _BASIS.match(basis)
     if not m:
         raise DataError(f"{source} {name!r}: unknown basis {basis!r}; expected poly<k> (k=1..9), periodic:<P>, "
-                        "reversal, drift or map:<step>[:<from>:<to>]")
+                        "reversal, drift, map:<step>[:<from>:<to>] or local:<step>:<from>:<to>")
     if m.group("drift"):
         return Effect(name, code, "drift", unit=joint.unit)
     axis = joint.axis
@@ -131,6 +140,11 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
     if m.group("step"):
         return Effect(name, code, "map", axis=axis, unit=joint.unit,
                       knots=_map_knots(name, machine, axis, m.group("step"), m.group("lo"), m.group("hi"), source))
+    if m.group("lstep"):
+        knots = _map_knots(name, machine, axis, m.group("lstep"), m.group("llo"), m.group("lhi"), source)
+        if len(knots) < 5:
+            raise DataError(f"{source} {name!r}: a local error needs at least four steps between from and to")
+        return Effect(name, code, "local", axis=axis, unit=joint.unit, knots=knots)
     if m.group("period"):
         period = float(m.group("period"))
         kind = machine.axis(axis).kind
@@ -292,6 +306,11 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
     if effect.basis == "periodic":
         phase = 2 * np.pi * q / effect.period
         return np.stack([np.sin(phase), np.cos(phase)], axis=1)
+    if effect.basis == "local":  # cubic B-splines whose support lies inside [from, to]: smooth, zero outside
+        knots = np.asarray(effect.knots)
+        step = knots[1] - knots[0]
+        t = np.abs(q[:, None] - knots[None, 2:-2]) / step
+        return np.where(t < 1, 2 / 3 - t**2 + t**3 / 2, np.where(t < 2, (2 - t) ** 3 / 6, 0.0))
     if effect.basis == "map":  # hat functions: linear between knots, constant beyond the ends
         knots = np.asarray(effect.knots)
         step = knots[1] - knots[0]

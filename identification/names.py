@@ -88,4 +88,7 @@ def effect_description(effect, unit_of_axis: str = "") -> str:
         return "drift with time"
     if effect.basis == "map":
         return f"map in {effect.axis}, knots every {effect.knots[1] - effect.knots[0]:g}{u}"
+    if effect.basis == "local":
+        return (f"local error of {effect.axis} between {effect.knots[0]:g} and {effect.knots[-1]:g}{u}, knots every "
+                f"{effect.knots[1] - effect.knots[0]:g}{u}")
     return effect.basis

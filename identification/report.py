@@ -188,7 +188,7 @@ def plot_measured_vs_model(diagnosis, obs, path) -> None:
 
 def plot_maps(fit_result, path) -> bool:
     """Each map effect of the fit: the error at its knots with a ±2σ band, against its axis. False if none."""
-    maps = [e for e in fit_result.effects if e.basis == "map"]
+    maps = [e for e in fit_result.effects if e.basis == "map"]  # local errors: plot_identified_errors draws them
     if not maps:
         return False
     fig = new_figure((7.0, 3.0 * len(maps)))
@@ -237,7 +237,7 @@ def _varying_joints(fit_result) -> dict:
     """Error code -> list of (effect, parameter slice) for effects driven by an axis position."""
     out, k = {}, 0
     for e in fit_result.effects:
-        if e.basis in ("poly", "periodic", "map"):
+        if e.basis in ("poly", "periodic", "map", "local"):
             out.setdefault(e.code, []).append((e, slice(k, k + e.n_params)))
         k += e.n_params
     return out

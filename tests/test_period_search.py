@@ -217,25 +217,57 @@ def test_local_bump_is_described_by_a_map(bc, tmp_path):
     before = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
     assert before.verdict == "missing-effect"
     best = before.live[0]
-    assert best.effect.startswith("EXX:map:"), [c.effect for c in before.live[:4]]
+    assert best.effect.startswith(("EXX:local:", "EXX:map:")), [c.effect for c in before.live[:4]]
     assert "a local error of X near x = -" in best.note and "not described by any parametric effect" in best.note
     near = float(best.note.split("x = ")[1].split()[0])
     assert abs(near - (-15.0)) <= 10.0, best.note
 
     steps = forward_select(bc, obs, default_model(bc), noise_um=SIGMA)
     assert steps[-1].diagnosis.verdict == "noise"
-    assert any(s.added and s.added.startswith("EXX:map:") for s in steps)
+    assert any(s.added and s.added.startswith(("EXX:local:", "EXX:map:")) for s in steps)
     # the achievable level: the default model on the same machine without the bump
     noise_limited = _held_out_rms(bc, fit(bc, clean, default_model(bc), noise_um=SIGMA), held_clean)
     auto = _held_out_rms(bc, steps[-1].fit, held)
     base = _held_out_rms(bc, steps[0].fit, held)
-    # a piecewise-linear map with 5 mm knots leaves part of a 12 mm-wide bump: within 2x the level the
-    # same machine without the bump reaches (measured 0.43 against 0.23 µm)
-    assert auto <= 2.0 * noise_limited, (auto, noise_limited)
+    # a local error (zero outside its window, knots every 5 mm) describes the bump: within 1.5x the level
+    # the same machine without the bump reaches
+    assert auto <= 1.5 * noise_limited, (auto, noise_limited)
     assert base > auto, (base, auto)
-    from kinid.identification.report import plot_maps
+    from kinid.identification.report import plot_identified_errors
 
-    assert plot_maps(steps[-1].fit, tmp_path / "maps.png") and (tmp_path / "maps.png").stat().st_size > 1000
+    assert plot_identified_errors(steps[-1].fit, obs, tmp_path / "errors.png")
+    assert (tmp_path / "errors.png").stat().st_size > 1000
+
+
+@pytest.mark.slow
+def test_local_bumps_of_several_sizes_and_places(bc):
+    """Five bumps (2.5-5 µm, 4-8 mm wide, at x = -40 .. +35 mm), the same noise with and without the bump:
+    each is described by a local error of an X joint near its place, and the held-out error stays near
+    the level of the machine without the bump (measured ratios 1.07-1.87, median 1.38)."""
+    from dataclasses import replace
+
+    ratios = []
+    for seed, (amp, centre, width) in [(707, (4.0, -15.0, 6.0)), (708, (4.0, -15.0, 6.0)), (709, (3.0, 20.0, 5.0)),
+                                       (710, (5.0, 35.0, 8.0)), (711, (2.5, -40.0, 4.0))]:
+        rng = np.random.default_rng(seed)
+        effects, theta = _location_truth(bc, rng)
+        base = simulate(bc, patent_plan(bc), effects, theta, rng=rng)
+        cols = [bc.axis_names.index(a) for a in "XYZ"]
+        noise = np.zeros_like(base.axes)
+        noise[:, cols] = rng.normal(0, SIGMA * 1e-3, (len(base), 3))
+        bumped = _with_x_bump(bc, base, amp, centre, width)
+        obs, clean = replace(bumped, axes=bumped.axes + noise), replace(base, axes=base.axes + noise)
+        held_plan = patent_plan(bc, tilt_deg=(-50, -20, 10, 40), turn_deg=tuple(range(5, 360, 40)))
+        truth_held = simulate(bc, held_plan, effects, theta, rng=rng)
+        held = _with_x_bump(bc, truth_held, amp, centre, width)
+        steps = forward_select(bc, obs, default_model(bc), noise_um=SIGMA)
+        added = [s.added for s in steps[1:]]
+        assert added and added[0].split(":")[0] in ("EXX", "EBX", "ECX") and ":local:" in added[0], added
+        lo, hi = (float(v) for v in added[0].split(":")[3:5])
+        assert lo < centre < hi, (added, centre)
+        limit = _held_out_rms(bc, fit(bc, clean, default_model(bc), noise_um=SIGMA), truth_held)
+        ratios.append(_held_out_rms(bc, steps[-1].fit, held) / limit)
+    assert np.median(ratios) <= 1.5 and max(ratios) <= 2.0, ratios
 
 
 def test_map_effect_grammar_basis_and_round_trip(bc, tmp_path):
