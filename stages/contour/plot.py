@@ -7,6 +7,15 @@ import numpy as np
 __all__ = ["plot_contour"]
 
 
+def _nice(x: float) -> float:
+    """1, 2 or 5 × 10^k at or above x."""
+    k = np.floor(np.log10(max(x, 1e-12)))
+    for m in (1, 2, 5, 10):
+        if m * 10**k >= x:
+            return float(m * 10**k)
+    return float(10 ** (k + 1))
+
+
 def plot_contour(measurement, out_png, *, magnification=None):
     """Write a PNG of the measured contour error (whole or not at all).
 
@@ -41,20 +50,29 @@ def plot_contour(measurement, out_png, *, magnification=None):
         emax = float(np.max(np.abs(e))) if e.size else 1.0
         span = emax if magnification is None else float(magnification)
         span = max(span, 1e-9)
-        ax.plot(np.linspace(0, 2 * np.pi, 361), np.ones(361), "k--", lw=0.8, label="nominal")
+        ax.plot(np.linspace(0, 2 * np.pi, 361), np.ones(361), "k--", lw=0.8, label="nominal circle")
         r = 1.0 + 0.4 * e / span
-        order = np.arange(len(ang))
-        ax.plot(ang[order], r[order], "b.-", lw=1, ms=3, label="measured")
+        a_plot, r_plot = ang, r
+        turned = np.ptp(np.unwrap(ang)) if ang.size > 2 else 0.0
+        if turned >= 2 * np.pi * 0.97:  # a full turn: close the trace
+            a_plot, r_plot = np.r_[ang, ang[:1]], np.r_[r, r[:1]]
+        ax.plot(a_plot, r_plot, "b.-", lw=1, ms=3, label="measured")
         ax.set_theta_direction(-1)
         ax.set_ylim(0, 1.5)
-        ax.set_yticklabels([])
-        title = f"radial deviation (0.4 R = {span:.3g} µm)"
+        # radial scale in µm of deviation: the nominal circle is 0
+        step = _nice(span / 2)
+        devs = np.arange(-2, 3) * step
+        devs = devs[np.abs(1.0 + 0.4 * devs / span - 0.75) <= 0.75]
+        ax.set_yticks(1.0 + 0.4 * devs / span)
+        ax.set_yticklabels([f"{d:+.3g} µm" if d else "0" for d in devs], fontsize=8)
+        ax.set_rlabel_position(112.5)
+        title = f"radial deviation ({span:.3g} µm = 0.4 R)"
         if m.circular is not None:
             title += f"\nG {m.circular.G_um:.2f} µm"
             if np.isfinite(m.circular.H_um):
                 title += f", H {m.circular.H_um:.2f} µm"
-        ax.set_title(title, fontsize=9)
-        ax.legend(loc="lower right", fontsize=7)
+        ax.set_title(title, fontsize=10)
+        ax.legend(loc="upper left", bbox_to_anchor=(-0.32, 1.12), fontsize=8, frameon=False)
     else:
         ax = fig.add_subplot(1, 2, 1)
         ax.plot(np.flatnonzero(ok), err[ok], "b.-", ms=3)
@@ -62,7 +80,11 @@ def plot_contour(measurement, out_png, *, magnification=None):
         ax.set_ylabel("contour error (µm)")
         ax.grid(True, alpha=0.3)
     ax2 = fig.add_subplot(1, 2, 2)
-    ax2.plot(xy[ok, 0], xy[ok, 1], "b.-", ms=2, lw=0.8)
+    track = xy[ok]
+    if isinstance(m.contour.path, CirclePath) and len(track) > 2 and \
+            np.hypot(*(track[0] - track[-1])) < 3 * np.median(np.hypot(*np.diff(track, axis=0).T)):
+        track = np.r_[track, track[:1]]  # a closed circle
+    ax2.plot(track[:, 0], track[:, 1], "b.-", ms=2, lw=0.8)
     ax2.set_aspect("equal")
     ax2.invert_yaxis()
     ax2.set_xlabel("x, mm (image right)")
