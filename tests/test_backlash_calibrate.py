@@ -214,3 +214,19 @@ def test_fiducial_on_theta_centre_warns_and_gives_nan():
         res = calibrate(st, locate=_exact)
     assert np.isnan(res.backlash_theta_deg)
     assert res.backlash_x_mm == pytest.approx(st.backlash_x_mm, abs=1e-12)
+
+
+def test_iso_reversal_from_the_standards_evaluation_matches_the_gaps():
+    """With two runs per target, B and the mean reversal come from kinid.stages.iso230_2; they equal the
+    per-target means of the reversal gaps (B_i = mean up − mean down = −mean gap)."""
+    import numpy as np
+
+    from kinid.stages.backlash import SimulatedStage, calibrate
+
+    stage = SimulatedStage(backlash_x_mm=0.004, backlash_y_mm=0.003, rng=np.random.default_rng(4))
+    res = calibrate(stage, travel_mm=0.8, travel_deg=2.0, repeats=2, n_targets=3)
+    ups = [r for r in res.log if r.axis == "x" and r.role == "up"]
+    targets = np.array([r.target for r in ups])
+    b_i = [-np.mean(res.reversals_x_mm[targets == t]) for t in np.unique(targets)]
+    assert res.iso_reversal_x_mm == pytest.approx(np.max(np.abs(b_i)), abs=1e-9)
+    assert res.iso_mean_reversal_x_mm == pytest.approx(np.mean(b_i), abs=1e-9)

@@ -269,8 +269,19 @@ def _linear_axis(log, axis, k, matrix):
     direction = np.eye(2)[k]
     signed = backlash_from_reversals(_pixels(ups), _pixels(downs), matrix.matrix, axis_mm=direction)
     patent = backlash_from_reversals(_pixels(ups), _pixels(downs), matrix.matrix)
-    # ISO 230-2: deviation up minus deviation down at each target = -(gap along the axis).
+    # ISO 230-2: deviation up minus deviation down at each target = -(gap along the axis). With two runs or
+    # more per target the standard's own evaluation (kinid.stages.iso230_2) gives B and the mean reversal,
+    # from deviations measured against the first "up" photo (a common offset, which B does not see).
     targets = np.array([r.target for r in ups])
+    if min(int(np.sum(targets == t)) for t in np.unique(targets)) >= 2:
+        from ..iso230_2 import evaluate_runs
+
+        ref = _pixels(ups[:1])
+        along = lambda recs: matrix.to_machine(_pixels(recs) - ref)[:, k] * 1e3  # noqa: E731  µm
+        commanded = np.array([r.target - ups[0].target for r in ups]) * 1e3
+        dev = np.r_[along(ups) - commanded, along(downs) - commanded]
+        iso = evaluate_runs(np.r_[targets, targets], np.r_[np.ones(len(ups)), -np.ones(len(downs))], dev)
+        return signed, patent, iso.B_um * 1e-3, iso.mean_reversal_um * 1e-3
     b_i = [-float(np.mean(signed.per_reversal_mm[targets == t])) for t in np.unique(targets)]
     return signed, patent, float(np.max(np.abs(b_i))), float(np.mean(b_i))
 
