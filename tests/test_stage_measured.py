@@ -138,3 +138,19 @@ def test_backlash_report(tmp_path, capsys):
     assert hashlib.sha256((EX / "backlash" / "log.csv").read_bytes()).hexdigest() in page
     assert "backlash of X</td><td class=\"num\">4.003" in page and "The stage loses" in page
     assert (tmp_path / "rep" / "backlash.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("argv, title, figure", [
+    (["uvw", "--moves", str(EX / "uvw_moves.csv")], "UVW stage: actuator error models", "actuators.png"),
+    (["dual-axis", "--data", str(EX / "dual_axis.csv"), "--pixel-to-mm", "0.0049931", "0.0002617", "0.0002617",
+      "-0.0049931"], "Dual-axis offset table", "offset_table.png"),
+])
+def test_stage_reports(tmp_path, capsys, argv, title, figure):
+    import hashlib
+
+    assert main([*argv, "--report", str(tmp_path / "rep")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    data = Path(argv[2])
+    assert f"<h1>{title}</h1>" in page and hashlib.sha256(data.read_bytes()).hexdigest() in page
+    assert f'src="{figure}"' in page and (tmp_path / "rep" / figure).read_bytes()[:4] == b"\x89PNG"
+    assert "U (k = 2)" in page or "head dx (µm)" in page

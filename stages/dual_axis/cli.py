@@ -36,6 +36,7 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="OUT.png", help="plot of the plate offset before/after compensation")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--out", metavar="TABLE.csv", help="write the offset table: camera_y_mm,head_dx_mm,head_dy_mm")
+    p.add_argument("--report", metavar="DIR", help="with --data: write an HTML report (with the plot) into DIR")
     sim = p.add_argument_group("simulated gantry (--simulate)")
     sim.add_argument("--y-start-mm", type=float, default=0.0, help="camera Y at the start, mm (default 0)")
     sim.add_argument("--step-mm", type=float, default=10.0, help="step of both Y axes, mm (default 10)")
@@ -46,7 +47,8 @@ def register(subparsers) -> None:
                      help="draw a random error set from the seed instead of the built-in one")
     sim.add_argument("--noise", type=float, default=1.5, help="image noise, grey levels (default 1.5)")
     sim.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
-    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"})
+    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"},
+                   outputs={"out": "file", "plot": "file", "report": "folder"})
 
 
 def _stats(err_um: np.ndarray) -> dict:
@@ -219,6 +221,8 @@ def _measured(args) -> int:
         write_text(args.out, table.csv_text())
     if args.plot:
         _plot_measured(args.plot, table, smooth)
+    if args.report:
+        _report_measured(args, table, smooth)
     report = {"source": str(args.data), "table": table.to_dict(), "message": table.message,
               "smooth": {"degree": smooth.degree, "parallelism_urad": smooth.parallelism_urad,
                          "scale_um_per_m": smooth.scale_um_per_m, "fit_rms_um": smooth.rms_um.tolist()}}
@@ -232,10 +236,34 @@ def _measured(args) -> int:
     print(table.message)
     print(f"smooth model (degree {smooth.degree}): parallelism {smooth.parallelism_urad:.2f} µrad, "
           f"scale {smooth.scale_um_per_m:.2f} µm/m, fit RMS x {smooth.rms_um[0]:.3f} µm, y {smooth.rms_um[1]:.3f} µm")
-    for flag, value in (("offset table", args.out), ("plot", args.plot)):
+    for flag, value in (("offset table", args.out), ("plot", args.plot), ("report", args.report)):
         if value:
             print(f"{flag} written to {value}")
     return 0
+
+
+def _report_measured(args, table, smooth) -> None:
+    """The HTML report of one measured round (kinid.report_html)."""
+    from pathlib import Path
+
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    _plot_measured(folder / "offset_table.png", table, smooth)
+    rows = tuple((f"{y:.3f}", f"{dx:.3f}", f"{dy:.3f}") for y, (dx, dy) in zip(table.y_mm, table.offset_mm * 1e3))
+    big = float(abs(table.offset_mm).max() * 1e3)
+    summary = [f"Between the two Y axes the head is off by up to {big:.3g} µm along the travel; parallelism "
+               f"{smooth.parallelism_urad:.3g} µrad, scale {smooth.scale_um_per_m:.3g} µm/m.",
+               f"{table.message[0].upper() + table.message[1:]}."]
+    prov = [("measured", file_provenance(args.data)), ("pixel to mm", " ".join(f"{v:g}" for v in args.pixel_to_mm)),
+            ("made", now_utc())]
+    sections = [Section("Offset table", tables=(Table(("camera Y (mm)", "head dx (µm)", "head dy (µm)"), rows,
+                                                      numeric=(0, 1, 2)),)),
+                Section("Table and smooth model", figures=(Figure("offset_table.png", "The measured table and the "
+                        f"smooth model (degree {smooth.degree}) fitted to it"),))]
+    write_text(folder / "index.html", report_page("Dual-axis offset table", "kinid dual-axis", prov, summary, sections))
 
 
 def _plot_measured(path, table, smooth) -> None:

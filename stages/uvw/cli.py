@@ -29,6 +29,7 @@ def register(subparsers) -> None:
     p.add_argument("--tables", metavar="DIR", help="write each actuator's error table (CSV, LinuxCNC, TwinCAT CNC)")
     p.add_argument("--plot", metavar="OUT.png", help="write errors before/after and residual vs position mod lead")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    p.add_argument("--report", metavar="DIR", help="with --moves: write an HTML report (with the plot) into DIR")
     sim = p.add_argument_group("simulated stage (--simulate)")
     sim.add_argument("--seed", type=int, default=0, help="seed of the noise and the random moves (default 0)")
     sim.add_argument("--repeats", type=int, default=3, help="bidirectional sweeps of the model's test plan (default 3)")
@@ -36,7 +37,7 @@ def register(subparsers) -> None:
                      help="measurements per stroke in the patent's test (default 18, as in its example)")
     sim.add_argument("--validation-moves", dest="moves_n", type=int, default=200,
                      help="validation moves per actuator (default 200)")
-    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "tables": "folder"})
+    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "tables": "folder", "report": "folder"})
 
 
 def _quantity(name: str, value: float, std: float, truth: str = "") -> str:
@@ -70,6 +71,8 @@ def _measured(args) -> int:
                            format_text(fmt, table, **({"axis_number": k} if fmt == "twincat" else {})))
     if args.plot:
         _plot_measured(models, args.plot)
+    if args.report:
+        _report_measured(models, args)
     if args.json:
         print(json.dumps(doc))
         return 0
@@ -78,10 +81,45 @@ def _measured(args) -> int:
         parts = [_quantity(n, v, s) for n, v, s in zip(m.names, m.values, m.std)]
         print(f"  {a} ({m.commands_um.size} moves, degree {m.degree}, {m.harmonics} harmonics): " + ", ".join(parts))
         print(f"      residual RMS {m.rms_um:.3f} µm over {m.span_um[0]:g} .. {m.span_um[1]:g} µm")
-    for flag, value in (("model", args.out), ("tables", args.tables), ("plot", args.plot)):
+    for flag, value in (("model", args.out), ("tables", args.tables), ("plot", args.plot), ("report", args.report)):
         if value:
             print(f"{flag} written to {value}")
     return 0
+
+
+def _report_measured(models, args) -> None:
+    """The HTML report of the actuator models (kinid.report_html)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    _plot_measured(models, folder / "actuators.png")
+    rows = []
+    for a, m in models.items():
+        for n, v, s in zip(m.names, m.values, m.std):
+            stem, _, unit = n.rpartition("_")
+            rows.append((a, stem, f"{v:.3f}", f"{2 * s:.3f}", {"um": "µm"}.get(unit, unit)))
+    table = Table(("actuator", "parameter", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(2, 3),
+                  caption="measured = command + offset + scale·c − d·B/2 (+ bow) + lead harmonics s_h, k_h; "
+                          "U: expanded uncertainty, k = 2")
+    before = {a: float(np.max(np.abs(m.error_um(m.commands_um, m.directions) + m.residuals_um))) for a, m in models.items()}
+    worst = max(before, key=before.get)
+    summary = [f"Uncompensated, the actuators miss their commands by up to {before[worst]:.3g} µm ({worst}); the "
+               f"fitted models leave {max(m.rms_um for m in models.values()):.3g} µm RMS at most.",
+               "Next: load the actuator tables (kinid uvw --moves ... --tables DIR) or the models into the "
+               "alignment's compensation, and check with new moves."]
+    prov = [("measured", file_provenance(args.moves)), ("lead", f"{args.lead_um:g} µm"), ("made", now_utc())]
+    sections = [Section("Actuator models", tables=(table,)),
+                Section("Errors before and after", figures=(Figure("actuators.png", "Top: measured − commanded "
+                        "position per actuator, each approach direction, with the model. Bottom: what the model "
+                        "leaves (the error after compensation)."),))]
+    write_text(folder / "index.html", report_page("UVW stage: actuator error models", "kinid uvw", prov, summary,
+                                                  sections))
 
 
 def _plot_measured(models, path) -> None:
