@@ -117,7 +117,9 @@ def test_render_pattern_matches_full_supersampling(which):
 
 
 def test_bad_shape_rejected():
-    with pytest.raises(ValueError, match="image_shape"):
+    from kinid.errors import DataError
+
+    with pytest.raises(DataError, match="image_shape must be positive"):
         render_disk((0, 10), (1, 1), 1)
     with pytest.raises(ValueError, match="pixel_mm"):
         similarity_plane_to_image(0.0)
