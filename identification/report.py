@@ -72,7 +72,7 @@ def plot_time(obs, r_um, path) -> bool:
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel("t (s)")
     ax.set_ylabel("residual (µm)")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=8)
     ax.set_title("Residuals against time")
     save_figure(fig, path)
     return True

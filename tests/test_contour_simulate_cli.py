@@ -24,3 +24,10 @@ def test_simulate_reports_measured_against_true_and_keeps_the_frames(tmp_path, c
 def test_measured_frames_need_their_inputs(capsys):
     assert main(["contour", "--frames", "x"]) == 2
     assert "measured frames need --board, --out, --pixel-mm or --camera" in capsys.readouterr().err
+
+
+def test_contour_report(tmp_path, capsys):
+    assert main(["contour", "--simulate", "--sim-frames", "16", "--report", str(tmp_path / "rep")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "<h1>Contour error</h1>" in page and "ISO 230-4 circular deviation G" in page
+    assert "rendered by --simulate" in page and (tmp_path / "rep" / "contour.png").read_bytes()[:4] == b"\x89PNG"

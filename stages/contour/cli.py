@@ -45,6 +45,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", metavar="TRACK.csv", help="track and contour error per frame (required on measured frames)")
     p.add_argument("--json", action="store_true", help="print the JSON summary only")
     p.add_argument("--plot", metavar="OUT.png", help="polar plot of the radial deviation (circle) or error plot")
+    p.add_argument("--report", metavar="DIR", help="write an HTML report (results, plot) into DIR")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--scheduler", metavar="ADDRESS|local",
                    help="map the frames on a Dask cluster: its scheduler's address (tcp://host:8786), or 'local' "
@@ -57,7 +58,7 @@ def register(subparsers) -> None:
                    help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
     p.add_argument("--seed", type=int, default=0, help="with --simulate: seed of the image noise (default 0)")
     p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
-    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "keep": "folder"})
+    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "keep": "folder", "report": "folder"})
 
 
 def _pair(text, option):
@@ -123,6 +124,8 @@ def _simulate(args) -> int:
         from .plot import plot_contour
 
         plot_contour(m, args.plot)
+    if args.report:
+        _report(m, args, frames=frames, board=folder / "board.json", scale=folder / "camera.json", simulated=True)
     ok = m.track.located
     track_err = np.sqrt(np.mean(np.sum(((m.track.xy_mm - seq.track_mm) * 1e3)[ok] ** 2, axis=1)))
     truth = contour_error(seq.track_mm, CirclePath())
@@ -153,6 +156,8 @@ def _simulate(args) -> int:
 
 
 def _run(args) -> int:
+    from pathlib import Path
+
     from kinid.files import write_text
     from kinid.progress import Progress
     from kinid.vision import load_board
@@ -214,6 +219,9 @@ def _run(args) -> int:
         from .plot import plot_contour
 
         plot_contour(m, args.plot)
+    if args.report:
+        _report(m, args, frames=args.frames, board=args.board,
+                scale=f"--pixel-mm {args.pixel_mm:g}" if args.pixel_mm else Path(args.camera))
     tr = m.track
     if tr.not_located:
         shown = ", ".join(str(k) for k in tr.not_located[:20]) + (" ..." if len(tr.not_located) > 20 else "")
@@ -225,11 +233,45 @@ def _run(args) -> int:
     if args.json:
         print(json.dumps(m.summary))
         return 0
-    print(_report(m, settings))
+    print(_report_text(m, settings))
     return 0
 
 
-def _report(m, settings) -> str:
+def _report(m, args, *, frames, board, scale, simulated=False) -> None:
+    """The HTML report of a contour measurement (kinid.report_html)."""
+    from pathlib import Path
+
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+    from .plot import plot_contour
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_contour(m, folder / "contour.png")
+    tr, ce, c = m.track, m.contour, m.circular
+    rows = [("contour error, RMS", f"{ce.rms_um:.3f}", "µm"), ("contour error, largest", f"{ce.max_um:.3f}", "µm")]
+    if c is not None:
+        rows += [("ISO 230-4 circular deviation G", f"{c.G_um:.3f}", "µm"),
+                 ("ISO 230-4 radial deviation F, max / min", f"{c.F_max_um:+.3f} / {c.F_min_um:+.3f}", "µm")]
+        if math.isfinite(c.H_um):
+            rows.append(("ISO 230-4 circular hysteresis H", f"{c.H_um:.3f}", "µm"))
+    rows += [("frames located", f"{int(tr.located.sum())} of {len(tr.located)}", ""),
+             ("board rotation in the image", f"{tr.angle_deg:.4f}", "deg")]
+    summary = [f"The machine follows the programmed path within {ce.max_um:.3g} µm (RMS {ce.rms_um:.3g} µm)"
+               + (f"; ISO 230-4 circular deviation G = {c.G_um:.3g} µm." if c is not None else "."),
+               "Next: compare with the machine's specification; the polar plot shows where on the path the "
+               "deviation comes from (reversal spikes at the quadrants, an ellipse from a servo mismatch)."]
+    prov = [("frames", f"{frames} ({len(tr.located)} frames{', rendered by --simulate' if simulated else ''})"),
+            ("board", file_provenance(board)),
+            ("scale", scale if isinstance(scale, str) else f"camera {file_provenance(scale)}"),
+            ("made", now_utc())]
+    sections = [Section("Results", tables=(Table(("quantity", "value", "unit"), tuple(rows), numeric=(1,)),)),
+                Section("Radial deviation and track", figures=(Figure("contour.png", "Left: the deviation from the "
+                        "path, magnified (circle) or along the path. Right: the reference mark's track."),))]
+    write_text(folder / "index.html", report_page("Contour error", "kinid contour", prov, summary, sections))
+
+
+def _report_text(m, settings) -> str:
     tr, ce = m.track, m.contour
     unit = settings.unit
     lines = [f"frames            {len(tr.located)}  (located {int(tr.located.sum())})",
