@@ -514,7 +514,6 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
             raise DataError(f"must have shape (3,) or ({axes_user.shape[0]}, 3), got {offsets_mm.shape}", parameter="offsets_mm")
         check_array("offsets_mm", offsets_mm)
         offsets_mm = np.broadcast_to(offsets_mm, (axes_user.shape[0], 3))
-    model = machine.model
     data = _pinocchio_data(machine)
     n = axes_user.shape[0]
     qs = _configurations(machine, axes_to_si(machine, axes_user),

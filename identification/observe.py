@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError, KinidError
-from kinid.files import csv_number, read_csv_rows, read_image, read_json
+from kinid.files import csv_number, read_csv_table, read_image, read_json
 from .machine import Machine, axis_limits, evaluate, tool_rotation_in_workpiece
 from .observations import Observations
 
@@ -193,19 +193,8 @@ def read_run_log(path, machine: Machine, *, check_limits: bool = True) -> RunLog
         Naming the file, line and column of the first problem.
     """
     path = Path(path)
-    rows = read_csv_rows(path, what="run log")
-    if not rows:
-        raise DataError("no header row and no data", path=path)
-    header_line, header = rows[0]
-    header = [h.strip() for h in header]
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise DataError("duplicate column", path=path, line=header_line, column=dup)
-    if "image" not in header:
-        raise DataError(f"missing required column 'image' (header: {', '.join(header)})", path=path, line=header_line)
-    for a in machine.axes:
-        if a.column not in header:
-            raise DataError(f"missing column {a.column!r} for axis {a.name}", path=path, line=header_line)
+    header_line, header, data = read_csv_table(path, what="run log",
+                                                required=("image", *(a.column for a in machine.axes)))
     dir_cols = {}
     for h in header:
         if h.startswith("dir_"):
@@ -213,7 +202,6 @@ def read_run_log(path, machine: Machine, *, check_limits: bool = True) -> RunLog
             if not match:
                 raise DataError(f"'dir_' column for unknown axis {h[4:]!r}", path=path, line=header_line, column=h)
             dir_cols[match[0].name] = header.index(h)
-    data = rows[1:]
     if not data:
         raise DataError("no data rows after the header", path=path, line=header_line)
     n = len(data)
@@ -223,8 +211,6 @@ def read_run_log(path, machine: Machine, *, check_limits: bool = True) -> RunLog
     t_s = np.empty(n) if "t_s" in header else None
     dirs = {k: np.empty(n) for k in dir_cols}
     for i, (lineno, cells) in enumerate(data):
-        if len(cells) != len(header):
-            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=lineno)
         name = cells[header.index("image")].strip()
         if not name:
             raise DataError("empty image name", path=path, line=lineno, column="image")

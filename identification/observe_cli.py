@@ -1,7 +1,6 @@
 """``kinid observe``: images and axis readings of a run -> the observation CSV (docs/observe.md)."""
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 __all__ = ["register"]

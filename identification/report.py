@@ -12,7 +12,6 @@ Plots (PNG, written atomically):
 """
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np

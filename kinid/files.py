@@ -169,6 +169,34 @@ def read_csv_rows(path, *, what: str = "CSV file") -> list:
     return rows
 
 
+def read_csv_table(path, *, what: str = "CSV file", required=()) -> tuple:
+    """``(header_line, header, rows)`` of a CSV file with a header row: the header's cells stripped, every
+    ``required`` column present, no column twice, and every row as long as the header.
+
+    Raises
+    ------
+    DataError
+        Naming the file, and the line or column, of the first problem.
+    """
+    from .errors import DataError
+
+    rows = read_csv_rows(path, what=what)
+    if not rows:
+        raise DataError("no header row and no data", path=path)
+    header_line, header = rows[0]
+    header = [h.strip() for h in header]
+    if len(set(header)) != len(header):
+        raise DataError("duplicate column", path=path, line=header_line,
+                        column=next(h for h in header if header.count(h) > 1))
+    for col in required:
+        if col not in header:
+            raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
+    for line, cells in rows[1:]:
+        if len(cells) != len(header):
+            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=line)
+    return header_line, header, rows[1:]
+
+
 def csv_number(cells, index: int, *, path, line, column) -> float:
     """The finite number in ``cells[index]`` of a CSV row; DataError naming the file, line and column."""
     import math

@@ -70,7 +70,7 @@ def _raster(d, board):
         # each sub-path: M x0,y0 A ro,ro 0 large 1 x1,y1 L x2,y2 A ri,ri 0 large 0 x3,y3 Z
         for j in range(0, len(nums), 18):
             x0, y0, ro = nums[j], nums[j + 1], nums[j + 2]
-            x1, y1, x2, y2, ri = nums[j + 7], nums[j + 8], nums[j + 9], nums[j + 10], nums[j + 11]
+            x1, y1, ri = nums[j + 7], nums[j + 8], nums[j + 11]
             a0 = math.degrees(math.atan2(y0 - cy, x0 - cx))
             a1 = math.degrees(math.atan2(y1 - cy, x1 - cx))
             a1 += 360 if a1 <= a0 else 0

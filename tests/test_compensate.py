@@ -6,11 +6,9 @@ none of kinid's kinematics or effect code.
 """
 from __future__ import annotations
 
-import csv
 import json
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from kinid.axis_tables import AxisErrorTable, linuxcnc_text, twincat_text

@@ -86,7 +86,7 @@ def test_observe_lists_images_it_cannot_read(run, tmp_path, capsys):
 
 @pytest.mark.parametrize("change, message", [
     (lambda log: log.replace("laser_mm", "laser"), None),  # an unknown column is ignored: laser optional
-    (lambda log: log.replace("x_mm,", "xx_mm,"), "missing column 'x_mm' for axis X"),
+    (lambda log: log.replace("x_mm,", "xx_mm,"), "missing column 'x_mm'"),
     (lambda log: log.replace("images/001.png", "images/nope.png"), "image file does not exist"),
 ])
 def test_observe_bad_log(run, tmp_path, capsys, change, message):

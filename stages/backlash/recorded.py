@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError
-from kinid.files import csv_number, read_csv_rows, read_image
+from kinid.files import csv_number, read_csv_table, read_image
 
 from .plan import plan_moves
 
@@ -57,19 +57,9 @@ class RecordedStage:
 
     def __init__(self, path):
         self.path = Path(path)
-        rows = read_csv_rows(self.path, what="run log")
-        if not rows:
-            raise DataError("no header row and no data", path=self.path)
-        header_line, header = rows[0]
-        header = [h.strip() for h in header]
-        for col in ("move", "x_mm", "y_mm", "theta_deg", "image"):
-            if col not in header:
-                raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=self.path,
-                                line=header_line)
+        _, header, rows = read_csv_table(self.path, what="run log", required=("move", "x_mm", "y_mm", "theta_deg", "image"))
         self._rows = []
-        for line, cells in rows[1:]:
-            if len(cells) != len(header):
-                raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=self.path, line=line)
+        for line, cells in rows:
             num = lambda c: csv_number(cells, header.index(c), path=self.path, line=line, column=c)  # noqa: E731
             cmd = (num("x_mm"), num("y_mm"), num("theta_deg"))
             self._rows.append((line, int(num("move")), cmd, cells[header.index("image")].strip()))

@@ -10,7 +10,6 @@ process boundary); video frames are decoded in the parent and sent as arrays.
 """
 from __future__ import annotations
 
-import os
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError
-from kinid.files import csv_number, read_csv_rows
+from kinid.files import csv_number, read_csv_table
 
 from .calibrate import _check_matrix
 from .table import OffsetTable, RoundRecord
@@ -26,22 +26,13 @@ MEASUREMENT_COLUMNS = ("camera_y_mm", "shift_x_px", "shift_y_px")
 def read_round(path):
     """(camera_y_mm (n,), shift_px (n, 2), table in use (n, 2) mm) from a measurement CSV."""
     path = Path(path)
-    rows = read_csv_rows(path, what="measurement file")
-    if not rows:
-        raise DataError("no header row and no data", path=path)
-    header_line, header = rows[0]
-    header = [h.strip() for h in header]
-    for col in MEASUREMENT_COLUMNS:
-        if col not in header:
-            raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
+    header_line, header, rows = read_csv_table(path, what="measurement file", required=MEASUREMENT_COLUMNS)
     in_use = [c for c in ("table_dx_mm", "table_dy_mm") if c in header]
     if len(in_use) == 1:
         raise DataError("give both table_dx_mm and table_dy_mm (the table in use), or neither", path=path,
                         line=header_line)
     y, shift, used = [], [], []
-    for line, cells in rows[1:]:
-        if len(cells) != len(header):
-            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=line)
+    for line, cells in rows:
         num = lambda c: csv_number(cells, header.index(c), path=path, line=line, column=c)  # noqa: E731
         y.append(num("camera_y_mm"))
         shift.append((num("shift_x_px"), num("shift_y_px")))

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError
-from kinid.files import csv_number, read_csv_rows
+from kinid.files import csv_number, read_csv_table
 
 from .kinematics import ACTUATORS
 from .model import select_actuator_model
@@ -30,18 +30,9 @@ def read_moves(path) -> dict:
         Naming the file, line and column of the first problem.
     """
     path = Path(path)
-    rows = read_csv_rows(path, what="moves file")
-    if not rows:
-        raise DataError("no header row and no data", path=path)
-    header_line, header = rows[0]
-    header = [h.strip() for h in header]
-    for col in MOVES_COLUMNS:
-        if col not in header:
-            raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
+    header_line, header, rows = read_csv_table(path, what="moves file", required=MOVES_COLUMNS)
     data = {}
-    for line, cells in rows[1:]:
-        if len(cells) != len(header):
-            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=line)
+    for line, cells in rows:
         actuator = cells[header.index("actuator")].strip()
         if actuator not in ACTUATORS:
             raise DataError(f"unknown actuator {actuator!r}; expected {', '.join(ACTUATORS)}", path=path, line=line,
