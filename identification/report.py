@@ -283,9 +283,14 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
     return True
 
 
-def plot_binned_residuals(machine, obs, r_um, sigma_um, path) -> None:
+def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y", "z"),
+                          what="residual in the workpiece frame") -> None:
     """Mean residual per bin of each axis position, each component, against the noise band ±2σ/√n:
-    structure the scatter hides (a periodic error of a few µm) stands out of the band."""
+    structure the scatter hides (a periodic error of a few µm) stands out of the band.
+
+    Bins: each preset position of an axis read at 16 positions or fewer; else equal-width bins, about
+    8 readings each (at most 40), so that a lead error of a few mm shows as a wave.
+    """
     n_ax = len(machine.axes)
     fig = new_figure((3.3 * n_ax, 3.4))
     axs = fig.subplots(1, n_ax, sharey=True, squeeze=False)[0]
@@ -294,35 +299,41 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path) -> None:
         q = obs.axes[:, j]
         values = np.unique(q[np.isfinite(q)])
         if values.size <= 16:  # preset positions (rotary axes of a plan): one bin each
-            edges = np.r_[values - 1e-9, values[-1] + 1e-9] if values.size else np.array([0.0, 1.0])
             centres = values
             which = np.searchsorted(values, q)
-        else:  # equal-count bins, narrow enough to show a lead error of a few mm
-            n_bins = int(np.clip(q.size // 10, 8, 40))
-            edges = np.quantile(q, np.linspace(0, 1, n_bins + 1))
-            edges[-1] += 1e-9
+        else:
+            n_bins = int(np.clip(q.size // 8, 8, 40))
+            edges = np.linspace(values[0], values[-1], n_bins + 1)
             centres = 0.5 * (edges[:-1] + edges[1:])
-            which = np.clip(np.searchsorted(edges, q, side="right") - 1, 0, len(centres) - 1)
+            which = np.clip(np.searchsorted(edges, q, side="right") - 1, 0, n_bins - 1)
         counts = np.array([(which == b).sum() for b in range(len(centres))])
         keep = counts > 0
         half = 2 * sigma_um / np.sqrt(np.maximum(counts, 1))
         ax.fill_between(centres[keep], -half[keep], half[keep], color="0.85", step="mid", label="±2σ/√n")
-        for comp in range(3):
+        for comp in range(r_um.shape[1]):
             mean = np.array([r_um[which == b, comp].mean() if counts[b] else np.nan for b in range(len(centres))])
-            ax.plot(centres[keep], mean[keep], "o-", ms=3, lw=1, color=colours[comp], label=f"{'xyz'[comp]}")
+            ax.plot(centres[keep], mean[keep], "o-", ms=3, lw=1, color=colours[comp % 3], label=labels[comp])
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xlabel(a.column)
-    axs[0].set_ylabel("mean residual per bin (µm)")
+    axs[0].set_ylabel("mean per bin (µm)")
     axs[0].legend(fontsize=8, loc="upper left")
-    fig.suptitle(f"Residuals binned by axis position (grey: where the mean of noise σ = {sigma_um:.3g} µm falls)")
+    fig.suptitle(f"{what[0].upper() + what[1:]}, binned by axis position (grey: where the mean of noise "
+                 f"σ = {sigma_um:.3g} µm falls)")
     fig.tight_layout()
     save_figure(fig, path, tight=False)
 
 
-def _figures(prefix, machine, obs, fit_result, folder: Path):
+def _figures(prefix, machine, obs, fit_result, folder: Path, diagnosis=None):
     r = fit_result.residuals_um
     figs = []
-    plot_binned_residuals(machine, obs, r, fit_result.noise_um, folder / f"{prefix}residuals_binned.png")
+    if diagnosis is not None and diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
+        # readings of the solved axes, measured − model: an axis's own error shows in its own reading
+        plot_binned_residuals(machine, obs, diagnosis.axis_residuals_um, fit_result.noise_um,
+                              folder / f"{prefix}residuals_binned.png",
+                              labels=tuple(f"{n} reading" for n in diagnosis.axis_names),
+                              what="measured − model reading of the solved axes")
+    else:
+        plot_binned_residuals(machine, obs, r, fit_result.noise_um, folder / f"{prefix}residuals_binned.png")
     figs.append(Figure(f"{prefix}residuals_binned.png", "Mean residual per bin of each axis position, against the "
                        "band where the mean of pure noise falls (95 %)"))
     plot_residuals_vs_axes(machine, obs, r, folder / f"{prefix}residuals_axes.png")
@@ -461,7 +472,7 @@ def diagnosis_report(diagnosis, obs, folder, *, provenance=()) -> Path:
     folder = _outdir(folder)
     f = diagnosis.fit
     machine = f.machine
-    figs = _figures("", machine, obs, f, folder)
+    figs = _figures("", machine, obs, f, folder, diagnosis)
     write_text(folder / "residuals.csv", residuals_csv(diagnosis, obs))
     if diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
         plot_measured_vs_model(diagnosis, obs, folder / "measured_vs_model.png")
@@ -513,11 +524,11 @@ def selection_report(steps, obs, folder, *, preface: str = "", provenance=()) ->
         Section("The error falls as effects are added", paragraphs=tuple(p.strip() for p in preface.splitlines() if p.strip()),
                 tables=(table,), figures=(Figure("rms_steps.png", "Residual RMS per step against the noise σ"),)),
         Section("Identified errors (final model)", tables=(errors_table(final),), figures=tuple(error_figs)),
-        Section("Default model: where it fails", figures=tuple(_figures("before_", machine, first, steps[0].fit, folder)),
+        Section("Default model: where it fails", figures=tuple(_figures("before_", machine, first, steps[0].fit, folder, steps[0].diagnosis)),
                 details=steps[0].diagnosis.text(top=10)),
     ]
     if len(steps) > 1:
-        sections.append(Section("Final model: what is left", figures=tuple(_figures("after_", machine, last, final, folder)),
+        sections.append(Section("Final model: what is left", figures=tuple(_figures("after_", machine, last, final, folder, steps[-1].diagnosis)),
                                 details=steps[-1].diagnosis.text(top=5) + "\n\n" + final.table()))
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     page = folder / "index.html"
