@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.checks import check_int, check_positive
-from kinid.errors import DataError
 
 __all__ = ["PlannedMove", "plan_moves"]
 

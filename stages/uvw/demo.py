@@ -13,7 +13,6 @@ import math
 import numpy as np
 
 from kinid.checks import check_int
-from kinid.errors import DataError, StageError
 
 from .calibrate import alignment_targets, calibrate, run_moves, run_stage_moves
 from .kinematics import ACTUATORS, Pose, UVWGeometry, check_lead

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.checks import check_int, check_positive
-from kinid.errors import DataError, StageError
+from kinid.errors import StageError
 
 from .compensator import DirectionTrackingCompensator
 from .kinematics import ACTUATORS, check_actuator, check_lead
