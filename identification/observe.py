@@ -313,9 +313,15 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
     p_nominal = evaluate(machine, log.axes, zero, jacobian=False)
     rows, rejected = [], []
     for i, name in enumerate(log.images):
+        if progress is not None:
+            progress(i, n)
         line = log.lines[i]
         img = read_image(folder / name)
         h, w = img.shape
+        if sensor.camera is not None and (w, h) != tuple(sensor.camera.image_size):
+            raise DataError(f"{name} is {w} × {h} px, but the sensor's camera was calibrated on "
+                            f"{sensor.camera.image_size[0]} × {sensor.camera.image_size[1]} px images",
+                            path=log.source, line=line, column="image")
         found = detect_markers(img, bits=board.bits)
         if not found:
             rejected.append(Rejected(line, name, "no ring-coded mark decoded"))
@@ -347,16 +353,12 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         miss = np.linalg.norm(expected[:, :2] - offsets[:, :2], axis=1)
         order = np.argsort(np.hypot(offsets[:, 0], offsets[:, 1]))
         chosen = order[:1] if marks == "nearest" else order
-        kept = 0
         for k in chosen:
             if miss[k] > 0.5 * board.pitch_mm:
                 rejected.append(Rejected(line, name, f"code {on_board[k].code} decoded {miss[k]:.1f} mm from where the "
                                                      f"readings put it (a misread code or a wrong board origin)"))
                 continue
             rows.append((i, on_board[k].code, w_mm[k], offsets[k]))
-            kept += 1
-        if progress is not None:
-            progress(i + 1, n)
     if not rows:
         raise DataError(f"no image of the run gave an observation ({len(rejected)} rejected; the first: line "
                         f"{rejected[0].line}, {rejected[0].image}: {rejected[0].reason})" if rejected else
