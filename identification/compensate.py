@@ -1,12 +1,22 @@
-"""From a fit to what a controller loads: axis error tables, constants, a calibrated URDF (docs/compensation.md).
+"""From a fit to what a controller loads: axis error tables, constants, set-up, a calibrated URDF
+(docs/compensation.md).
 
+- :func:`compensation_model` — the fit with only what belongs in a machine's compensation: the
+  machine's significant errors (|value| above its expanded uncertainty, k = 2), without the set-up
+  of the board and the sensor (they go to ``setup.json``) and without drifts; what is left out is
+  listed with the reason;
+- :func:`axis_range` — where a table of an axis goes: the measured readings (default), the URDF
+  travel on request, one turn for a rotary axis that turns all the way (a modulo table);
 - :func:`axis_error_columns` — the value of every position-dependent error joint of one axis over a
   grid of that axis (direction + and, where the model has a reversal, direction −);
 - :func:`constant_errors` — every constant (location and set-up) error with its standard deviation;
-- :func:`calibrated_urdf` — the machine's URDF with every identified constant folded into the fixed
+- :func:`setup_offsets` — the board's and the sensor's set-up as the transforms a work offset and a
+  tool offset apply;
+- :func:`calibrated_urdf` — the machine's URDF with every compensated constant folded into the fixed
   geometry, the error joints kept at zero;
 - :func:`write_compensation` — all of it into one folder, plus the controller files of
-  :mod:`kinid.axis_tables`.
+  :mod:`kinid.axis_tables`, each on a grid fine enough that the controller's own linear
+  interpolation follows the model within a stated bound.
 
 Values are the fitted model's own: the same effect bases as the fit, at the identified parameters
 (a held, unidentifiable parameter counts as 0, as in the fit's predictions).
@@ -16,45 +26,144 @@ from __future__ import annotations
 import hashlib
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from kinid.axis_tables import FORMATS, AxisErrorTable, format_text, neutral_csv_text, points_for
+from kinid.axis_tables import (AxisErrorTable, TableOptions, controller_format, default_formats, neutral_csv_text,
+                               points_for)
 from kinid.errors import DataError
 from .effects import basis_values
 from .fit import FitResult
 from .machine import axis_limits
 
-__all__ = ["AxisColumns", "axis_error_columns", "axis_grid", "constant_errors", "calibrated_urdf",
-           "write_compensation", "positioning_table", "CompensationFiles"]
+__all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axis_error_columns",
+           "constant_errors", "setup_offsets", "calibrated_urdf", "write_compensation", "positioning_table",
+           "CompensationFiles", "K_EXPANDED", "BOUND_SHARE"]
 
-#: Fraction of the fitted data's span added on each side where the URDF gives an axis no travel.
-DATA_MARGIN = 0.05
+#: Coverage factor of the expanded uncertainty a compensated term must exceed.
+K_EXPANDED = 2.0
+#: A table's interpolation may depart from the model by at most this share of the error's RMS.
+BOUND_SHARE = 0.10
+#: Most points of a plain CSV table when its step is chosen by kinid.
+CSV_MAX_POINTS = 20001
+#: Model samples per table interval, and at least over a range, when a grid's interpolation error is measured.
+_FINE = 8
+_DENSE = 20001
 
+
+# --- what goes into the compensation ------------------------------------------------------------
 
 @dataclass(frozen=True)
-class AxisColumns:
-    """The error joints of one axis tabulated over its travel.
+class Compensation:
+    """The part of a fit that a machine's compensation holds.
 
     Attributes
     ----------
-    axis : str
-    column : str
-        The position column's name (``x_mm``, ``c_deg``).
-    positions : array (n,)
-    columns : dict name -> array (n,)
-        ``EXX_um`` …, ``ECX_urad``; with a reversal effect also ``EXX_rev_um`` (direction −).
-    source : str
-        Where the grid's range comes from: "URDF limits" or "fitted data".
+    result : FitResult
+        The fit with every left-out parameter at zero (tables and calibrated URDF are made from it).
+    fit : FitResult
+        The fit as identified.
+    left_out : tuple of (effect name, reason)
+    setup_effects : tuple of str
+        The set-up effects (workpiece W, sensor/tool T): in ``setup.json``, not in the machine.
     """
 
-    axis: str
-    column: str
-    positions: np.ndarray
-    columns: dict
+    result: FitResult
+    fit: FitResult
+    left_out: tuple
+    setup_effects: tuple
+
+
+def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compensation:
+    """Keep the machine's errors that a compensation should hold.
+
+    Left out, each with its reason: the set-up of the workpiece and the sensor (pseudo-axes W and T,
+    they belong in the controller's work and tool offsets), drifts with time (no table holds them),
+    effects the data could not identify, and — unless ``all_terms`` — effects none of whose
+    parameters exceeds its expanded uncertainty (|value| ≤ k·σ, k = 2).
+    """
+    machine = result.machine
+    values = np.array(result.values, float)
+    left, setup, k = [], [], 0
+    for e in result.effects:
+        sl = slice(k, k + e.n_params)
+        k += e.n_params
+        joint = machine.error_joint(e.code)
+        ok = np.asarray(result.identifiable[sl], bool)
+        reason = None
+        if joint.axis in ("W", "T"):
+            setup.append(e.name)
+            reason = "set-up of the " + ("workpiece (board)" if joint.axis == "W" else "sensor (tool)") + \
+                     ": in setup.json, for the work or tool offset"
+        elif not ok.any():
+            reason = "not identifiable from these data"
+        elif e.basis == "drift":
+            reason = "a drift with time: no table holds it"
+        elif not all_terms:
+            std = np.asarray(result.std[sl], float)[ok]
+            v = np.abs(values[sl][ok])
+            if np.all(np.isfinite(std)) and np.all(std > 0):
+                ratio = float(np.max(v / std))
+                if ratio <= K_EXPANDED:
+                    reason = (f"not significant: |value| ≤ its expanded uncertainty (k = {K_EXPANDED:g}); "
+                              f"largest |value|/σ {ratio:.2g}")
+        if reason is not None:
+            left.append((e.name, reason))
+            values[sl] = np.where(ok, 0.0, values[sl])
+    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup))
+
+
+# --- where tables go ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class AxisRange:
+    """Where an axis's tables go.
+
+    Attributes
+    ----------
+    low, high : float
+        mm or deg.
+    source : str
+        "measured readings", "URDF travel" or "one turn (modulo)".
+    modulo : bool
+        A one-turn table of a rotary axis (first and last points hold the same value).
+    travel : tuple (low, high)
+        The URDF travel (±inf where it gives none).
+    measured : tuple (low, high) or None
+        The readings the fit spans.
+    """
+
+    low: float
+    high: float
     source: str
+    modulo: bool
+    travel: tuple
+    measured: tuple | None
+
+
+def axis_range(result: FitResult, axis: str, policy: str = "data") -> AxisRange | None:
+    """The range of ``axis``'s tables under ``policy`` ("data": the measured readings; "travel": the URDF's).
+
+    A rotary axis that turns all the way (continuous, or a travel of a turn or more) gets one turn,
+    0 .. 360°, as a modulo table. None where the fit has no readings of the axis (data policy).
+    """
+    if policy not in ("data", "travel"):
+        raise DataError(f"must be 'data' or 'travel', got {policy!r}", parameter="range_policy")
+    machine = result.machine
+    j = machine.axis_names.index(axis)
+    a = machine.axes[j]
+    lo, hi = (float(v) for v in axis_limits(machine)[j])
+    measured = result.axis_ranges.get(axis)
+    measured = tuple(measured) if measured is not None and measured[1] > measured[0] else None
+    if a.kind == "revolute" and (a.nq == 2 or (np.isfinite(hi - lo) and hi - lo >= 360.0 - 1e-9)):
+        return AxisRange(0.0, 360.0, "one turn (modulo)", True, (lo, hi), measured)
+    if policy == "travel" and np.isfinite(lo) and np.isfinite(hi):
+        return AxisRange(lo, hi, "URDF travel", False, (lo, hi), measured)
+    if measured is None:
+        return None
+    return AxisRange(measured[0], measured[1], "measured readings", False, (lo, hi), measured)
 
 
 def _effects_by_axis(result: FitResult):
@@ -66,24 +175,6 @@ def _effects_by_axis(result: FitResult):
             out.setdefault(e.axis, []).append((e, theta[k:k + e.n_params]))
         k += e.n_params
     return out
-
-
-def axis_grid(result: FitResult, axis: str, step: float) -> tuple:
-    """(positions, source) covering the axis's travel: the URDF limits, else the fitted data with a margin."""
-    machine = result.machine
-    j = machine.axis_names.index(axis)
-    lo, hi = axis_limits(machine)[j]
-    if np.isfinite(lo) and np.isfinite(hi):
-        return points_for(step, lo, hi), "URDF limits"
-    a = machine.axes[j]
-    if a.kind == "revolute" and a.nq == 2:  # a continuous turntable: one turn
-        return points_for(step, 0.0, 360.0), "one turn (continuous axis)"
-    if axis not in result.axis_ranges:
-        raise DataError(f"axis {axis} has no limits in the URDF and the fit does not record the range of its "
-                        f"readings; add <limit> to the joint or refit", parameter="fit")
-    d_lo, d_hi = result.axis_ranges[axis]
-    margin = DATA_MARGIN * max(d_hi - d_lo, step)
-    return points_for(step, d_lo - margin, d_hi + margin), "fitted data"
 
 
 def axis_error_columns(result: FitResult, axis: str, positions) -> dict:
@@ -130,20 +221,30 @@ def positioning_table(result: FitResult, axis: str, positions) -> AxisErrorTable
     return AxisErrorTable(axis, rotary, np.asarray(positions, float), fwd, rev)
 
 
-def constant_errors(result: FitResult) -> list:
-    """Every constant effect: dicts with name, value, std (None where held), unit, identified."""
+def constant_errors(result: FitResult, compensated=None) -> list:
+    """Every constant effect: dicts with name, value, std, expanded uncertainty (k = 2), unit, identified.
+
+    ``compensated`` (a :class:`Compensation`) adds whether each is compensated, and why not.
+    """
+    why = dict(compensated.left_out) if compensated is not None else {}
     out, k = [], 0
     for e in result.effects:
         if e.basis == "constant":
             ok = bool(result.identifiable[k])
-            out.append({"name": e.name, "value": float(result.values[k]) if ok else None,
-                        "std": float(result.std[k]) if ok and np.isfinite(result.std[k]) else None,
-                        "unit": "µm" if e.unit == "um" else "µrad", "identified": ok})
+            std = float(result.std[k]) if ok and np.isfinite(result.std[k]) else None
+            row = {"name": e.name, "value": float(result.values[k]) if ok else None, "std": std,
+                   "expanded_uncertainty_k2": None if std is None else K_EXPANDED * std,
+                   "unit": "µm" if e.unit == "um" else "µrad", "identified": ok}
+            if compensated is not None:
+                row["compensated"] = e.name not in why
+                if e.name in why:
+                    row["left_out_because"] = why[e.name]
+            out.append(row)
         k += e.n_params
     return out
 
 
-# --- the calibrated URDF -----------------------------------------------------------------------
+# --- URDF geometry ------------------------------------------------------------------------------
 
 def _origin(joint) -> np.ndarray:
     import pinocchio as pin
@@ -182,18 +283,82 @@ def _motion(joint, value_si: float) -> np.ndarray:
     return T
 
 
+def _constant_values(result: FitResult) -> dict:
+    """Error joint -> identified constant value (µm / µrad), non-zero ones only."""
+    return {c["name"]: c["value"] for c in constant_errors(result) if c["identified"] and c["value"]}
+
+
+def setup_offsets(result: FitResult) -> dict:
+    """The set-up of the workpiece (W) and the sensor (T) as a work offset and a tool offset.
+
+    For each end: the transform ``S`` that takes the nominal end frame to the identified one,
+    expressed in the nominal end frame (where the board, or the sensor, really is:
+    ``oMw_actual = oMw_nominal · S_W``, ``oMt_actual = oMt_nominal · S_T``), as a translation in mm,
+    fixed-axis roll/pitch/yaw in degrees and the 4×4 matrix (mm); and each set-up joint's value with
+    its expanded uncertainty (k = 2).
+    """
+    import pinocchio as pin
+
+    machine = result.machine
+    root = ET.fromstring(machine.urdf)
+    parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
+    constants = {c["name"]: c for c in constant_errors(result)}
+    out = {}
+    for pseudo, end in (("W", "workpiece"), ("T", "tool")):
+        codes = {e.code for e in machine.error_joints if e.axis == pseudo}
+        if not codes:
+            continue
+        chain, link, seen_setup = [], end, False
+        while link in parent_of:  # from the end link up to the first joint above the set-up joints
+            j = parent_of[link]
+            is_setup = j.get("name") in codes
+            if seen_setup and not is_setup:
+                break
+            seen_setup = seen_setup or is_setup
+            chain.append(j)
+            link = j.find("parent").get("link")
+        chain.reverse()
+        S, nominal = np.eye(4), np.eye(4)
+        for j in chain:  # root -> end: the set-up joints at their values, the fixed origins after them
+            c = constants.get(j.get("name"))
+            value = c["value"] if c and c["identified"] and c["value"] else 0.0
+            S = S @ _origin(j) @ _motion(j, value * 1e-6) if j.get("name") in codes else S @ _origin(j)
+            nominal = nominal @ _origin(j)
+        S_end = np.linalg.inv(nominal) @ S
+
+        joints = {}
+        for code in sorted(codes):
+            c = constants.get(code)
+            if c is None:
+                continue
+            joints[code] = {"value": c["value"], "expanded_uncertainty_k2": c["expanded_uncertainty_k2"],
+                            "unit": c["unit"], "identified": c["identified"]}
+        T_mm = S_end.copy()
+        T_mm[:3, 3] *= 1e3
+        out["workpiece" if pseudo == "W" else "tool"] = {
+            "frame": end,
+            "offset_mm": [float(v) for v in T_mm[:3, 3]],
+            "rotation_rpy_deg": [float(v) for v in np.degrees(pin.rpy.matrixToRpy(S_end[:3, :3]))],
+            "transform_mm": [[float(v) for v in row] for row in T_mm],
+            "joints": joints,
+        }
+    return out
+
+
 def calibrated_urdf(result: FitResult) -> str:
     """The machine's URDF with every identified constant error folded into the fixed geometry.
 
     An error joint's constant value is a fixed transform right after that joint; it is moved into
     the origin of the next joint down the chain that is not an error joint (error joints must keep
-    a zero origin), or, at the end of a chain, into a fixed joint added for it. Error joints stay,
-    at zero: with every joint of the file at the axis readings and the error joints at 0 (or at the
-    values of the axis tables), any URDF consumer reproduces the fitted kinematics.
+    a zero origin), or, at the end of a chain, into one fixed joint added between the chain's last
+    joint and its link. Error joints stay, at zero: with every joint of the file at the axis
+    readings and the error joints at 0 (or at the values of the axis tables), any URDF consumer
+    reproduces the model of ``result``. Names added are unique in the file.
     """
     machine = result.machine
     root = ET.fromstring(machine.urdf)
     joints = {j.get("name"): j for j in root.findall("joint")}
+    names = set(joints) | {link.get("name") for link in root.findall("link")}
     by_parent = {}
     for j in root.findall("joint"):
         by_parent.setdefault(j.find("parent").get("link"), []).append(j)
@@ -207,11 +372,16 @@ def calibrated_urdf(result: FitResult) -> str:
             link = parent_of[link].find("parent").get("link")
         return d
 
-    values = {}
-    for c in constant_errors(result):
-        if c["identified"] and c["value"] and c["name"] in joints:
-            values[c["name"]] = c["value"]
-    added = 0
+    def unique(stem):
+        name, k = stem, 1
+        while name in names:
+            k += 1
+            name = f"{stem}_{k}"
+        names.add(name)
+        return name
+
+    values = {n: v for n, v in _constant_values(result).items() if n in joints}
+    leaf_joints = {}  # error joint at a chain's end -> the fixed joint added after it
     # deepest first: a transform pushed down a chain of error joints keeps the chain's order
     for name in sorted(values, key=lambda n: -depth(joints[n])):
         T = _motion(joints[name], values[name] * 1e-6)
@@ -229,16 +399,20 @@ def calibrated_urdf(result: FitResult) -> str:
         for kind, j in targets:
             if kind == "joint":
                 _set_origin(j, T @ _origin(j))
-            else:  # end of a chain: a fixed joint between the error joint and its child link
+                continue
+            fixed = leaf_joints.get(j.get("name"))
+            if fixed is None:  # end of a chain: one fixed joint between the error joint and its child link
                 child = j.find("child")
-                link_name = f"{j.get('name')}_calibration_link"
+                link_name = unique(f"{j.get('name')}_calibration_link")
                 ET.SubElement(root, "link", {"name": link_name})
-                fixed = ET.SubElement(root, "joint", {"name": f"{j.get('name')}_calibration", "type": "fixed"})
+                fixed = ET.SubElement(root, "joint", {"name": unique(f"{j.get('name')}_calibration"), "type": "fixed"})
                 ET.SubElement(fixed, "parent", {"link": link_name})
                 ET.SubElement(fixed, "child", {"link": child.get("link")})
-                _set_origin(fixed, T)
                 child.set("link", link_name)
-                added += 1
+                leaf_joints[j.get("name")] = fixed
+                _set_origin(fixed, T)
+            else:
+                _set_origin(fixed, T @ _origin(fixed))
     header = (f"\n  Calibrated by kinid: identified constant errors folded into the joint origins\n"
               f"  ({', '.join(f'{n} = {v:.4g}' for n, v in values.items()) or 'none'});\n"
               f"  error joints kept, at zero.\n")
@@ -246,18 +420,95 @@ def calibrated_urdf(result: FitResult) -> str:
     return ET.tostring(root, encoding="unicode") + "\n"
 
 
+# --- grids a controller's interpolation follows --------------------------------------------------
+
+def _interpolation_worst(values_at, low: float, high: float, n: int) -> np.ndarray:
+    """Largest departure, per column, of the linear interpolation through ``n`` equal-step points: on a
+    grid of ``_FINE`` samples per interval and at least ``_DENSE`` samples over the range (so that an
+    error that repeats faster than the points cannot hide between the samples)."""
+    nodes = np.linspace(low, high, n)
+    fine = np.union1d(np.linspace(low, high, _FINE * (n - 1) + 1), np.linspace(low, high, _DENSE))
+    v = np.atleast_2d(values_at(fine))
+    at_nodes = np.atleast_2d(values_at(nodes))
+    return np.array([np.max(np.abs(np.interp(fine, nodes, row) - v[k])) for k, row in enumerate(at_nodes)])
+
+
+def _fewest_points(values_at, low: float, high: float, bounds, most: int) -> int:
+    """Fewest equal-step points from ``low`` to ``high`` whose interpolation stays within ``bounds``
+    (per column), at most ``most``."""
+    bounds = np.asarray(bounds, float)
+    ok = lambda n: bool(np.all(_interpolation_worst(values_at, low, high, n) <= bounds))  # noqa: E731
+    good, bad = None, 2
+    n = 2
+    while n < most:
+        if ok(n):
+            good = n
+            break
+        bad = n
+        n = 2 * n - 1
+    if good is None:
+        if not ok(most):
+            return most
+        good = most
+    while good - bad > 1:
+        mid = (good + bad) // 2
+        good, bad = (mid, bad) if ok(mid) else (good, mid)
+    return good
+
+
+def _grid(values_at, rng: AxisRange, bounds, most: int, step) -> np.ndarray:
+    if step is not None:
+        return points_for(step, rng.low, rng.high, most)
+    return np.linspace(rng.low, rng.high, _fewest_points(values_at, rng.low, rng.high, bounds, most))
+
+
+def _ends(rng: AxisRange, beyond: str, equidistant: bool) -> tuple:
+    """Points added beyond the range: (one step beyond each end, the travel's ends)."""
+    if rng.modulo:
+        return False, ()
+    lo, hi = rng.travel
+    travel = () if equidistant else tuple(t for t, outside in ((lo, lo < rng.low - 1e-9), (hi, hi > rng.high + 1e-9))
+                                          if np.isfinite(t) and outside)
+    return beyond == "zero", travel
+
+
+def _extend(q: np.ndarray, columns: dict, rng: AxisRange, beyond: str, equidistant: bool):
+    """The grid and columns with the beyond policy made explicit: a zero one step beyond each end
+    (``zero``) and, for formats with free points, the travel's ends at the held or zero value."""
+    step_out, travel = _ends(rng, beyond, equidistant)
+    q = np.asarray(q, float)
+    cols = {k: np.asarray(v, float) for k, v in columns.items()}
+    if rng.modulo:  # one turn: the controller wraps 360° onto 0°
+        return q, {k: np.concatenate([v[:-1], v[:1]]) for k, v in cols.items()}
+    step = q[1] - q[0]
+    if step_out:
+        q = np.concatenate([[q[0] - step], q, [q[-1] + step]])
+        cols = {k: np.concatenate([[0.0], v, [0.0]]) for k, v in cols.items()}
+    lo_t, hi_t = (min(travel, default=np.inf), max(travel, default=-np.inf))
+    if lo_t < q[0] - 1e-9:
+        q = np.concatenate([[lo_t], q])
+        cols = {k: np.concatenate([[v[0]], v]) for k, v in cols.items()}
+    if hi_t > q[-1] + 1e-9:
+        q = np.concatenate([q, [hi_t]])
+        cols = {k: np.concatenate([v, [v[-1]]]) for k, v in cols.items()}
+    return q, cols
+
+
+def _extra_points(rng: AxisRange, beyond: str, equidistant: bool) -> int:
+    step_out, travel = _ends(rng, beyond, equidistant)
+    return 2 * step_out + len(travel)
+
+
+def _rms(x) -> float:
+    x = np.asarray(x, float)
+    return float(np.sqrt(np.mean(np.square(x)))) if x.size else 0.0
+
+
+def _quantised(values, resolution: float) -> np.ndarray:
+    return np.round(np.asarray(values, float) / resolution) * resolution
+
+
 # --- the compensation folder -------------------------------------------------------------------
-
-def _interpolation_error(result: FitResult, table: AxisErrorTable, unit: str) -> float:
-    """Largest difference (µm or µrad) between the table's linear interpolation and the model, both directions."""
-    q = table.positions
-    fine = np.linspace(q[0], q[-1], 20 * (q.size - 1) + 1)
-    model = positioning_table(result, table.axis, fine)
-    worst = 0.0
-    for coarse, exact in ((table.forward, model.forward), (table.backward, model.backward)):
-        worst = max(worst, float(np.max(np.abs(np.interp(fine, q, coarse) - exact))))
-    return worst
-
 
 @dataclass(frozen=True)
 class CompensationFiles:
@@ -268,82 +519,183 @@ class CompensationFiles:
     files : tuple of str
         File names in the folder.
     notes : tuple of str
-        One line per controller file that cannot follow the model closely (too few points for
-        the fitted effects), and per effect that no table holds (drift).
+        One line per controller file that cannot follow the model within the bound (and why), per
+        axis whose tables cover less than its travel, and per effect left out of the compensation.
+    controller : tuple of dict
+        Per controller file: format, axis, points, range, the error's RMS and what the controller's
+        interpolation leaves of it (RMS and largest), in µm or µrad.
     """
 
     files: tuple
     notes: tuple
+    controller: tuple = ()
 
 
-def write_compensation(result: FitResult, folder, *, step_mm: float = 1.0, step_deg: float = 1.0,
-                       formats=("linuxcnc", "twincat"), fit_path=None) -> CompensationFiles:
+def write_compensation(result: FitResult, folder, *, step_mm: float | None = None, step_deg: float | None = None,
+                       formats=None, fit_path=None, range_policy: str = "data", beyond: str = "hold",
+                       all_terms: bool = False, axis_numbers: dict | None = None) -> CompensationFiles:
     """Write the compensation of ``result`` into ``folder``.
 
-    Files: ``<AXIS>.csv`` per motion axis with error joints, ``constants.json``, ``calibrated.urdf``,
-    ``compensation.json`` (provenance, grids, sign convention, how closely each controller file
-    follows the model) and, per controller format, one file per axis with a positioning error joint
-    (on the same grid, or on the finest grid the format holds).
+    Files: ``<AXIS>.csv`` per motion axis with compensated errors, ``constants.json``,
+    ``setup.json`` (the board's and the sensor's set-up, for the work and tool offsets),
+    ``calibrated.urdf``, ``compensation.json`` (provenance, ranges, what was left out and why, how
+    closely each controller file follows the model) and, per controller format, one file per axis
+    with a positioning error.
+
+    Parameters
+    ----------
+    step_mm, step_deg : float, optional
+        Fixed grid steps. Default: per table, the fewest equal steps for which linear interpolation
+        departs from the model by at most 10 % of the error's RMS (and the format's resolution).
+    formats : sequence of str, optional
+        Controller formats (:data:`kinid.axis_tables.CONTROLLER_FORMATS`); default: the default ones.
+    range_policy : {"data", "travel"}
+        Tables over the measured readings of each axis (default) or the URDF travel.
+    beyond : {"hold", "zero"}
+        Beyond a table's ends the end values are held, or the compensation returns to zero.
+    all_terms : bool
+        Compensate every identified term, significant or not.
+    axis_numbers : dict axis -> int, optional
+        The controller's axis numbers (default: the axis's place in the URDF).
     """
     from kinid import __version__
     from kinid.files import write_json, write_text
 
+    if beyond not in ("hold", "zero"):
+        raise DataError(f"must be 'hold' or 'zero', got {beyond!r}", parameter="beyond")
+    fmts = [controller_format(f) for f in (default_formats() if formats is None else formats)]
+    comp = compensation_model(result, all_terms=all_terms)
+    model = comp.result
+    machine = model.machine
+    numbers = dict(axis_numbers or {})
+    unknown = sorted(set(numbers) - set(machine.axis_names))
+    if unknown:
+        raise DataError(f"names no axis of the machine: {', '.join(unknown)}; axes: {', '.join(machine.axis_names)}",
+                        parameter="axis_numbers")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    machine = result.machine
     written, tables, skipped, controller, notes = [], {}, [], [], []
-    for a in machine.axes:
+    for place, a in enumerate(machine.axes, start=1):
+        rotary = a.kind == "revolute"
+        unit_q, unit = ("deg", "µrad") if rotary else ("mm", "µm")
+        rng = axis_range(model, a.name, range_policy)
+        if rng is None:
+            skipped.append({"axis": a.name, "reason": "the fit has no readings of this axis"})
+            continue
+        cols_at = lambda q, name=a.name: axis_error_columns(model, name, q)  # noqa: E731
+        probe = cols_at(np.linspace(rng.low, rng.high, 257))
+        if not any(np.any(v != 0) for v in probe.values()):
+            skipped.append({"axis": a.name, "reason": "no compensated error on this axis"})
+            continue
         step = step_mm if a.kind == "prismatic" else step_deg
-        grid, source = axis_grid(result, a.name, step)
-        cols = axis_error_columns(result, a.name, grid)
-        if not cols:
-            skipped.append(a.name)
-            continue
-        write_text(folder / f"{a.name}.csv", neutral_csv_text(a.column, grid, cols))
+        span = rng.measured or (rng.low, rng.high)
+        inside = np.linspace(max(span[0], rng.low), min(span[1], rng.high), 2001)
+        names = list(probe)
+        stack = lambda q, f=cols_at: np.vstack(list(f(q).values()))  # noqa: E731
+        bounds = np.maximum(BOUND_SHARE * np.sqrt(np.mean(stack(inside) ** 2, axis=1)), 1e-3)
+        q = _grid(stack, rng, bounds, CSV_MAX_POINTS - _extra_points(rng, beyond, False), step)
+        q_ext, cols = _extend(q, cols_at(q), rng, beyond, False)
+        write_text(folder / f"{a.name}.csv", neutral_csv_text(a.column, q_ext, cols))
         written.append(f"{a.name}.csv")
-        tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(grid[0]), "to": float(grid[-1]),
-                          "points": int(grid.size), "range_from": source, "columns": list(cols)}
-        span = result.axis_ranges.get(a.name)
-        if span and source == "URDF limits" and any(cols[c].any() for c in cols) and \
-                (span[1] - span[0]) < 0.9 * (grid[-1] - grid[0]):
-            unit_q = "deg" if a.kind == "revolute" else "mm"
-            notes.append(f"{a.name}.csv: the fitted data span {span[0]:.4g} .. {span[1]:.4g} {unit_q} of the travel "
-                         f"{grid[0]:.4g} .. {grid[-1]:.4g} {unit_q}; beyond them the table is the model's extrapolation")
-        if f"E{a.name}{a.name}" not in machine.error_codes:
+        tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(rng.low), "to": float(rng.high),
+                          "points": int(q_ext.size), "range": rng.source, "modulo": rng.modulo,
+                          "measured": None if rng.measured is None else list(rng.measured),
+                          "travel": [v if np.isfinite(v) else None for v in rng.travel], "columns": names}
+        if rng.measured is not None and not rng.modulo and np.isfinite(rng.travel[1] - rng.travel[0]) and \
+                (rng.high - rng.low) < 0.9 * (rng.travel[1] - rng.travel[0]):
+            notes.append(f"{a.name}: tables over {rng.source} {rng.low:.4g} .. {rng.high:.4g} {unit_q} of the travel "
+                         f"{rng.travel[0]:.4g} .. {rng.travel[1]:.4g} {unit_q}; beyond, "
+                         + ("the end values are held" if beyond == "hold" else "the compensation returns to zero")
+                         + (" (--range travel for the whole travel)" if range_policy == "data" else ""))
+        code = f"E{a.name}{a.name}"
+        key = f"{code}_{'urad' if rotary else 'um'}"
+        if code not in machine.error_codes or not np.any(probe.get(key, np.zeros(1)) != 0):
             continue
-        unit = "µrad" if a.kind == "revolute" else "µm"
-        for fmt in formats:
-            pattern, _, most = FORMATS[fmt]
-            fgrid = grid if grid.size <= most else points_for(step, grid[0], grid[-1], most)
-            table = positioning_table(result, a.name, fgrid)
-            options = {"axis_number": machine.axis_names.index(a.name) + 1} if fmt == "twincat" else {}
-            name = pattern.format(axis=a.name)
-            write_text(folder / name, format_text(fmt, table, **options))
+        pos_at = lambda x, name=a.name: _directions(positioning_table(model, name, x))  # noqa: E731
+        error_rms = _rms(pos_at(inside))
+        for fmt in fmts:
+            res = fmt.resolution(rotary)
+            target = BOUND_SHARE * error_rms - res / 2
+            limited = "resolution" if target < res / 2 else None
+            target = max(target, res / 2)
+            most = fmt.max_points - _extra_points(rng, beyond, fmt.equidistant)
+            values_at = pos_at if fmt.bidirectional else (lambda x, f=pos_at: f(x).mean(axis=0, keepdims=True))
+            fq = _grid(values_at, rng, [target] * values_at(inside[:2]).shape[0], most, step)
+            base = positioning_table(model, a.name, fq)
+            fq_ext, ends = _extend(fq, {"f": base.forward, "b": base.backward}, rng, beyond, fmt.equidistant)
+            table = AxisErrorTable(a.name, rotary, fq_ext, ends["f"], None if base.reverse is None else ends["b"])
+            options = TableOptions(axis_number=numbers.get(a.name, place), modulo=rng.modulo,
+                                   comment=f"kinid {__version__}: {code} of {Path(machine.path).name}, "
+                                           f"error = actual - commanded")
+            name = fmt.file_name(a.name)
+            write_text(folder / name, fmt.write(table, options))
             written.append(name)
-            worst = _interpolation_error(result, table, unit)
-            controller.append({"file": name, "format": fmt, "axis": a.name, "points": int(fgrid.size),
-                               "step": float(fgrid[1] - fgrid[0]), "max_interpolation_error": worst, "unit": unit})
-            if worst > 0.1:
-                notes.append(f"{name}: {fmt} holds {most} points, a step of {fgrid[1] - fgrid[0]:.3g} "
-                             f"{'deg' if a.kind == 'revolute' else 'mm'} over the travel; its linear interpolation "
-                             f"departs from the model by up to {worst:.3g} {unit}")
-    write_json(folder / "constants.json", {"errors": constant_errors(result)})
-    write_text(folder / "calibrated.urdf", calibrated_urdf(result))
-    written += ["constants.json", "calibrated.urdf"]
-    not_tabulated = [e.name for e in result.effects if e.basis == "drift"]
-    notes += [f"{n}: a drift with time, in no table" for n in not_tabulated]
+            left = _left_after(fmt, table, values_at, inside, res)
+            if fq.size >= most and left["rms"] > BOUND_SHARE * error_rms:
+                limited = "points"
+            entry = {"file": name, "format": fmt.name, "axis": a.name, "axis_number": options.axis_number,
+                     "points": int(table.positions.size), "step": float(fq[1] - fq[0]),
+                     "from": float(fq[0]), "to": float(fq[-1]), "ends_added": int(fq_ext.size - fq.size),
+                     "modulo": rng.modulo, "unit": unit,
+                     "error_rms": error_rms, "left_rms": left["rms"], "left_max": left["max"],
+                     "bound_rms": BOUND_SHARE * error_rms, "beyond": fmt.beyond, "sign": fmt.sign}
+            if not fmt.bidirectional and base.reverse is not None:
+                entry["reversal"] = float(np.mean(base.reverse - base.forward))
+                notes.append(f"{name}: one table for both directions (their mean); set the reversal "
+                             f"{entry['reversal']:.3g} {unit} in the controller's backlash compensation")
+            controller.append(entry)
+            if left["rms"] > BOUND_SHARE * error_rms:
+                why = {"points": f"{fmt.title} holds {fmt.max_points} points",
+                       "resolution": f"{fmt.title} stores values in steps of {res:.3g} {unit}"}.get(limited, "")
+                notes.append(f"{name}: the controller's interpolation leaves {left['rms']:.3g} {unit} RMS of the "
+                             f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
+                             f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
+    setup = setup_offsets(result)
+    write_json(folder / "constants.json", {"errors": constant_errors(result, comp)})
+    written.append("constants.json")
+    if setup:
+        write_json(folder / "setup.json", {
+            "meaning": "where the workpiece (board) and the sensor (tool) really are, in their nominal frames: "
+                       "oMw_actual = oMw_nominal · S_W, oMt_actual = oMt_nominal · S_T; load them as the work "
+                       "offset and the tool offset, not into the machine's compensation",
+            **setup})
+        written.append("setup.json")
+    write_text(folder / "calibrated.urdf", calibrated_urdf(model))
+    written.append("calibrated.urdf")
+    notes += [f"{n}: left out ({why})" for n, why in comp.left_out if not why.startswith("set-up")]
     info = {
         "kinid_version": __version__,
         "fit": None if fit_path is None else {"file": str(fit_path),
                                               "sha256": hashlib.sha256(Path(fit_path).read_bytes()).hexdigest()},
         "machine": machine.path,
         "sign_convention": "error = actual - commanded, µm (linear) or µrad (rotary); direction + unless _rev",
+        "range_policy": {"data": "the measured readings of each axis", "travel": "the URDF travel"}[range_policy],
+        "beyond": {"hold": "end values held beyond a table", "zero": "zero one step beyond a table's ends"}[beyond],
+        "significance": ("every identified term" if all_terms else
+                         f"terms with a parameter beyond its expanded uncertainty (k = {K_EXPANDED:g})"),
+        "interpolation_bound": f"{BOUND_SHARE:.0%} of the error's RMS inside the measured range, "
+                               f"or the format's resolution",
         "fitted_ranges": {k: list(v) for k, v in result.axis_ranges.items()},
         "tables": tables,
         "controller_files": controller,
-        "axes_without_error_joints": skipped,
-        "not_tabulated": not_tabulated,
+        "axes_without_tables": skipped,
+        "left_out": [{"effect": n, "reason": why} for n, why in comp.left_out],
+        "setup_file": "setup.json" if setup else None,
     }
     write_json(folder / "compensation.json", info)
     written.append("compensation.json")
-    return CompensationFiles(tuple(written), tuple(notes))
+    return CompensationFiles(tuple(written), tuple(notes), tuple(controller))
+
+
+def _directions(table: AxisErrorTable) -> np.ndarray:
+    """(2, n): the forward and backward errors of a table."""
+    return np.vstack([table.forward, table.backward])
+
+
+def _left_after(fmt, table: AxisErrorTable, values_at, inside: np.ndarray, resolution: float) -> dict:
+    """What the controller's interpolation of ``table`` (values stored at ``resolution``) leaves of the
+    model inside the measured range: RMS and largest, per direction pooled."""
+    model = values_at(inside)
+    stored = _directions(table) if fmt.bidirectional else _directions(table).mean(axis=0, keepdims=True)
+    left = np.vstack([np.interp(inside, table.positions, _quantised(row, resolution)) for row in stored]) - model
+    return {"rms": _rms(left), "max": float(np.max(np.abs(left)))}

@@ -152,7 +152,13 @@ def _joint_kind(jmodel) -> tuple[str | None, np.ndarray | None]:
     if short in ("JointModelPrismaticUnaligned", "JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned"):
         kind = "prismatic" if "Prismatic" in short else "revolute"
         concrete = jmodel.extract() if hasattr(jmodel, "extract") else jmodel  # the generic wrapper has no axis
-        axis = np.asarray(concrete.axis, dtype=float).reshape(3)
+        if hasattr(concrete, "axis"):
+            axis = np.asarray(concrete.axis, dtype=float).reshape(3)
+        else:  # the unbounded unaligned joint's binding has no axis: read it from the motion subspace
+            jdata = jmodel.createData()
+            jmodel.calc(jdata, np.array([1.0, 0.0]))
+            S = np.asarray(jdata.S, dtype=float).reshape(6)
+            axis = S[:3] if kind == "prismatic" else S[3:]
         norm = float(np.linalg.norm(axis))
         return (kind, axis / norm) if norm > 1e-12 else (None, None)
     return None, None

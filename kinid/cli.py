@@ -38,6 +38,7 @@ VERBS = {
     "diagnose": Verb("kinid.identification.commands", "compare a fit with data and rank the effects that may be missing"),
     "predict": Verb("kinid.identification.commands", "axis readings at which the fitted machine aligns the tool point with each mark"),
     "compensate": Verb("kinid.identification.compensate_cli", "axis error tables, constants, a calibrated URDF and controller files from a fit"),
+    "verify": Verb("kinid.identification.verify_cli", "the run after loading the compensation: error before and after, what is left"),
     "observe": Verb("kinid.identification.observe_cli", "images + axis readings of a run -> observation CSV (marks located and decoded)"),
     "board": Verb("kinid.vision.board_cli", "a printable ring-coded board (SVG and PDF at true scale) and its board file"),
     "markers": Verb("kinid.vision.cli", "detect and decode ring-coded marks in an image"),

@@ -2,11 +2,13 @@
 
 What a URDF consumer does with ``kinid compensate``'s files: load calibrated.urdf, set every motion
 joint to its reading and every error joint to the value its axis table gives (linear
-interpolation, the column of the approach direction). No kinid code is used.
+interpolation, the column of the approach direction, end values held beyond a table), and apply
+the work and tool offsets of setup.json to the workpiece and tool frames. No kinid code is used.
 """
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -25,11 +27,19 @@ def _tables(folder):
 class PlainMachine:
     """calibrated.urdf (or any URDF) in plain Pinocchio, error joints from the tables (or at zero)."""
 
-    def __init__(self, folder=None, urdf=None):
+    def __init__(self, folder=None, urdf=None, setup=None):
         folder = None if folder is None else Path(folder)
         self.model = pin.buildModelFromUrdf(str(urdf if urdf is not None else folder / "calibrated.urdf"))
         self.data = self.model.createData()
         self.tables = _tables(folder) if folder is not None else {}
+        self.work_offset = self.tool_offset = pin.SE3.Identity()
+        setup = Path(setup) if setup is not None else None if folder is None else folder / "setup.json"
+        if setup is not None and setup.exists():
+            data = json.loads(setup.read_text())
+            for key, attr in (("workpiece", "work_offset"), ("tool", "tool_offset")):
+                if key in data:
+                    T = np.array(data[key]["transform_mm"], float)
+                    setattr(self, attr, pin.SE3(T[:3, :3], T[:3, 3] * 1e-3))
 
     def joint_values(self, readings: dict, directions: dict) -> dict:
         """Error joint -> value (m or rad): the table column of the approach direction, interpolated."""
@@ -57,8 +67,8 @@ class PlainMachine:
             else:
                 q[i] = v
         pin.framesForwardKinematics(self.model, self.data, q)
-        oMw = self.data.oMf[self.model.getFrameId("workpiece")]
-        oMt = self.data.oMf[self.model.getFrameId("tool")]
+        oMw = self.data.oMf[self.model.getFrameId("workpiece")] * self.work_offset
+        oMt = self.data.oMf[self.model.getFrameId("tool")] * self.tool_offset
         return oMw.actInv(oMt.translation) * 1e3
 
 

@@ -229,10 +229,11 @@ def _result_json(res, source, truth) -> dict:
 def _write_tables(res, folder, travel_mm) -> None:
     """X and Y backlash as bidirectional axis tables: forward −B/2, reverse +B/2 (error = actual − commanded)
     over the measured range, in every controller format of kinid.axis_tables."""
-    from kinid.axis_tables import FORMATS, AxisErrorTable, format_text, neutral_csv_text
+    from kinid.axis_tables import AxisErrorTable, neutral_csv_text, write_tables
     from kinid.files import write_text
 
     Path(folder).mkdir(parents=True, exist_ok=True)
+    tables = []
     for k, (axis, b_mm) in enumerate((("X", res.backlash_x_mm), ("Y", res.backlash_y_mm))):
         centre = res.start[k]
         q = np.array([centre - travel_mm, centre + travel_mm])
@@ -240,9 +241,8 @@ def _write_tables(res, folder, travel_mm) -> None:
         table = AxisErrorTable(axis, False, q, np.full(2, -half_um), np.full(2, half_um))
         write_text(Path(folder) / f"{axis}.csv", neutral_csv_text(f"{axis.lower()}_mm", q, {
             f"E{axis}{axis}_um": table.forward, f"E{axis}{axis}_rev_um": table.reverse}))
-        for fmt, (pattern, _, _) in FORMATS.items():
-            options = {"axis_number": k + 1} if fmt == "twincat" else {}
-            write_text(Path(folder) / pattern.format(axis=axis), format_text(fmt, table, **options))
+        tables.append(table)
+    write_tables(folder, tables, comment="kinid backlash: error = actual - commanded")
 
 
 def _gaps_um(res):

@@ -50,7 +50,7 @@ def _quantity(name: str, value: float, std: float, truth: str = "") -> str:
 def _measured(args) -> int:
     from pathlib import Path
 
-    from kinid.axis_tables import FORMATS, format_text, neutral_csv_text
+    from kinid.axis_tables import neutral_csv_text, write_tables
     from kinid.errors import DataError
     from kinid.files import write_json, write_text
     from .measured import actuator_tables, fit_moves, models_json, read_moves
@@ -63,12 +63,11 @@ def _measured(args) -> int:
         write_json(args.out, doc)
     if args.tables:
         Path(args.tables).mkdir(parents=True, exist_ok=True)
-        for k, (a, table) in enumerate(actuator_tables(models).items(), start=1):
+        tables = actuator_tables(models)
+        for a, table in tables.items():
             write_text(Path(args.tables) / f"{a}.csv", neutral_csv_text(f"{a.lower()}_mm", table.positions, {
                 f"E{a}_um": table.forward, f"E{a}_rev_um": table.reverse}))
-            for fmt, (pattern, _, _) in FORMATS.items():
-                write_text(Path(args.tables) / pattern.format(axis=a),
-                           format_text(fmt, table, **({"axis_number": k} if fmt == "twincat" else {})))
+        write_tables(args.tables, list(tables.values()), comment="kinid uvw: error = actual - commanded")
     if args.plot:
         _plot_measured(models, args.plot)
     if args.report:

@@ -1,0 +1,286 @@
+"""The compensation folder as its consumers read it.
+
+- calibrated.urdf (with setup.json) in plain Pinocchio, for every shipped machine and for randomly
+  generated layouts (error joints in any order, chains that end in error joints, continuous joints);
+- each controller file parsed and interpolated as its controller does (its units, signs, modulo and
+  end rules), against the fitted model inside the measured range;
+- the documented examples of the formats.
+
+The consumers here share no code with kinid: plain Pinocchio, XML and text parsing, numpy.
+"""
+from __future__ import annotations
+
+import json
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinid.axis_tables import (CONTROLLER_FORMATS, AxisErrorTable, ControllerFormat, TableOptions, register_format,
+                               sinumerik_text, twincat_text)
+from kinid.cli import main
+from kinid.errors import DataError
+from kinid.identification import fit, load_machine, save_fit
+from kinid.identification.compensate import positioning_table, write_compensation
+from kinid.identification.effects import default_model
+from kinid.identification.fit import FitResult
+from kinid.identification.machine import machine_from_urdf, tool_in_workpiece_mm
+from kinid.identification.noise import Noise
+from kinid.identification.simulate import errors_from_mapping, load_plan, simulate
+from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.urdf import path as urdf_path
+from controller_consumers import READERS
+
+SHIPPED = ("five_axis_bc", "five_axis_ac", "five_axis_bhead_c", "gantry_dual_y")
+
+
+# --- calibrated.urdf in plain Pinocchio ------------------------------------------------------------
+
+def _fit_of(machine, values: dict) -> FitResult:
+    """A fit of the default model holding ``values`` (µm / µrad), every parameter identified, σ 0.1."""
+    effects = tuple(default_model(machine))
+    v = np.array([values.get(e.name, 0.0) for e in effects])
+    p = len(effects)
+    return FitResult(machine=machine, effects=effects, param_names=tuple(e.name for e in effects),
+                     units=tuple("µm" if e.unit == "um" else "µrad" for e in effects), values=v,
+                     std=np.full(p, 0.1), identifiable=np.ones(p, bool), aliases=(), rank=p, condition_number=1.0,
+                     o1=1.0, o3=1.0, residuals_um=None, n_observations=100, rms_um=0.1, noise=Noise(0.1, "given"),
+                     dof=300 - p, iterations=1, success=True, message="", axis_ranges={})
+
+
+def _plain_tool_mm(folder, readings: dict) -> np.ndarray:
+    """Tool point in the workpiece frame by plain Pinocchio on calibrated.urdf, error joints at zero, the
+    offsets of setup.json applied to the end frames."""
+    model = pin.buildModelFromXML((folder / "calibrated.urdf").read_text())
+    data = model.createData()
+    q = pin.neutral(model)
+    for name, v in readings.items():
+        jid = model.getJointId(name)
+        i = model.idx_qs[jid]
+        if model.nqs[jid] == 2:
+            q[i:i + 2] = np.cos(v), np.sin(v)
+        else:
+            q[i] = v
+    pin.framesForwardKinematics(model, data, q)
+    setup_file = json.loads((folder / "setup.json").read_text()) if (folder / "setup.json").exists() else {}
+    frames = {}
+    for key, frame in (("workpiece", "workpiece"), ("tool", "tool")):
+        T = np.eye(4) if key not in setup_file else np.array(setup_file[key]["transform_mm"], float)
+        frames[key] = data.oMf[model.getFrameId(frame)] * pin.SE3(T[:3, :3], T[:3, 3] * 1e-3)
+    return frames["workpiece"].actInv(frames["tool"].translation) * 1e3
+
+
+def _random_layout(rng) -> str:
+    """A machine drawn at random: 3-5 axes split over the two chains, random directions and fixed
+    offsets, location errors in random order, some axes without position-dependent joints, set-up at
+    both ends; some chains end in their set-up error joints (no fixed joint before the end link), some
+    rotary axes are continuous."""
+    letters = list(rng.permutation(["X", "Y", "Z", "A", "B", "C"])[: rng.integers(3, 6)])
+    chains = {"workpiece": [], "tool": []}
+    for k, name in enumerate(letters):
+        kind = "revolute" if name in "ABC" else "prismatic"
+        direction = np.eye(3)[rng.integers(0, 3)] * rng.choice([-1, 1])
+        chain = chains["workpiece" if rng.random() < 0.5 else "tool"]
+        if rng.random() < 0.7:
+            chain.append(Fixed(f"f{k}", tuple(rng.uniform(-0.3, 0.3, 3)), tuple(rng.uniform(-0.4, 0.4, 3))))
+        loc = tuple(rng.permutation(list("XYZABC"))[: rng.integers(0, 7)])
+        limit = (-1.0, 1.0) if kind == "prismatic" else (-3.0, 3.0)
+        chain.append(Axis(name, kind, tuple(direction), location_errors=loc, pdge=bool(rng.random() < 0.6),
+                          limit=limit))
+    chains["workpiece"].append(setup("W"))
+    chains["tool"] += [Fixed("tool_holder", (0.0, 0.0, -0.1)), setup("T")]
+    root = ET.fromstring(machine_urdf("random", chains["workpiece"], chains["tool"]))
+    for end in ("workpiece", "tool"):
+        if rng.random() < 0.5:  # the chain ends in its error joints
+            mount = root.find(f"joint[@name='{end}_mount']")
+            inner = mount.find("parent").get("link")
+            root.find(f"joint/child[@link='{inner}']").set("link", end)
+            root.remove(mount)
+            root.remove(root.find(f"link[@name='{inner}']"))
+    for j in root.findall("joint"):
+        if j.get("type") == "revolute" and j.get("name") in "ABC" and rng.random() < 0.5:
+            j.set("type", "continuous")
+            j.remove(j.find("limit"))
+    return ET.tostring(root, encoding="unicode")
+
+
+def _check_calibrated(machine, folder, rng, values) -> float:
+    """Largest difference (µm) between the fitted model and plain Pinocchio on the written files."""
+    worst = 0.0
+    for _ in range(6):
+        readings = {}
+        for a in machine.axes:
+            readings[a.name] = rng.uniform(-50, 50) if a.kind == "prismatic" else rng.uniform(-170, 170)
+        expected = tool_in_workpiece_mm(machine, readings, values)
+        si = {a.joint: v * (1e-3 if a.kind == "prismatic" else np.pi / 180) for a, v in
+              ((machine.axis(n), r) for n, r in readings.items())}
+        worst = max(worst, float(np.abs(_plain_tool_mm(folder, si) - expected).max() * 1e3))
+    return worst
+
+
+def _random_values(machine, rng) -> dict:
+    return {e.code: float(rng.uniform(-50, 50)) * (1.0 if e.unit == "um" else 0.2)
+            for e in machine.error_joints if e.location}
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_calibrated_urdf_of_every_shipped_machine_loads_in_plain_pinocchio(name, tmp_path):
+    m = load_machine(urdf_path(name))
+    rng = np.random.default_rng(len(name))
+    values = _random_values(m, rng)
+    write_compensation(_fit_of(m, values), tmp_path, all_terms=True)
+    assert _check_calibrated(m, tmp_path, rng, values) <= 0.01
+
+
+def test_calibrated_urdf_of_generated_layouts_loads_in_plain_pinocchio(tmp_path):
+    rng = np.random.default_rng(2026)
+    worst, ends_in_error_joints = 0.0, 0
+    for k in range(50):
+        text = _random_layout(rng)
+        m = machine_from_urdf(text, f"<random {k}>")
+        ends_in_error_joints += "workpiece_mount" not in text or "tool_mount" not in text
+        values = _random_values(m, rng)
+        folder = tmp_path / f"m{k}"
+        write_compensation(_fit_of(m, values), folder, all_terms=True)
+        cal = (folder / "calibrated.urdf").read_text()
+        root = ET.fromstring(cal)
+        for kind in ("joint", "link"):
+            names = [e.get("name") for e in root.findall(kind)]
+            assert len(names) == len(set(names)), (k, kind)
+        worst = max(worst, _check_calibrated(m, folder, rng, values))
+    print(f"50 generated layouts ({ends_in_error_joints} with a chain ending in error joints): largest "
+          f"difference {worst:.2e} µm")
+    assert ends_in_error_joints >= 10
+    assert worst <= 0.01
+
+
+def test_set_up_goes_to_setup_json_and_insignificant_terms_are_left_out(tmp_path):
+    m = load_machine(urdf_path("five_axis_bc"))
+    values = {"EX0W": 1200.0, "EC0W": 8700.0, "EX0C": 12.0, "EA0B": 0.15}  # EA0B below 2σ (σ 0.1)
+    write_compensation(_fit_of(m, values), tmp_path)
+    cal = (tmp_path / "calibrated.urdf").read_text()
+    assert "EX0C = 12" in cal and "EX0W" not in cal.split("-->")[0] and "EA0B = " not in cal
+    info = json.loads((tmp_path / "compensation.json").read_text())
+    why = {d["effect"]: d["reason"] for d in info["left_out"]}
+    assert why["EX0W"].startswith("set-up of the workpiece") and why["EA0B"].startswith("not significant")
+    s = json.loads((tmp_path / "setup.json").read_text())["workpiece"]
+    assert s["joints"]["EX0W"]["value"] == pytest.approx(1200.0)
+    assert s["rotation_rpy_deg"][2] == pytest.approx(np.degrees(8700e-6), rel=1e-6)
+    # nothing position-dependent was fitted: no tables, no controller files
+    assert not list(tmp_path.glob("*.csv")) and not list(tmp_path.glob("*.comp"))
+
+
+# --- the controllers' own reading of their files -------------------------------------------------
+
+@pytest.fixture(scope="module")
+def readme_example(tmp_path_factory):
+    """The README's five-axis example: examples/errors.json on the patent plan, 1 µm noise, fitted with the lead."""
+    folder = tmp_path_factory.mktemp("readme")
+    m = load_machine(urdf_path("five_axis_bc"))
+    effects, theta = errors_from_mapping(json.loads(open("examples/errors.json").read()), m)
+    obs = simulate(m, load_plan("patent", m), effects, theta, noise_um=1.0, rng=np.random.default_rng(0))
+    from kinid.identification.fit import model_effects
+
+    result = fit(m, obs, model_effects(m, ["EXX:periodic:10"]), noise_um=1.0)
+    save_fit(result, folder / "fit.json")
+    return folder, result
+
+
+@pytest.mark.parametrize("policy", ["data", "travel"])
+def test_each_controller_follows_the_model_inside_the_measured_range(readme_example, policy, capsys):
+    folder, result = readme_example
+    out = folder / f"comp_{policy}"
+    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--range", policy,
+                 "--format", *sorted(CONTROLLER_FORMATS)]) == 0
+    said = capsys.readouterr().out
+    info = json.loads((out / "compensation.json").read_text())
+    checked = 0
+    for entry in info["controller_files"]:
+        rotary = entry["unit"] == "µrad"
+        lo, hi = result.axis_ranges[entry["axis"]]
+        x = np.linspace(lo, hi, 3001)
+        model = positioning_table(result, entry["axis"], x)
+        reads = READERS[entry["format"]]((out / entry["file"]).read_text(), rotary)
+        to_model = (lambda v: np.radians(v) * 1e6) if rotary else (lambda v: v * 1e3)  # deg -> µrad, mm -> µm
+        if CONTROLLER_FORMATS[entry["format"]].bidirectional:
+            left = np.concatenate([to_model(reads(x, True)) - model.forward, to_model(reads(x, False)) - model.backward])
+            err = np.concatenate([model.forward, model.backward])
+        else:
+            mean = 0.5 * (model.forward + model.backward)
+            left, err = to_model(reads(x)) - mean, mean
+        share = np.sqrt(np.mean(left ** 2)) / np.sqrt(np.mean(err ** 2))
+        print(f"{policy}: {entry['file']}: {share:.1%} of the error's RMS left")
+        assert share == pytest.approx(entry["left_rms"] / entry["error_rms"], rel=0.05, abs=2e-3)
+        if share > 0.10:  # only where the command said why
+            assert re.search(rf"{re.escape(entry['file'])}: the controller's interpolation leaves .*(holds|steps of)",
+                             said), said
+            assert policy == "travel" or "steps of" in said
+        checked += 1
+    assert checked >= 3
+
+
+def test_twincat_list_limits_modulo_and_axis_numbers(tmp_path, capsys):
+    m = load_machine(urdf_path("five_axis_bc"))
+    truth = {"EX0C": 12.0, "EXX:periodic:10": [1.5, -0.8], "ECC:periodic:90": [8.0, 4.0]}
+    effects, theta = errors_from_mapping(truth, m)
+    obs = simulate(m, load_plan("patent", m), effects, theta, noise_um=0.5, rng=np.random.default_rng(5))
+    from kinid.identification.fit import model_effects
+
+    save_fit(fit(m, obs, model_effects(m, ["EXX:periodic:10", "ECC:periodic:90"]), noise_um=0.5),
+             tmp_path / "fit.json")
+    folder = tmp_path
+    out = folder / "numbers"
+    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--format", "twincat",
+                 "sinumerik", "--axis-number", "X=3", "C=6"]) == 0
+    x = dict(line.split(None, 1) for line in (out / "X_ssfk.lis").read_text().splitlines() if not line.startswith("#"))
+    assert x["kopf.achs_nr"].strip() == "3" and x["kw.ssfk.modulo"].strip() == "0"
+    c = dict(line.split(None, 1) for line in (out / "C_ssfk.lis").read_text().splitlines() if not line.startswith("#"))
+    assert c["kopf.achs_nr"].strip() == "6" and c["kw.ssfk.modulo"].strip() == "1"
+    n = int(c["kw.ssfk.kw_nr_max"])
+    assert c["kw.ssfk.table[0].setpoint"].strip() == "0" and c[f"kw.ssfk.table[{n - 1}].setpoint"].strip() == "3600000"
+    assert c["kw.ssfk.table[0].pos"] == c[f"kw.ssfk.table[{n - 1}].pos"]
+    assert "$AA_ENC_COMP_IS_MODULO[0,AX6]=1" in (out / "C_EEC_INI.spf").read_text()
+    assert not (out / "B.comp").exists() and not (out / "B_ssfk.lis").exists()  # B has no positioning error
+    with pytest.raises(DataError, match="at most 1499"):
+        twincat_text(AxisErrorTable("X", False, np.arange(1500.0), np.zeros(1500)))
+    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--axis-number", "X=0"]) == 2
+    assert "--axis-number takes AXIS=N" in capsys.readouterr().err
+
+
+def test_sinumerik_matches_the_documented_example():
+    """SINUMERIK Extended Functions, K3 Compensations, "Measuring system error compensation", example: machine
+    axis X1, 801 points from -200 mm to 600 mm at 1 mm, values in mm (+3 µm, +10 µm, +12 µm, …, 0)."""
+    q = np.arange(-200.0, 601.0)
+    values = np.zeros(q.size)
+    values[:3] = [3.0, 10.0, 12.0]  # µm
+    text = sinumerik_text(AxisErrorTable("X", False, q, values), TableOptions(axis_name="X1"))
+    lines = text.splitlines()
+    assert lines[:2] == ["%_N_AX_EEC_INI", "CHANDATA(1)"]
+    assert lines[2:5] == ["$AA_ENC_COMP[0,0,X1]=0.003", "$AA_ENC_COMP[0,1,X1]=0.01", "$AA_ENC_COMP[0,2,X1]=0.012"]
+    assert "$AA_ENC_COMP[0,800,X1]=0" in lines and "$AA_ENC_COMP[0,801,X1]" not in text
+    assert lines[-5:] == ["$AA_ENC_COMP_STEP[0,X1]=1", "$AA_ENC_COMP_MIN[0,X1]=-200", "$AA_ENC_COMP_MAX[0,X1]=600",
+                          "$AA_ENC_COMP_IS_MODULO[0,X1]=0", "M17"]
+    with pytest.raises(DataError, match="equal steps"):
+        sinumerik_text(AxisErrorTable("X", False, [0.0, 1.0, 3.0], np.zeros(3)))
+
+
+def test_a_registered_format_is_written_by_compensate(readme_example):
+    """Adding a controller format is one registration: compensate and write_tables take it from the registry."""
+    folder, _ = readme_example
+
+    def write(table, options):
+        return "".join(f"{q:.4f};{e:.4f}\n" for q, e in zip(table.positions, table.forward))
+
+    fmt = register_format(ControllerFormat(
+        name="test-plain", title="a test format", file_pattern="{axis}.plain", max_points=50, equidistant=True,
+        bidirectional=False, modulo=False, resolution_um=1e-4, resolution_urad=1e-4, sign="error", beyond="held",
+        write=write, default=False))
+    try:
+        out = folder / "plain"
+        assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--format", fmt.name]) == 0
+        rows = np.loadtxt(out / "X.plain", delimiter=";")
+        assert 2 <= rows.shape[0] <= 50
+    finally:
+        CONTROLLER_FORMATS.pop(fmt.name)

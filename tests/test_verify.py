@@ -1,0 +1,113 @@
+"""``kinid verify``: the run measured after loading the compensation.
+
+Truth: the hand-written numpy B/C machine of tests/bc_camera_sim.py (a 10 mm lead of X, C-axis offsets, a
+tool length error). The second run is made on that machine through the compensation as a controller
+applies it (tests/plain_machine.py: plain Pinocchio on calibrated.urdf with the axis tables and the
+offsets of setup.json): the readings logged are the controller's, the nominal machine's with the work
+and tool offsets; the axes physically go where the compensation sends them.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import bc_camera_sim as sim
+from kinid.cli import main
+from kinid.urdf import path as urdf_path
+from plain_machine import PlainMachine
+
+MACHINE = str(urdf_path("five_axis_bc"))
+SIGMA_UM = 0.4
+HEADER = "mark,wx_mm,wy_mm,wz_mm,x_mm,y_mm,z_mm,b_deg,c_deg,mark_dx_mm,mark_dy_mm,mark_dz_mm\n"
+
+
+def _row(k, mark, shown, b, c, seen, rng):
+    seen = seen + rng.normal(0.0, SIGMA_UM * 1e-3, 3)
+    return (f"M{k},{mark[0]:.6f},{mark[1]:.6f},{mark[2]:.6f},{shown[0]:.9f},{shown[1]:.9f},{shown[2]:.9f},"
+            f"{b:.6f},{c:.6f},{seen[0]:.9f},{seen[1]:.9f},{seen[2]:.9f}\n")
+
+
+def first_run(path, rng):
+    """No compensation: the readings are the axes' own; the operator stops within ~30 µm of each mark."""
+    lines = [HEADER]
+    for k, (b, c, mark) in enumerate(sim.plan()):
+        r = sim.align(mark, b, c) + rng.normal(0.0, 0.03, 3)
+        lines.append(_row(k, mark, r, b, c, sim.seen_offset(r, b, c, mark), rng))
+    path.write_text("".join(lines))
+
+
+def second_run(path, comp, rng, *, compensated=True):
+    """Other poses; the controller shows the nominal machine's readings (work and tool offsets applied) and,
+    compensated, sends the axes where the calibrated machine reaches the same point."""
+    shown_machine = PlainMachine(urdf=MACHINE, setup=comp / "setup.json")
+    moved_machine = PlainMachine(comp)
+    lines = [HEADER]
+    poses = sim.plan(tilts=(-30.0, 10.0, 35.0), turns=(30.0, 90.0, 150.0, 210.0, 270.0, 330.0),
+                     marks=((30.0, 25.0), (-35.0, 20.0), (-20.0, -40.0), (45.0, -30.0)))
+    for k, (b, c, mark) in enumerate(poses):
+        start = sim.align(mark, b, c)
+        aligned = shown_machine.solve(np.array(mark), {"B": b, "C": c}, start=start)
+        shown = np.array([aligned["X"], aligned["Y"], aligned["Z"]]) + rng.normal(0.0, 0.03, 3)
+        if compensated:
+            target = shown_machine.tool_in_workpiece_mm({"X": shown[0], "Y": shown[1], "Z": shown[2], "B": b, "C": c})
+            moved = moved_machine.solve(target, {"B": b, "C": c}, start=shown)
+            physical = np.array([moved["X"], moved["Y"], moved["Z"]])
+        else:
+            physical = shown
+        lines.append(_row(k, mark, shown, b, c, sim.seen_offset(physical, b, c, mark), rng))
+    path.write_text("".join(lines))
+
+
+@pytest.fixture(scope="module")
+def compensated(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("verify")
+    rng = np.random.default_rng(11)
+    first_run(folder / "run1.csv", rng)
+    assert main(["identify", "--machine", MACHINE, "--data", str(folder / "run1.csv"), "--noise-um", str(SIGMA_UM),
+                 "--add", "EXX:periodic:10", "--out", str(folder / "fit.json")]) == 0
+    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(folder / "comp")]) == 0
+    return folder
+
+
+def test_verify_shows_the_error_falling_to_the_noise_level(compensated, capsys):
+    folder = compensated
+    second_run(folder / "run2.csv", folder / "comp", np.random.default_rng(12))
+    capsys.readouterr()
+    assert main(["verify", "--compensation", str(folder / "comp"), "--data", str(folder / "run2.csv"), "--json"]) == 0
+    v = json.loads(capsys.readouterr().out)
+    print(f"before {v['before_um']['3d']:.3f} µm, after {v['after_um']['3d']:.3f} µm, "
+          f"noise level {v['noise_level_3d_um']:.3f} µm, p = {v['chi2_p']}")
+    assert v["before_um"]["3d"] > 5 * v["after_um"]["3d"]
+    assert v["after_um"]["3d"] <= 1.5 * v["noise_level_3d_um"]
+    assert v["at_noise_level"] and v["noise_source"] == "fit"
+    # the first run measured: a set-up-only fit of it leaves the machine's errors
+    assert main(["verify", "--fit", str(folder / "fit.json"), "--data", str(folder / "run2.csv"), "--before",
+                 str(folder / "run1.csv"), "--report", str(folder / "report")]) == 0
+    out = capsys.readouterr().out
+    assert "measured in the first run" in out and "the compensation worked" in out
+    assert (folder / "report" / "index.html").exists() and (folder / "report" / "before_after.png").exists()
+
+
+def test_verify_says_what_is_left_when_the_compensation_was_not_loaded(compensated, capsys):
+    folder = compensated
+    second_run(folder / "run2_plain.csv", folder / "comp", np.random.default_rng(13), compensated=False)
+    capsys.readouterr()
+    assert main(["verify", "--fit", str(folder / "fit.json"), "--data", str(folder / "run2_plain.csv"), "--json"]) == 0
+    v = json.loads(capsys.readouterr().out)
+    assert not v["at_noise_level"]
+    assert v["after_um"]["3d"] > 5 * v["noise_level_3d_um"]
+    # without the compensation the second run measures the error the fit predicted for it
+    assert v["after_um"]["3d"] == pytest.approx(v["before_um"]["3d"], rel=0.2)
+    assert v["remaining_best_candidate"]["effect"].startswith(("EXX:periodic", "EX0C", "EY0C", "EZ0T"))
+
+
+def test_verify_refuses_a_fit_that_is_not_the_compensations(compensated, tmp_path, capsys):
+    folder = compensated
+    (tmp_path / "comp").mkdir()
+    info = json.loads((folder / "comp" / "compensation.json").read_text())
+    info["fit"]["sha256"] = "0" * 64
+    (tmp_path / "comp" / "compensation.json").write_text(json.dumps(info))
+    assert main(["verify", "--compensation", str(tmp_path / "comp"), "--data", str(folder / "run1.csv")]) == 2
+    assert "not the fit the compensation" in capsys.readouterr().err
