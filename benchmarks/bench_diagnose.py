@@ -17,7 +17,8 @@ import time
 
 import numpy as np
 
-from kinid.identification.diagnose import diagnose, score_candidates
+from kinid.identification import diagnose
+from kinid.identification.scoring import score_candidates
 from kinid.identification.effects import candidate_library, default_model
 from kinid.identification.fit import fit
 from kinid.identification.machine import load_machine

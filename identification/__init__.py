@@ -21,7 +21,8 @@ Example
 """
 from . import urdf_builder
 from .alignment import solve_axes
-from .diagnose import diagnose, forward_select
+from .diagnose import diagnose
+from .selection import forward_select
 from .effects import default_model, parse_effect
 from .fit import fit, load_fit, save_fit
 from .machine import load_machine, tool_in_workpiece_mm

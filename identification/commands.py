@@ -117,7 +117,7 @@ def _identify(args) -> int:
     obs = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits))
     effects = model_effects(machine, args.add)
     if args.auto:
-        from .diagnose import forward_select
+        from .selection import forward_select
         from .report import selection_report
 
         steps = forward_select(machine, obs, effects, noise_um=args.noise_um, progress=sys.stderr,

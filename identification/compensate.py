@@ -24,26 +24,24 @@ Values are the fitted model's own: the same effect bases as the fit, at the iden
 from __future__ import annotations
 
 import hashlib
-import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from kinid.axis_tables import (AxisErrorTable, TableOptions, controller_format, default_formats, neutral_csv_text,
-                               points_for)
+from kinid.axis_tables import AxisErrorTable, TableOptions, controller_format, default_formats, neutral_csv_text
 from kinid.errors import DataError
+from .bases import basis_of
+from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
 from .effects import basis_values
 from .fit import FitResult
 from .machine import axis_limits
+from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
 __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axis_error_columns",
            "constant_errors", "setup_offsets", "calibrated_urdf", "write_compensation", "positioning_table",
            "CompensationFiles", "K_EXPANDED", "BOUND_SHARE"]
 
-#: Coverage factor of the expanded uncertainty a compensated term must exceed.
-K_EXPANDED = 2.0
 #: A table's interpolation may depart from the model by at most this share of the error's RMS.
 BOUND_SHARE = 0.10
 #: Most points of a plain CSV table when its step is chosen by kinid.
@@ -99,7 +97,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
                      ": in setup.json, for the work or tool offset"
         elif not ok.any():
             reason = "not identifiable from these data"
-        elif e.basis == "drift":
+        elif basis_of(e).driver == "time":
             reason = "a drift with time: no table holds it"
         elif not all_terms:
             std = np.asarray(result.std[sl], float)[ok]
@@ -116,32 +114,6 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
 
 
 # --- where tables go ----------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class AxisRange:
-    """Where an axis's tables go.
-
-    Attributes
-    ----------
-    low, high : float
-        mm or deg.
-    source : str
-        "measured readings", "URDF travel" or "one turn (modulo)".
-    modulo : bool
-        A one-turn table of a rotary axis (first and last points hold the same value).
-    travel : tuple (low, high)
-        The URDF travel (±inf where it gives none).
-    measured : tuple (low, high) or None
-        The readings the fit spans.
-    """
-
-    low: float
-    high: float
-    source: str
-    modulo: bool
-    travel: tuple
-    measured: tuple | None
-
 
 def axis_range(result: FitResult, axis: str, policy: str = "data") -> AxisRange | None:
     """The range of ``axis``'s tables under ``policy`` ("data": the measured readings; "travel": the URDF's).
@@ -171,7 +143,7 @@ def _effects_by_axis(result: FitResult):
     out, k = {}, 0
     theta = result.theta
     for e in result.effects:
-        if e.basis in ("poly", "periodic", "map", "local", "reversal"):
+        if basis_of(e).tabulated:
             out.setdefault(e.axis, []).append((e, theta[k:k + e.n_params]))
         k += e.n_params
     return out
@@ -192,7 +164,7 @@ def axis_error_columns(result: FitResult, axis: str, positions) -> dict:
     effects = _effects_by_axis(result).get(axis, [])
     codes = [e.code for e in machine.error_joints if e.axis == axis and not e.location]
     codes += [e.code for e, _ in effects if e.code not in codes]
-    has_reversal = any(e.basis == "reversal" for e, _ in effects)
+    has_reversal = any(basis_of(e).driver == "direction" for e, _ in effects)
     out = {}
     for direction, suffix in ((1.0, ""), (-1.0, "_rev")) if has_reversal else ((1.0, ""),):
         dirs = {axis: np.full(n, direction)}
@@ -221,291 +193,10 @@ def positioning_table(result: FitResult, axis: str, positions) -> AxisErrorTable
     return AxisErrorTable(axis, rotary, np.asarray(positions, float), fwd, rev)
 
 
-def constant_errors(result: FitResult, compensated=None) -> list:
-    """Every constant effect: dicts with name, value, std, expanded uncertainty (k = 2), unit, identified.
-
-    ``compensated`` (a :class:`Compensation`) adds whether each is compensated, and why not.
-    """
-    why = dict(compensated.left_out) if compensated is not None else {}
-    out, k = [], 0
-    for e in result.effects:
-        if e.basis == "constant":
-            ok = bool(result.identifiable[k])
-            std = float(result.std[k]) if ok and np.isfinite(result.std[k]) else None
-            row = {"name": e.name, "value": float(result.values[k]) if ok else None, "std": std,
-                   "expanded_uncertainty_k2": None if std is None else K_EXPANDED * std,
-                   "unit": "µm" if e.unit == "um" else "µrad", "identified": ok}
-            if compensated is not None:
-                row["compensated"] = e.name not in why
-                if e.name in why:
-                    row["left_out_because"] = why[e.name]
-            out.append(row)
-        k += e.n_params
-    return out
-
-
 # --- URDF geometry ------------------------------------------------------------------------------
-
-def _origin(joint) -> np.ndarray:
-    import pinocchio as pin
-
-    el = joint.find("origin")
-    xyz = np.zeros(3) if el is None else np.array([float(v) for v in el.get("xyz", "0 0 0").split()])
-    rpy = np.zeros(3) if el is None else np.array([float(v) for v in el.get("rpy", "0 0 0").split()])
-    T = np.eye(4)
-    T[:3, :3] = pin.rpy.rpyToMatrix(*rpy)
-    T[:3, 3] = xyz
-    return T
-
-
-def _set_origin(joint, T: np.ndarray) -> None:
-    import pinocchio as pin
-
-    el = joint.find("origin")
-    if el is None:
-        el = ET.SubElement(joint, "origin")
-    rpy = pin.rpy.matrixToRpy(T[:3, :3])
-    el.set("xyz", " ".join(f"{v:.17g}" for v in T[:3, 3]))
-    el.set("rpy", " ".join(f"{v:.17g}" for v in rpy))
-
-
-def _motion(joint, value_si: float) -> np.ndarray:
-    """Transform of a 1-DOF joint at ``value_si`` (m or rad) in its own frame."""
-    axis_el = joint.find("axis")
-    axis = np.array([1.0, 0.0, 0.0]) if axis_el is None else np.array([float(v) for v in axis_el.get("xyz").split()])
-    axis = axis / np.linalg.norm(axis)
-    T = np.eye(4)
-    if joint.get("type") == "prismatic":
-        T[:3, 3] = axis * value_si
-    else:
-        K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-        T[:3, :3] = np.eye(3) + math.sin(value_si) * K + (1 - math.cos(value_si)) * K @ K
-    return T
-
-
-def _constant_values(result: FitResult) -> dict:
-    """Error joint -> identified constant value (µm / µrad), non-zero ones only."""
-    return {c["name"]: c["value"] for c in constant_errors(result) if c["identified"] and c["value"]}
-
-
-def setup_offsets(result: FitResult) -> dict:
-    """The set-up of the workpiece (W) and the sensor (T) as a work offset and a tool offset.
-
-    For each end: the transform ``S`` that takes the nominal end frame to the identified one,
-    expressed in the nominal end frame (where the board, or the sensor, really is:
-    ``oMw_actual = oMw_nominal · S_W``, ``oMt_actual = oMt_nominal · S_T``), as a translation in mm,
-    fixed-axis roll/pitch/yaw in degrees and the 4×4 matrix (mm); and each set-up joint's value with
-    its expanded uncertainty (k = 2).
-    """
-    import pinocchio as pin
-
-    machine = result.machine
-    root = ET.fromstring(machine.urdf)
-    parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
-    constants = {c["name"]: c for c in constant_errors(result)}
-    out = {}
-    for pseudo, end in (("W", "workpiece"), ("T", "tool")):
-        codes = {e.code for e in machine.error_joints if e.axis == pseudo}
-        if not codes:
-            continue
-        chain, link, seen_setup = [], end, False
-        while link in parent_of:  # from the end link up to the first joint above the set-up joints
-            j = parent_of[link]
-            is_setup = j.get("name") in codes
-            if seen_setup and not is_setup:
-                break
-            seen_setup = seen_setup or is_setup
-            chain.append(j)
-            link = j.find("parent").get("link")
-        chain.reverse()
-        S, nominal = np.eye(4), np.eye(4)
-        for j in chain:  # root -> end: the set-up joints at their values, the fixed origins after them
-            c = constants.get(j.get("name"))
-            value = c["value"] if c and c["identified"] and c["value"] else 0.0
-            S = S @ _origin(j) @ _motion(j, value * 1e-6) if j.get("name") in codes else S @ _origin(j)
-            nominal = nominal @ _origin(j)
-        S_end = np.linalg.inv(nominal) @ S
-
-        joints = {}
-        for code in sorted(codes):
-            c = constants.get(code)
-            if c is None:
-                continue
-            joints[code] = {"value": c["value"], "expanded_uncertainty_k2": c["expanded_uncertainty_k2"],
-                            "unit": c["unit"], "identified": c["identified"]}
-        T_mm = S_end.copy()
-        T_mm[:3, 3] *= 1e3
-        out["workpiece" if pseudo == "W" else "tool"] = {
-            "frame": end,
-            "offset_mm": [float(v) for v in T_mm[:3, 3]],
-            "rotation_rpy_deg": [float(v) for v in np.degrees(pin.rpy.matrixToRpy(S_end[:3, :3]))],
-            "transform_mm": [[float(v) for v in row] for row in T_mm],
-            "joints": joints,
-        }
-    return out
-
-
-def calibrated_urdf(result: FitResult) -> str:
-    """The machine's URDF with every identified constant error folded into the fixed geometry.
-
-    An error joint's constant value is a fixed transform right after that joint; it is moved into
-    the origin of the next joint down the chain that is not an error joint (error joints must keep
-    a zero origin), or, at the end of a chain, into one fixed joint added between the chain's last
-    joint and its link. Error joints stay, at zero: with every joint of the file at the axis
-    readings and the error joints at 0 (or at the values of the axis tables), any URDF consumer
-    reproduces the model of ``result``. Names added are unique in the file.
-    """
-    machine = result.machine
-    root = ET.fromstring(machine.urdf)
-    joints = {j.get("name"): j for j in root.findall("joint")}
-    names = set(joints) | {link.get("name") for link in root.findall("link")}
-    by_parent = {}
-    for j in root.findall("joint"):
-        by_parent.setdefault(j.find("parent").get("link"), []).append(j)
-    parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
-    codes = set(machine.error_codes)
-
-    def depth(joint):
-        d, link = 0, joint.find("parent").get("link")
-        while link in parent_of:
-            d += 1
-            link = parent_of[link].find("parent").get("link")
-        return d
-
-    def unique(stem):
-        name, k = stem, 1
-        while name in names:
-            k += 1
-            name = f"{stem}_{k}"
-        names.add(name)
-        return name
-
-    values = {n: v for n, v in _constant_values(result).items() if n in joints}
-    leaf_joints = {}  # error joint at a chain's end -> the fixed joint added after it
-    # deepest first: a transform pushed down a chain of error joints keeps the chain's order
-    for name in sorted(values, key=lambda n: -depth(joints[n])):
-        T = _motion(joints[name], values[name] * 1e-6)
-        targets, frontier = [], [joints[name]]
-        while frontier:
-            j = frontier.pop()
-            children = by_parent.get(j.find("child").get("link"), [])
-            if not children:
-                targets.append(("leaf", j))
-            for c in children:
-                if c.get("name") in codes:
-                    frontier.append(c)
-                else:
-                    targets.append(("joint", c))
-        for kind, j in targets:
-            if kind == "joint":
-                _set_origin(j, T @ _origin(j))
-                continue
-            fixed = leaf_joints.get(j.get("name"))
-            if fixed is None:  # end of a chain: one fixed joint between the error joint and its child link
-                child = j.find("child")
-                link_name = unique(f"{j.get('name')}_calibration_link")
-                ET.SubElement(root, "link", {"name": link_name})
-                fixed = ET.SubElement(root, "joint", {"name": unique(f"{j.get('name')}_calibration"), "type": "fixed"})
-                ET.SubElement(fixed, "parent", {"link": link_name})
-                ET.SubElement(fixed, "child", {"link": child.get("link")})
-                child.set("link", link_name)
-                leaf_joints[j.get("name")] = fixed
-                _set_origin(fixed, T)
-            else:
-                _set_origin(fixed, T @ _origin(fixed))
-    header = (f"\n  Calibrated by kinid: identified constant errors folded into the joint origins\n"
-              f"  ({', '.join(f'{n} = {v:.4g}' for n, v in values.items()) or 'none'});\n"
-              f"  error joints kept, at zero.\n")
-    root.insert(0, ET.Comment(header))
-    return ET.tostring(root, encoding="unicode") + "\n"
 
 
 # --- grids a controller's interpolation follows --------------------------------------------------
-
-def _interpolation_worst(values_at, low: float, high: float, n: int) -> np.ndarray:
-    """Largest departure, per column, of the linear interpolation through ``n`` equal-step points: on a
-    grid of ``_FINE`` samples per interval and at least ``_DENSE`` samples over the range (so that an
-    error that repeats faster than the points cannot hide between the samples)."""
-    nodes = np.linspace(low, high, n)
-    fine = np.union1d(np.linspace(low, high, _FINE * (n - 1) + 1), np.linspace(low, high, _DENSE))
-    v = np.atleast_2d(values_at(fine))
-    at_nodes = np.atleast_2d(values_at(nodes))
-    return np.array([np.max(np.abs(np.interp(fine, nodes, row) - v[k])) for k, row in enumerate(at_nodes)])
-
-
-def _fewest_points(values_at, low: float, high: float, bounds, most: int) -> int:
-    """Fewest equal-step points from ``low`` to ``high`` whose interpolation stays within ``bounds``
-    (per column), at most ``most``."""
-    bounds = np.asarray(bounds, float)
-    ok = lambda n: bool(np.all(_interpolation_worst(values_at, low, high, n) <= bounds))  # noqa: E731
-    good, bad = None, 2
-    n = 2
-    while n < most:
-        if ok(n):
-            good = n
-            break
-        bad = n
-        n = 2 * n - 1
-    if good is None:
-        if not ok(most):
-            return most
-        good = most
-    while good - bad > 1:
-        mid = (good + bad) // 2
-        good, bad = (mid, bad) if ok(mid) else (good, mid)
-    return good
-
-
-def _grid(values_at, rng: AxisRange, bounds, most: int, step) -> np.ndarray:
-    if step is not None:
-        return points_for(step, rng.low, rng.high, most)
-    return np.linspace(rng.low, rng.high, _fewest_points(values_at, rng.low, rng.high, bounds, most))
-
-
-def _ends(rng: AxisRange, beyond: str, equidistant: bool) -> tuple:
-    """Points added beyond the range: (one step beyond each end, the travel's ends)."""
-    if rng.modulo:
-        return False, ()
-    lo, hi = rng.travel
-    travel = () if equidistant else tuple(t for t, outside in ((lo, lo < rng.low - 1e-9), (hi, hi > rng.high + 1e-9))
-                                          if np.isfinite(t) and outside)
-    return beyond == "zero", travel
-
-
-def _extend(q: np.ndarray, columns: dict, rng: AxisRange, beyond: str, equidistant: bool):
-    """The grid and columns with the beyond policy made explicit: a zero one step beyond each end
-    (``zero``) and, for formats with free points, the travel's ends at the held or zero value."""
-    step_out, travel = _ends(rng, beyond, equidistant)
-    q = np.asarray(q, float)
-    cols = {k: np.asarray(v, float) for k, v in columns.items()}
-    if rng.modulo:  # one turn: the controller wraps 360° onto 0°
-        return q, {k: np.concatenate([v[:-1], v[:1]]) for k, v in cols.items()}
-    step = q[1] - q[0]
-    if step_out:
-        q = np.concatenate([[q[0] - step], q, [q[-1] + step]])
-        cols = {k: np.concatenate([[0.0], v, [0.0]]) for k, v in cols.items()}
-    lo_t, hi_t = (min(travel, default=np.inf), max(travel, default=-np.inf))
-    if lo_t < q[0] - 1e-9:
-        q = np.concatenate([[lo_t], q])
-        cols = {k: np.concatenate([[v[0]], v]) for k, v in cols.items()}
-    if hi_t > q[-1] + 1e-9:
-        q = np.concatenate([q, [hi_t]])
-        cols = {k: np.concatenate([v, [v[-1]]]) for k, v in cols.items()}
-    return q, cols
-
-
-def _extra_points(rng: AxisRange, beyond: str, equidistant: bool) -> int:
-    step_out, travel = _ends(rng, beyond, equidistant)
-    return 2 * step_out + len(travel)
-
-
-def _rms(x) -> float:
-    x = np.asarray(x, float)
-    return float(np.sqrt(np.mean(np.square(x)))) if x.size else 0.0
-
-
-def _quantised(values, resolution: float) -> np.ndarray:
-    return np.round(np.asarray(values, float) / resolution) * resolution
 
 
 # --- the compensation folder -------------------------------------------------------------------
@@ -593,8 +284,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         names = list(probe)
         stack = lambda q, f=cols_at: np.vstack(list(f(q).values()))  # noqa: E731
         bounds = np.maximum(BOUND_SHARE * np.sqrt(np.mean(stack(inside) ** 2, axis=1)), 1e-3)
-        q = _grid(stack, rng, bounds, CSV_MAX_POINTS - _extra_points(rng, beyond, False), step)
-        q_ext, cols = _extend(q, cols_at(q), rng, beyond, False)
+        q = table_grid(stack, rng, bounds, CSV_MAX_POINTS - extra_points(rng, beyond, False), step)
+        q_ext, cols = with_ends(q, cols_at(q), rng, beyond, False)
         write_text(folder / f"{a.name}.csv", neutral_csv_text(a.column, q_ext, cols))
         written.append(f"{a.name}.csv")
         tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(rng.low), "to": float(rng.high),
@@ -611,18 +302,18 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         key = f"{code}_{'urad' if rotary else 'um'}"
         if code not in machine.error_codes or not np.any(probe.get(key, np.zeros(1)) != 0):
             continue
-        pos_at = lambda x, name=a.name: _directions(positioning_table(model, name, x))  # noqa: E731
-        error_rms = _rms(pos_at(inside))
+        pos_at = lambda x, name=a.name: directions(positioning_table(model, name, x))  # noqa: E731
+        error_rms = rms(pos_at(inside))
         for fmt in fmts:
             res = fmt.resolution(rotary)
             target = BOUND_SHARE * error_rms - res / 2
             limited = "resolution" if target < res / 2 else None
             target = max(target, res / 2)
-            most = fmt.max_points - _extra_points(rng, beyond, fmt.equidistant)
+            most = fmt.max_points - extra_points(rng, beyond, fmt.equidistant)
             values_at = pos_at if fmt.bidirectional else (lambda x, f=pos_at: f(x).mean(axis=0, keepdims=True))
-            fq = _grid(values_at, rng, [target] * values_at(inside[:2]).shape[0], most, step)
+            fq = table_grid(values_at, rng, [target] * values_at(inside[:2]).shape[0], most, step)
             base = positioning_table(model, a.name, fq)
-            fq_ext, ends = _extend(fq, {"f": base.forward, "b": base.backward}, rng, beyond, fmt.equidistant)
+            fq_ext, ends = with_ends(fq, {"f": base.forward, "b": base.backward}, rng, beyond, fmt.equidistant)
             table = AxisErrorTable(a.name, rotary, fq_ext, ends["f"], None if base.reverse is None else ends["b"])
             options = TableOptions(axis_number=numbers.get(a.name, place), modulo=rng.modulo,
                                    comment=f"kinid {__version__}: {code} of {Path(machine.path).name}, "
@@ -630,7 +321,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             name = fmt.file_name(a.name)
             write_text(folder / name, fmt.write(table, options))
             written.append(name)
-            left = _left_after(fmt, table, values_at, inside, res)
+            left = left_after(fmt, table, values_at, inside, res)
             if fq.size >= most and left["rms"] > BOUND_SHARE * error_rms:
                 limited = "points"
             entry = {"file": name, "format": fmt.name, "axis": a.name, "axis_number": options.axis_number,
@@ -687,15 +378,3 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     return CompensationFiles(tuple(written), tuple(notes), tuple(controller))
 
 
-def _directions(table: AxisErrorTable) -> np.ndarray:
-    """(2, n): the forward and backward errors of a table."""
-    return np.vstack([table.forward, table.backward])
-
-
-def _left_after(fmt, table: AxisErrorTable, values_at, inside: np.ndarray, resolution: float) -> dict:
-    """What the controller's interpolation of ``table`` (values stored at ``resolution``) leaves of the
-    model inside the measured range: RMS and largest, per direction pooled."""
-    model = values_at(inside)
-    stored = _directions(table) if fmt.bidirectional else _directions(table).mean(axis=0, keepdims=True)
-    left = np.vstack([np.interp(inside, table.positions, _quantised(row, resolution)) for row in stored]) - model
-    return {"rms": _rms(left), "max": float(np.max(np.abs(left)))}

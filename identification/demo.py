@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .alignment import solve_axes
-from .diagnose import forward_select
+from .selection import forward_select
 from .effects import default_model
 from .machine import load_machine
 from .observations import write_observations

@@ -26,8 +26,7 @@ from .effects import Effect, check_effects, default_model, parse_effect
 from .identifiability import RANK_TOL, Alias, analyse
 from .machine import Machine, check_machine, machine_from_urdf
 from .noise import Noise
-from .outliers import SetAside
-from .observations import Observations, check_observations
+from .observations import Observations, SetAside, check_observations
 from .residuals import design, residuals
 
 __all__ = ["FitResult", "Noise", "fit", "save_fit", "load_fit", "model_effects", "FIT_FORMAT"]

@@ -74,21 +74,7 @@ def plain_name(code: str, axes=None) -> str:
 
 
 def effect_description(effect, unit_of_axis: str = "") -> str:
-    """How an effect varies, in words: "constant", "periodic in X, period 10 mm" …"""
-    u = f" {unit_of_axis}" if unit_of_axis else ""
-    if effect.basis == "constant":
-        return "constant"
-    if effect.basis == "periodic":
-        return f"periodic in {effect.axis}, period {effect.period:g}{u}"
-    if effect.basis == "poly":
-        return f"polynomial of degree {effect.degree} in {effect.axis}"
-    if effect.basis == "reversal":
-        return f"reversal with the approach direction of {effect.axis}"
-    if effect.basis == "drift":
-        return "drift with time"
-    if effect.basis == "map":
-        return f"map in {effect.axis}, knots every {effect.knots[1] - effect.knots[0]:g}{u}"
-    if effect.basis == "local":
-        return (f"local error of {effect.axis} between {effect.knots[0]:g} and {effect.knots[-1]:g}{u}, knots every "
-                f"{effect.knots[1] - effect.knots[0]:g}{u}")
-    return effect.basis
+    """How an effect varies, in words: "constant", "periodic in X, period 10 mm" … (its basis says)."""
+    from .bases import basis_of
+
+    return basis_of(effect).describe(effect, f" {unit_of_axis}" if unit_of_axis else "")

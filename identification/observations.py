@@ -19,10 +19,10 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
-from kinid.files import csv_number, read_csv_rows
-from .machine import Machine, axis_limits
+from kinid.files import read_csv_rows
+from .machine import Machine
 
-__all__ = ["OFFSET_COLUMNS", "Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
+__all__ = ["SetAside", "OFFSET_COLUMNS", "Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
            "read_csv_rows"]
 
 _MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
@@ -79,17 +79,6 @@ class Observations:
         )
 
 
-def _column_for(machine: Machine, header: str):
-    """Which axis a ``<axis>_mm``/``<axis>_deg`` header names, else None; DataError on a wrong unit."""
-    stem, _, unit = header.rpartition("_")
-    for a in machine.axes:
-        if stem == a.name.lower():
-            if header != a.column:
-                raise DataError(f"axis {a.name} is {a.kind}: expected column {a.column!r}", column=header)
-            return a
-    return None
-
-
 def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True) -> Observations:
     """Read an observation CSV.
 
@@ -108,88 +97,16 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     DataError
         Naming the file, line and column of the first problem.
     """
-    path = Path(path)
-    rows = read_csv_rows(path)
-    if not rows:
-        raise DataError("no header row and no data", path=path)
-    header_line, header = rows[0]
-    header = [h.strip() for h in header]
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise DataError("duplicate column", path=path, line=header_line, column=dup)
-    for col in ("mark",) + _MARK_COLUMNS:
-        if col not in header:
-            raise DataError(f"missing required column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
-    axis_cols = {}
-    directions_cols = {}
-    for h in header:
-        try:
-            a = _column_for(machine, h)
-        except DataError as exc:
-            raise DataError(exc.message, path=path, line=header_line, column=h) from None
-        if a is not None:
-            axis_cols[a.name] = header.index(h)
-        if h.startswith("dir_"):
-            name = h[4:]
-            match = [a for a in machine.axes if a.name.lower() == name]
-            if not match:
-                raise DataError(f"'dir_' column for unknown axis {name!r}; axes: {', '.join(a.name.lower() for a in machine.axes)}", path=path, line=header_line, column=h)
-            directions_cols[match[0].name] = header.index(h)
-    offset_cols = [header.index(c) if c in header else None for c in OFFSET_COLUMNS]
-    optional = set(optional_axes)
-    for a in machine.axes:
-        if a.name not in axis_cols and a.name not in optional:
-            raise DataError(f"missing column {a.column!r} for axis {a.name}", path=path, line=header_line)
-    data = rows[1:]
-    if not data:
-        raise DataError("no data rows after the header", path=path, line=header_line)
+    from .axis_columns import read_axis_table
 
-    def number(lineno, cells, col):
-        idx = header.index(col) if isinstance(col, str) else col
-        return csv_number(cells, idx, path=path, line=lineno, column=header[idx])
-
-    n = len(data)
-    marks, lines = [], []
-    w = np.empty((n, 3))
-    axes = np.full((n, len(machine.axes)), np.nan)
-    t_s = np.empty(n) if "t_s" in header else None
-    dirs = {k: np.empty(n) for k in directions_cols}
-    offsets = np.zeros((n, 3)) if any(c is not None for c in offset_cols) else None
-    for i, (lineno, cells) in enumerate(data):
-        if len(cells) != len(header):
-            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=lineno)
-        mark = cells[header.index("mark")].strip()
-        if not mark:
-            raise DataError("empty mark label", path=path, line=lineno, column="mark")
-        marks.append(mark)
-        lines.append(lineno)
-        w[i] = [number(lineno, cells, c) for c in _MARK_COLUMNS]
-        for j, a in enumerate(machine.axes):
-            if a.name in axis_cols:
-                axes[i, j] = number(lineno, cells, axis_cols[a.name])
-        if t_s is not None:
-            t_s[i] = number(lineno, cells, "t_s")
-        if offsets is not None:
-            offsets[i] = [0.0 if c is None else number(lineno, cells, c) for c in offset_cols]
-        for name, idx in directions_cols.items():
-            v = number(lineno, cells, idx)
-            if v not in (1.0, -1.0):
-                raise DataError(f"approach direction must be +1 or -1, found {cells[idx].strip()!r}", path=path, line=lineno, column=header[idx])
-            dirs[name][i] = v
-    if check_limits:
-        limits = axis_limits(machine)
-        for j, a in enumerate(machine.axes):
-            lo, hi = limits[j]
-            margin = 1e-9 * max(1.0, abs(lo), abs(hi))
-            bad = np.flatnonzero((axes[:, j] < lo - margin) | (axes[:, j] > hi + margin))
-            if bad.size:
-                i = int(bad[0])
-                unit = "mm" if a.kind == "prismatic" else "deg"
-                raise DataError(f"{axes[i, j]:g} {unit} is outside the travel of axis {a.name} in the URDF "
-                                f"({lo:g} .. {hi:g} {unit}); check the units and the column, or pass "
-                                f"--allow-outside-limits if the URDF's limits are wrong",
-                                path=path, line=lines[i], column=a.column)
-    return Observations(tuple(marks), w, axes, t_s, dirs, tuple(lines), str(path), offsets)
+    t = read_axis_table(path, machine, what="CSV file", required=("mark",) + _MARK_COLUMNS,
+                        optional_axes=optional_axes, check_limits=check_limits)
+    marks = t.texts("mark", "mark label")
+    w = np.column_stack([t.numbers(c) for c in _MARK_COLUMNS])
+    offsets = None
+    if any(c in t.header for c in OFFSET_COLUMNS):
+        offsets = np.column_stack([t.numbers(c) if c in t.header else np.zeros(len(marks)) for c in OFFSET_COLUMNS])
+    return Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets)
 
 
 def check_observations(obs, name: str = "obs") -> Observations:
@@ -253,3 +170,31 @@ def observations_text(obs: Observations, machine: Machine, *, extra: dict | None
 def write_observations(path, obs: Observations, machine: Machine, *, extra: dict | None = None) -> None:
     """Write ``obs`` as CSV, atomically."""
     write_text(path, observations_text(obs, machine, extra=extra))
+
+
+@dataclass(frozen=True)
+class SetAside:
+    """One alignment set aside as a gross error.
+
+    Attributes
+    ----------
+    row : int
+        0-based row in the data as read.
+    line : int or None
+        Its line in the CSV file.
+    mark : str
+    residual_um : float
+        Length of its residual (tool point − mark) when it was set aside, µm.
+    sigmas : float
+        Its studentized residual, in σ (the χ²₃ statistic's square root).
+    """
+
+    row: int
+    line: int | None
+    mark: str
+    residual_um: float
+    sigmas: float
+
+    def describe(self) -> str:
+        where = f"line {self.line}" if self.line is not None else f"row {self.row + 1}"
+        return f"{where} (mark {self.mark}): residual {self.residual_um:.2f} µm, {self.sigmas:.1f} σ"

@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError, KinidError
-from kinid.files import csv_number, read_csv_table, read_image, read_json
-from .machine import Machine, axis_limits, evaluate, tool_rotation_in_workpiece
+from kinid.files import read_image, read_json
+from kinid.progress import as_progress
+from .machine import Machine, evaluate, tool_rotation_in_workpiece
 from .observations import Observations
 
 __all__ = ["Sensor", "load_sensor", "read_run_log", "RunLog", "observe", "Rejected", "ObserveResult",
@@ -192,52 +193,12 @@ def read_run_log(path, machine: Machine, *, check_limits: bool = True) -> RunLog
     DataError
         Naming the file, line and column of the first problem.
     """
-    path = Path(path)
-    header_line, header, data = read_csv_table(path, what="run log",
-                                                required=("image", *(a.column for a in machine.axes)))
-    dir_cols = {}
-    for h in header:
-        if h.startswith("dir_"):
-            match = [a for a in machine.axes if a.name.lower() == h[4:]]
-            if not match:
-                raise DataError(f"'dir_' column for unknown axis {h[4:]!r}", path=path, line=header_line, column=h)
-            dir_cols[match[0].name] = header.index(h)
-    if not data:
-        raise DataError("no data rows after the header", path=path, line=header_line)
-    n = len(data)
-    images, lines = [], []
-    axes = np.empty((n, len(machine.axes)))
-    laser = np.empty(n) if "laser_mm" in header else None
-    t_s = np.empty(n) if "t_s" in header else None
-    dirs = {k: np.empty(n) for k in dir_cols}
-    for i, (lineno, cells) in enumerate(data):
-        name = cells[header.index("image")].strip()
-        if not name:
-            raise DataError("empty image name", path=path, line=lineno, column="image")
-        images.append(name)
-        lines.append(lineno)
-        for j, a in enumerate(machine.axes):
-            axes[i, j] = csv_number(cells, header.index(a.column), path=path, line=lineno, column=a.column)
-        if laser is not None:
-            laser[i] = csv_number(cells, header.index("laser_mm"), path=path, line=lineno, column="laser_mm")
-        if t_s is not None:
-            t_s[i] = csv_number(cells, header.index("t_s"), path=path, line=lineno, column="t_s")
-        for k, idx in dir_cols.items():
-            v = csv_number(cells, idx, path=path, line=lineno, column=header[idx])
-            if v not in (1.0, -1.0):
-                raise DataError(f"approach direction must be +1 or -1, found {cells[idx].strip()!r}", path=path,
-                                line=lineno, column=header[idx])
-            dirs[k][i] = v
-    if check_limits:
-        limits = axis_limits(machine)
-        for j, a in enumerate(machine.axes):
-            bad = np.flatnonzero((axes[:, j] < limits[j, 0]) | (axes[:, j] > limits[j, 1]))
-            if bad.size:
-                i = int(bad[0])
-                raise DataError(f"{axes[i, j]:g} is outside the travel of axis {a.name} in the URDF "
-                                f"({limits[j, 0]:g} .. {limits[j, 1]:g}); pass --allow-outside-limits if the URDF's "
-                                f"limits are wrong", path=path, line=lines[i], column=a.column)
-    return RunLog(tuple(images), axes, laser, t_s, dirs, tuple(lines), str(path))
+    from .axis_columns import read_axis_table
+
+    t = read_axis_table(path, machine, what="run log", required=("image",), check_limits=check_limits)
+    images = t.texts("image", "image name")
+    laser = t.numbers("laser_mm") if "laser_mm" in t.header else None
+    return RunLog(tuple(images), t.axes, laser, t.t_s, t.directions, t.lines, str(t.path))
 
 
 @dataclass(frozen=True)
@@ -294,7 +255,8 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         workpiece origin (:func:`default_board_origin_mm`).
     marks : {"nearest", "all"}
         One row per image (the mark nearest the optical axis) or one per decoded mark.
-    progress : callable(done, total), optional
+    progress : Progress, callable (done, total) or None
+        Counted once per image, at its start (:func:`kinid.progress.as_progress`).
 
     Returns
     -------
@@ -312,9 +274,9 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
     R_nominal = tool_rotation_in_workpiece(machine, log.axes, zero)
     p_nominal = evaluate(machine, log.axes, zero, jacobian=False)
     rows, rejected = [], []
+    progress = as_progress(progress, total=n)
     for i, name in enumerate(log.images):
-        if progress is not None:
-            progress(i, n)
+        progress.update()
         line = log.lines[i]
         img = read_image(folder / name)
         h, w = img.shape

@@ -47,7 +47,11 @@ def _observe(args) -> int:
     check_outputs([("--out", args.out, "file")], [("--log", str(folder / name)) for name in log.images])
     if args.board_origin_mm is not None and not np.all(np.isfinite(args.board_origin_mm)):
         raise DataError("--board-origin-mm must be three finite numbers")
-    result = observe(machine, board, sensor, log, board_origin_mm=args.board_origin_mm, marks=args.marks)
+    from kinid.progress import Progress
+
+    with Progress(len(log.images), "images") as progress:
+        result = observe(machine, board, sensor, log, board_origin_mm=args.board_origin_mm, marks=args.marks,
+                         progress=progress)
     text = observations_text(result.observations, machine, extra={"image": list(result.images)})
     write_text(args.out, text)
     n_img = len(log.images)

@@ -17,44 +17,14 @@ alignments stays in the data for the diagnosis to describe.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from .observations import Observations
+from .observations import Observations, SetAside
 
 __all__ = ["SetAside", "set_aside_outliers", "OUTLIER_ALPHA"]
 
 #: Family-wise level of the gross-error test over all alignments.
 OUTLIER_ALPHA = 1e-5
-
-
-@dataclass(frozen=True)
-class SetAside:
-    """One alignment set aside as a gross error.
-
-    Attributes
-    ----------
-    row : int
-        0-based row in the data as read.
-    line : int or None
-        Its line in the CSV file.
-    mark : str
-    residual_um : float
-        Length of its residual (tool point − mark) when it was set aside, µm.
-    sigmas : float
-        Its studentized residual, in σ (the χ²₃ statistic's square root).
-    """
-
-    row: int
-    line: int | None
-    mark: str
-    residual_um: float
-    sigmas: float
-
-    def describe(self) -> str:
-        where = f"line {self.line}" if self.line is not None else f"row {self.row + 1}"
-        return f"{where} (mark {self.mark}): residual {self.residual_um:.2f} µm, {self.sigmas:.1f} σ"
 
 
 def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, alpha: float = OUTLIER_ALPHA,
@@ -68,9 +38,9 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
     set_aside : tuple of SetAside
         In the order they were set aside.
     """
-    import scipy.stats
+    from kinid.stats import chi2_isf
 
-    from .diagnose import _model_pass, _studentized
+    from .leverage import model_pass, studentized
     from .fit import fit
 
     index = np.arange(len(obs))
@@ -85,9 +55,9 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
         sigma = robust_um if noise_um is None else max(float(noise_um), robust_um)
         if not sigma > 0:
             break
-        _, _, q0 = _model_pass(machine, kept, result)
-        stud, _ = _studentized(result, q0, sigma)
-        bound = scipy.stats.chi2.isf(alpha / len(kept), 3)
+        _, _, q0 = model_pass(machine, kept, result)
+        stud, _ = studentized(result, q0, sigma)
+        bound = chi2_isf(alpha / len(kept), 3)
         bad = np.flatnonzero(stud**2 > bound)
         if bad.size == 0 or len(out) + bad.size > max(1, int(max_fraction * len(obs))):
             break  # nothing beyond the bound, or too much of it to be misreads: structure

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .alignment import solve_axes
+from .bases import basis_of
 from .effects import parse_effect
 from kinid.errors import DataError
 from kinid.files import read_json
@@ -171,7 +172,8 @@ def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: 
     obs = plan
     if directions and not plan.directions:
         # directions depend on the solved readings: solve, derive, solve again
-        first = solve_axes(machine, [e for e in effects if e.basis != "reversal"], _drop_reversal(effects, theta), plan, solve)
+        first = solve_axes(machine, [e for e in effects if basis_of(e).driver != "direction"],
+                           _drop_reversal(effects, theta), plan, solve)
         obs = replace(plan, directions=approach_directions(first.axes, names))
     out = solve_axes(machine, effects, theta, obs, solve)
     cols = [names.index(s) for s in solve]
@@ -199,7 +201,7 @@ def _drop_reversal(effects, theta):
     keep = []
     k = 0
     for e in effects:
-        if e.basis != "reversal":
+        if basis_of(e).driver != "direction":
             keep.extend(theta[k : k + e.n_params])
         k += e.n_params
     return np.array(keep)

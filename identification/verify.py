@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinid.stats import chi2_sf
+
 from .diagnose import Diagnosis, diagnose
 from .effects import default_model
 from .fit import FitResult, fit
@@ -141,12 +143,6 @@ def _predicted_before(result: FitResult, obs: Observations, effects) -> np.ndarr
     return fit(machine, pseudo, effects, noise_um=Noise(1.0, "given")).residuals_um
 
 
-def _chi2_sf(x: float, dof: int) -> float:
-    from scipy.special import gammaincc
-
-    return float(gammaincc(dof / 2.0, x / 2.0)) if dof > 0 else float("nan")
-
-
 def verify(result: FitResult, after: Observations, *, before: Observations | None = None,
            noise_um: float | None = None) -> Verification:
     """Compare the run made after loading the compensation of ``result`` with the error it removed.
@@ -184,7 +180,7 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     if noise is None:
         noise, p = after_fit.noise, float("nan")
     else:
-        p = _chi2_sf(float(np.sum(after_fit.residuals_um ** 2)) / noise.value_um ** 2, dof)
+        p = chi2_sf(float(np.sum(after_fit.residuals_um ** 2)) / noise.value_um ** 2, dof) if dof > 0 else float("nan")
     level = noise.value_um * float(np.sqrt(max(dof, 0) / n))
     remaining = diagnose(machine, after, effects, noise_um=noise.value_um if noise.known else None)
     at_noise = bool(np.isfinite(p) and p >= ALPHA) or (not np.isfinite(p) and remaining.verdict == "noise")

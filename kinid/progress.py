@@ -1,10 +1,16 @@
-"""A minimal progress line for long work (stderr, only when it is a terminal or forced)."""
+"""Progress of long work, one notion for every command: a counter line (stderr, only when it is a
+terminal or forced) and the lines a step has to say (:meth:`Progress.say`).
+
+Library functions that run long take ``progress=`` and pass it through :func:`as_progress`, which
+accepts a :class:`Progress`, a text stream (every line said goes there, no counter), a callable
+``(done, total)``, or None (silent).
+"""
 from __future__ import annotations
 
 import sys
 import time
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "as_progress"]
 
 
 class Progress:
@@ -42,6 +48,13 @@ class Progress:
             self.stream.write(f"\r{self.label} {self.done}{of}  ({rate:.1f}/s)")
             self.stream.flush()
 
+    def say(self, line: str) -> None:
+        """Write one line of what a step did (always, to the stream; a counter line in progress is ended)."""
+        if self.enabled and self.done:
+            self.stream.write("\n")
+        self.stream.write(line + "\n")
+        self.stream.flush()
+
     def close(self) -> None:
         if self.enabled:
             self.stream.write("\n")
@@ -52,3 +65,47 @@ class Progress:
 
     def __exit__(self, *exc):
         self.close()
+
+
+class _Callback(Progress):
+    """A Progress that calls ``fn(done, total)`` on every update and says nothing."""
+
+    def __init__(self, fn):
+        super().__init__(enabled=False)
+        self._fn = fn
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        self._fn(self.done, self.total)
+
+    def say(self, line: str) -> None:
+        pass
+
+
+class _Silent(Progress):
+    def __init__(self):
+        super().__init__(enabled=False)
+
+    def say(self, line: str) -> None:
+        pass
+
+
+def as_progress(progress, total=None) -> Progress:
+    """``progress`` as a :class:`Progress`: itself; a stream (lines said go there, no counter line); a
+    callable ``(done, total)``; or None (silent). ``total`` is set when given."""
+    if isinstance(progress, Progress):
+        out = progress
+    elif progress is None:
+        out = _Silent()
+    elif hasattr(progress, "write"):
+        out = Progress(enabled=False, stream=progress)
+    elif callable(progress):
+        out = _Callback(progress)
+    else:
+        from .errors import DataError
+
+        raise DataError(f"must be a Progress, a text stream, a callable (done, total) or None, got "
+                        f"{type(progress).__name__}", parameter="progress")
+    if total is not None:
+        out.total = total
+    return out

@@ -4,7 +4,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from kinid.identification.diagnose import diagnose, forward_select
+from kinid.identification import diagnose, forward_select
 from kinid.identification.effects import candidate_library, default_model, parse_effect
 from kinid.identification.fit import fit
 from kinid.identification.machine import load_machine
@@ -162,7 +162,7 @@ def test_tail_probabilities_stay_finite_and_ordered():
     """Far in the tail scipy's log sf underflows to -inf; the ranking must still order by evidence."""
     import scipy.stats
 
-    from kinid.identification.diagnose import _chi2_logsf
+    from kinid.identification.scoring import _chi2_logsf
 
     for x, k in [(300.0, 2), (900.0, 5)]:  # where scipy is finite, the same value
         assert _chi2_logsf(x, k) == pytest.approx(scipy.stats.chi2.logsf(x, k), rel=1e-9)

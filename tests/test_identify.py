@@ -231,7 +231,7 @@ def test_loaded_fit_is_the_same_result_type_with_the_same_numbers(tmp_path):
 
 
 def test_sigma_keeps_its_source_through_selection_into_the_saved_fit(tmp_path):
-    from kinid.identification.diagnose import forward_select
+    from kinid.identification import forward_select
     from kinid.identification.noise import Noise
 
     m = load_machine(path("five_axis_bc"))

@@ -15,7 +15,7 @@ import pytest
 
 from kinid.identification import load_machine
 from kinid.identification.alignment import solve_axes
-from kinid.identification.diagnose import diagnose, forward_select
+from kinid.identification import diagnose, forward_select
 from kinid.identification.effects import default_model, parse_effect
 from kinid.identification.fit import fit
 from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate

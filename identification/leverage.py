@@ -1,0 +1,79 @@
+"""Residual diagnostics at a fit: one Pinocchio pass, leverages and studentized residuals, replicate
+noise, and the residuals as axis readings.
+
+Below the fit and the diagnosis: the fit's set-aside of gross errors
+(:mod:`~kinid.identification.outliers`) and the diagnosis both use them.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from .machine import Machine, evaluate
+from .observations import Observations, exact_duplicates
+from .residuals import design, effect_columns, joint_values
+
+__all__ = ["model_pass", "studentized", "noise_from_replicates", "axis_residuals"]
+
+
+def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray):
+    """Pooled σ (µm per coordinate) from alignments repeated at the same pose, or None.
+
+    Rows are replicates when they have the same mark, the same readings of the
+    preset (non-prismatic) axes and the same approach directions. Rows that
+    repeat another row exactly (every reading equal) are one measurement
+    copied, not replicates, and are left out.
+    """
+    preset = [j for j, a in enumerate(machine.axes) if a.kind != "prismatic"]
+    copies = {i for i, _ in exact_duplicates(obs)}  # an exact copy is the same measurement, not a replicate
+    keys = {}
+    for i in range(len(obs)):
+        if i in copies:
+            continue
+        key = (obs.marks[i], *np.round(obs.axes[i, preset], 9), *(obs.directions[a][i] for a in sorted(obs.directions)))
+        keys.setdefault(key, []).append(i)
+    ss, dof = 0.0, 0
+    for rows in keys.values():
+        if len(rows) > 1:
+            g = r_um[rows]
+            ss += float(np.sum((g - g.mean(axis=0)) ** 2))
+            dof += 3 * (len(rows) - 1)
+    return (np.sqrt(ss / dof), dof) if dof else None
+
+
+def model_pass(machine: Machine, obs: Observations, result):
+    """One Pinocchio pass at the fit: error-joint and axis Jacobians, and an orthonormal basis
+    ``Q0`` (3N, rank) of the identifiable model columns — shared by the score test, the
+    leverages and the axis residuals."""
+    d0 = design(machine, result.effects, obs)
+    _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta), offsets_mm=obs.offsets_mm)
+    J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
+    Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
+    return d_errors, d_axes, Q0
+
+
+def studentized(result, q0, sigma):
+    """Per-alignment studentized residual norm and leverage (hat matrix Q0 Q0ᵀ of the identifiable Jacobian)."""
+    r = result.residuals_um
+    N = r.shape[0]
+    h = np.sum(q0**2, axis=1).reshape(N, 3)
+    stud = np.sqrt(np.sum(r**2 / np.maximum(1 - h, 1e-12), axis=1)) / sigma
+    return stud, h.sum(axis=1)
+
+
+def axis_residuals(machine: Machine, obs: Observations, result, *, d_axes=None):
+    """Residuals as readings of the prismatic axes (measured − model), µm; and the axes' names.
+
+    To first order, the readings at which the model puts the tool point on the
+    mark differ from the measured ones by A⁻¹ r, with A the Jacobian of the
+    tool point with respect to those axes (``d_axes``: from :func:`evaluate`
+    at the fit, computed if not given).
+    """
+    cols = [j for j, a in enumerate(machine.axes) if a.kind == "prismatic"]
+    names = tuple(machine.axes[j].name for j in cols)
+    if len(cols) != 3:
+        return np.full((len(obs), 3), np.nan), names
+    if d_axes is None:
+        _, d_axes, _ = model_pass(machine, obs, result)
+    A = d_axes[:, :, cols]  # µm per mm
+    return np.linalg.solve(A, result.residuals_um[:, :, None])[:, :, 0] * 1e3, names

@@ -1,0 +1,419 @@
+"""Scoring candidate effects at a fit, and proposing the ones the library does not list.
+
+Score (Lagrange-multiplier) test of every candidate effect at the current fit:
+with whitened residuals r (orthogonal to the model's Jacobian J₀ at the
+optimum) and a candidate's whitened Jacobian block C, the block's part not
+explained by the model is C⊥ = (I − Q₀Q₀ᵀ) C and adding the candidate lowers
+the sum of squares, to first order, by Δ = rᵀ C⊥ (C⊥ᵀ C⊥)⁺ C⊥ᵀ r. With σ
+known, Δ ~ χ²_k under "no such effect"; with σ estimated, an F test. All
+candidates' blocks come from one Pinocchio pass: a candidate's column is its
+error joint's column times the basis value.
+
+Beyond the library (:func:`score_all`): free periods found by the period search
+(:mod:`~kinid.identification.periods`), non-parametric maps where no parametric
+candidate explains the residual, and local errors in windows of the best map.
+
+References
+----------
+C. R. Rao, "Large sample tests of statistical hypotheses concerning several
+parameters ...", Proc. Cambridge Phil. Soc. 44, 1948 (score test).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinid.stats import chi2_isf, chi2_logsf, f_logsf
+from kinid.threads import blas_single_threaded
+
+from .bases import basis_of
+from .effects import candidate_library
+from .fit import FitResult
+from .leverage import model_pass
+from .machine import Machine
+from .observations import Observations
+from .residuals import design, effect_columns
+
+__all__ = ["Candidate", "score_candidates", "score_all", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
+
+
+#: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
+ALIAS_TOL = 1e-6
+
+
+#: A rotation whose lever arm to the tool point (RMS over the data) is below this, in metres, is
+#: invisible: even 1 mrad of it moves the point by less than 0.1 µm. (Translations have lever 1.)
+INVISIBLE_LEVER_M = 1e-4
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """Score of one candidate effect.
+
+    Attributes
+    ----------
+    effect : str
+    status : {"live", "aliased", "invisible"}
+    k : int
+        Parameters of the effect (degrees of freedom of the test).
+    statistic : float
+        Predicted drop of the whitened sum of squares (χ² units).
+    p_value, log10_p : float
+    rms_after_um : float
+        Predicted residual RMS per coordinate after adding it, µm.
+    size : float
+        Estimated size: the coefficient (k = 1), the amplitude √(a² + b²)
+        (periodic) or the largest term's effect over the data (poly), in ``size_unit``.
+    size_std : float
+    size_unit : str
+    aliases_with : tuple of str
+        For ``aliased``: the model parameters it cannot be told from.
+    note : str
+        How the candidate was found when it is not from the library (a period search).
+    trials : float
+        Alternatives searched to find it (its p-value is multiplied by this); 1 for the library.
+    """
+
+    effect: str
+    status: str
+    k: int
+    statistic: float
+    p_value: float
+    log10_p: float
+    rms_after_um: float
+    size: float
+    size_std: float
+    size_unit: str
+    aliases_with: tuple = ()
+    note: str = ""
+    trials: float = 1.0
+
+
+#: Memory for one block of candidate columns in the score test, bytes (diagnosis memory stays flat in N).
+SCORE_BLOCK_BYTES = 64 * 1024 * 1024
+
+
+@blas_single_threaded
+def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
+                     d_errors=None, q0=None):
+    """Score test of each candidate effect at the fit ``result`` (see module docstring).
+
+    Parameters
+    ----------
+    d_errors : array (N, 3, n_errors), optional
+        Error-joint Jacobian at the fit (computed if not given).
+    q0 : array (3N, rank), optional
+        Orthonormal basis of the identifiable model columns (computed if not given).
+
+    Returns
+    -------
+    list of Candidate, unsorted.
+    """
+
+    if d_errors is None or q0 is None:
+        d_errors, _, q0 = model_pass(machine, obs, result)
+    d0 = design(machine, result.effects, obs)
+    M = result.residuals_um.size
+    r = result.residuals_um.ravel() / sigma
+    J0 = effect_columns(d_errors, d0).reshape(M, -1)[:, result.identifiable] / sigma
+    Q0 = q0
+    r = r - Q0 @ (Q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
+    rss = float(r @ r)
+    p0 = result.rank
+    model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
+    lever = np.sqrt(np.einsum("nkj,nkj->j", d_errors, d_errors) / d_errors.shape[0])  # per error joint: m/rad or 1
+    visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
+    codes = machine.error_codes
+    out = []
+    # Candidates in blocks of columns, each block streamed over chunks of alignments, so that memory
+    # stays flat in the number of alignments: only sums over alignments are kept (norms, the model
+    # projection Q0ᵀC, the Gram matrix of each candidate's projected columns and their product with r).
+    blocks, current, width = [], [], 0
+    budget = max(int(SCORE_BLOCK_BYTES // (8 * 64 * 3 * 2)), 8)  # columns per block (chunks of >= 64 rows)
+    for e in candidates:
+        if current and width + e.n_params > budget:
+            blocks.append(current)
+            current, width = [], 0
+        current.append(e)
+        width += e.n_params
+    if current:
+        blocks.append(current)
+    n = len(obs)
+    G0 = J0.T @ J0
+    for block in blocks:
+        P = sum(e.n_params for e in block)
+        rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 3 * P * 2)))  # alignments per chunk
+        chunks = [np.arange(a, min(a + rows, n)) for a in range(0, n, rows)]
+
+        def columns(idx, block=block, P=P):
+            d = design(machine, block, obs.subset(idx))
+            C = d_errors[idx][:, :, d.joint_index]
+            C *= d.basis[:, None, :]
+            C /= sigma
+            return C.reshape(3 * len(idx), P)
+
+        norm2 = np.zeros(P)
+        A = np.zeros((Q0.shape[1], P))
+        BJ = np.zeros((J0.shape[1], P))
+        for idx in chunks:
+            C = columns(idx)
+            m_rows = slice(3 * idx[0], 3 * idx[-1] + 3)  # the chunk's residual coordinates, contiguous
+            norm2 += np.einsum("ij,ij->j", C, C)
+            A += Q0[m_rows].T @ C
+            BJ += J0[m_rows].T @ C
+        spans = []
+        start = 0
+        for e in block:
+            spans.append((start, start + e.n_params))
+            start += e.n_params
+        grams = [np.zeros((b - a, b - a)) for a, b in spans]
+        bvec = np.zeros(P)
+        for idx in chunks:
+            m_rows = slice(3 * idx[0], 3 * idx[-1] + 3)
+            Cp = columns(idx)
+            Cp -= Q0[m_rows] @ A
+            bvec += Cp.T @ r[m_rows]
+            for g, (a, b) in zip(grams, spans):
+                g += Cp[:, a:b].T @ Cp[:, a:b]
+        for e, (a, b), gram in zip(block, spans, grams):
+            k = e.n_params
+            unit = e.param_units(machine)[0]
+            norm_c = np.sqrt(norm2[a:b])
+            if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
+                out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
+                continue
+            # a column that vanishes on this plan (a sine sampled at its zeros) carries nothing: drop it
+            # rather than blow its rounding noise up to unit length
+            alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
+            scale = np.where(alive, norm_c, 1.0)
+            gs = np.where(np.outer(alive, alive), gram / np.outer(scale, scale), 0.0)
+            ratio = np.where(alive, np.sqrt(np.maximum(np.diag(gs), 0.0)), 0.0)
+            w, V = np.linalg.eigh(gs)
+            sv = np.sqrt(np.maximum(w, 0.0))
+            keep = sv > ALIAS_TOL
+            if not keep.any() or ratio.max() < ALIAS_TOL:
+                coef = np.linalg.lstsq(G0, BJ[:, a:b], rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
+                weight = np.abs(coef).max(axis=1) * np.sqrt(np.diag(G0)) if coef.size else np.zeros(0)
+                order = np.argsort(-weight)
+                names = tuple(model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
+                out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names))
+                continue
+            kk = int(keep.sum())
+            Vk, sk = V[:, keep], sv[keep]
+            proj = (Vk.T @ (bvec[a:b] / scale)) / sk  # U_kᵀ r, without forming U
+            delta = float(proj @ proj)
+            if sigma_known:
+                log_sf = _chi2_logsf(delta, kk)
+            else:
+                dof2 = M - p0 - kk
+                F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
+                log_sf = f_logsf(F, kk, dof2)
+                if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
+                    log_sf = _chi2_logsf(F * kk, kk)
+            # size of the effect: least-squares coefficients of the projected block, restricted to the
+            # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
+            beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
+            cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
+            basis = basis_of(e)
+            size, size_std = basis.size(e, beta, cov)
+            rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
+            note = "" if basis.note is None else basis.note(e, beta, _axis_unit(machine, e.axis))
+            out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)),
+                                 rms_after, size, size_std, unit, note=note))
+    return out
+
+
+#: Joints whose best searched period is scored as a candidate (the strongest first).
+FOUND_PERIODS = 4
+
+
+#: χ² gain a free period needs over the joint's best listed period (χ²₁ at p = 0.001).
+PERIOD_GAIN_MIN = 10.83
+
+
+def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+    """Candidates at periods the library does not list, found by :func:`~kinid.identification.periods.search_periods`.
+
+    Each is scored like a library candidate, then its p-value is multiplied by
+    the number of independent periods searched for its joint.
+    """
+    from dataclasses import replace
+
+    from kinid.errors import DataError
+
+    from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, parse_effect
+    from .periods import search_periods
+
+    r = result.residuals_um.ravel() / sigma
+    r = r - q0 @ (q0.T @ r)
+    have = {c.effect for c in scored}
+    # the best χ² drop of a listed period, per joint: a free period must beat it by more than one
+    # extra parameter gains by chance (χ²₁ at 0.001), else the listed period is the simpler account
+    listed_best = {}
+    for c in scored:
+        if c.status == "live" and ":periodic:" in c.effect:
+            code = c.effect.split(":")[0]
+            listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
+    out = []
+    estimates = search_periods(machine, obs, r, d_errors, q0, sigma)
+    joints = max(len(estimates), 1)  # the best of every joint's search is taken: the trials multiply
+    for est in estimates[:FOUND_PERIODS]:
+        listed = ROTARY_PERIODS_DEG if est.unit == "deg" else LINEAR_PERIODS_MM
+        if est.effect in have or any(abs(est.period - p) <= max(2 * est.period_std, 1e-9 * p) for p in listed):
+            continue  # the library's own candidate covers it
+        if est.statistic - listed_best.get(est.code, 0.0) < PERIOD_GAIN_MIN:
+            continue
+        try:
+            effect = parse_effect(est.effect, machine)
+        except DataError:
+            continue
+        c = score_candidates(machine, obs, result, [effect], sigma, sigma_known=known, d_errors=d_errors, q0=q0)[0]
+        if c.status != "live":
+            continue
+        trials = est.trials * joints
+        log10_p = min(0.0, c.log10_p + math.log10(trials))
+        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
+                f"(p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} joints searched)")
+        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
+        have.add(est.effect)
+    return out
+
+
+def _axis_unit(machine, axis: str) -> str:
+    return "mm" if machine.axis(axis).kind == "prismatic" else "deg"
+
+
+#: A proposed map must gain over the best parametric candidate more χ² than its extra parameters would
+#: at this level.
+MAP_GAIN_ALPHA = 1e-3
+
+
+#: Readings (weighted by the knot's hat function) every knot of a proposed map must rest on.
+MAP_MIN_SUPPORT = 3.0
+
+
+#: Knot intervals over the measured range of an axis in a proposed map.
+MAP_INTERVALS = 40
+
+
+def _nice_step(span: float) -> float:
+    """A round step (1, 2 or 5 × 10^k) close to span / MAP_INTERVALS."""
+    raw = span / MAP_INTERVALS
+    k = math.floor(math.log10(raw))
+    for m in (1, 2, 5, 10):
+        if m * 10**k >= raw:
+            return m * 10**k
+    return 10 ** (k + 1)  # pragma: no cover
+
+
+def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+    """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range) as a candidate.
+
+    It competes with the parametric candidates on its p-value, so a map wins
+    only where no parametric effect describes the structure (a local bump).
+    """
+    from kinid.errors import DataError
+
+    from .effects import axis_dependent_joints, parse_effect
+
+    maps = []
+    for code, axis in axis_dependent_joints(machine):
+        q = obs.axes[:, machine.axis_names.index(axis)]
+        lo, hi = float(np.min(q)), float(np.max(q))
+        if not hi > lo or np.unique(np.round(q, 9)).size < 2 * MAP_INTERVALS:
+            continue
+        step = _nice_step(hi - lo)
+        lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
+        knots = np.arange(lo, hi + step / 2, step)
+        support = np.clip(1.0 - np.abs(q[:, None] - knots[None, :]) / step, 0.0, None).sum(axis=0)
+        if support.min() < MAP_MIN_SUPPORT:
+            continue  # readings clustered (a few preset positions): a knot between them would be a guess
+        try:
+            maps.append(parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine))
+        except DataError:
+            continue
+    have = {c.effect for c in scored}
+    fresh = [m for m in maps if m.name not in have]
+    live = [c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
+                                        q0=q0) if c.status == "live"]
+    if not live:
+        return []
+    best = min(live, key=lambda c: c.log10_p)
+    # a local error: windows of the best map's knots, zero at their ends, scored the same way; fewer
+    # parameters than the whole map, so a bump is described without a map's noise along the whole travel
+    whole = next(m for m in fresh if m.name == best.effect)
+    windows = _local_windows(whole, machine)
+    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
+                                         d_errors=d_errors, q0=q0) if c.status == "live"] if windows else []
+    if local:
+        best_local = min(local, key=lambda c: c.log10_p)
+        log10_local = best_local.log10_p + math.log10(len(windows) * len(fresh))
+        if log10_local < best.log10_p + math.log10(len(fresh)):
+            from dataclasses import replace as _replace
+
+            return [_replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
+                             trials=float(len(windows) * len(fresh)))] if _beats_parametric(best_local, scored) else []
+    if not _beats_parametric(best, scored):
+        return []
+    log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
+    from dataclasses import replace
+
+    return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
+
+
+def _beats_parametric(candidate, scored) -> bool:
+    """A map must beat the best parametric candidate by more than its extra parameters gain by chance."""
+
+    parametric = [c for c in scored if c.status == "live"]
+    top = max(parametric, key=lambda c: c.statistic, default=None)
+    return not (top is not None and candidate.k > top.k and
+                candidate.statistic - top.statistic < chi2_isf(MAP_GAIN_ALPHA, candidate.k - top.k))
+
+
+#: Knot intervals of the local windows tried inside a proposed map (each zero at its ends).
+LOCAL_WIDTHS = (5, 6, 7, 8, 10)
+
+
+def _local_windows(whole, machine) -> list:
+    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the map ``whole``."""
+    from kinid.errors import DataError
+
+    from .effects import parse_effect
+
+    out = []
+    coarse = whole.knots[1] - whole.knots[0]
+    for step in (coarse,):
+        knots = np.arange(whole.knots[0], whole.knots[-1] + step / 2, step)
+        for width in LOCAL_WIDTHS:
+            for i in range(0, len(knots) - width):
+                try:
+                    out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
+                except DataError:
+                    continue
+    return out
+
+
+def _f_log10_p(c: Candidate, rss: float, dof: int) -> float:
+    """log10 p of candidate ``c`` by the F test, σ estimated from the residuals (whitened rss, dof)."""
+    dof2 = max(dof - c.k, 1)
+    F = (c.statistic / c.k) / max((rss - c.statistic) / dof2, 1e-300)
+    log_sf = f_logsf(F, c.k, dof2)
+    if not np.isfinite(log_sf):
+        log_sf = _chi2_logsf(F * c.k, c.k)
+    return log_sf / math.log(10)
+
+
+def _chi2_logsf(x: float, k: int) -> float:
+    """log P(χ²_k > x), finite far into the tail (:func:`kinid.stats.chi2_logsf`)."""
+    return chi2_logsf(x, k)
+
+
+def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0) -> list:
+    """Every candidate scored at ``result``: the library's, the free periods found, the proposed maps."""
+    library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
+    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
+    scored += _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
+    scored += _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0)
+    return scored

@@ -1,0 +1,141 @@
+"""Forward selection: add the best candidate, refit the full nonlinear model, rediagnose — until the
+verdict is ``noise`` or the held-out check stops it (``kinid identify --auto``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from kinid.checks import check_positive
+from kinid.progress import as_progress
+from kinid.threads import blas_single_threaded
+
+from .diagnose import ALPHA, Diagnosis, diagnose
+from .effects import check_effects
+from .fit import FitResult
+from .machine import Machine, check_machine
+from .observations import Observations, check_observations
+
+__all__ = ["SelectionStep", "forward_select"]
+
+
+#: A warm-started refit taking more iterations than this is redone from a cold start.
+WARM_START_ITERATIONS = 15
+
+
+def _set_aside(machine, obs, effects, noise_um, progress, before: tuple):
+    """``obs`` without its gross errors and the tuple of all set aside so far (rows of the original data)."""
+    from .outliers import set_aside_outliers
+
+    kept, new = set_aside_outliers(machine, obs, effects, noise_um=noise_um)
+    if not new:
+        return obs, before
+    if before:  # rows of ``obs`` -> rows of the data as read: keep the first record's numbering
+        rows = [i for i in range(len(obs) + len(before)) if i not in {a.row for a in before}]
+        new = tuple(replace(a, row=rows[a.row]) for a in new)
+    for a in new:
+        progress.say(f"  set aside as a gross error: {a.describe()}")
+    return kept, before + new
+
+
+@dataclass(frozen=True)
+class SelectionStep:
+    """One step of forward selection: the model, its fit and its diagnosis, and what was added to reach it.
+
+    ``stopped`` is empty but on the last step, where it says in words why the
+    selection ended there. ``data`` are the alignments the step used (gross
+    errors set aside).
+    """
+
+    added: str | None
+    fit: FitResult
+    diagnosis: Diagnosis
+    stopped: str = ""
+    data: Observations | None = None
+
+
+@blas_single_threaded
+def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=None, alpha: float = ALPHA,
+                   max_steps: int = 8, progress=None, robust: bool = True, folds: int = 4) -> list:
+    """Add the best candidate, refit the full nonlinear model, rescore; until the verdict is ``noise``.
+
+    Parameters
+    ----------
+    progress : Progress, text stream or None
+        Where to say one line per step (the RMS falling against σ); see :func:`kinid.progress.as_progress`.
+    robust : bool
+        Set gross errors aside (:func:`~kinid.identification.outliers.set_aside_outliers`)
+        with the starting model and again with the final one.
+    folds : int
+        An effect is added only if it also lowers the held-out RMS of this many
+        blocks of the data (:func:`~kinid.identification.crossval.cross_validate`); 0 skips the check.
+
+    Returns
+    -------
+    list of SelectionStep
+        The first step is the starting model.
+    """
+    check_machine(machine)
+    check_observations(obs)
+    effects = list(check_effects(machine, effects))
+    progress = as_progress(progress)
+    if noise_um is not None:
+        noise_um = check_positive("noise_um", noise_um)
+    aside = ()
+    if robust:
+        obs, aside = _set_aside(machine, obs, effects, noise_um, progress, aside)
+    added = None
+    steps = []
+    theta0 = None
+    carried = None
+    for _ in range(max_steps + 1):
+        dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0)
+        if theta0 is not None and (not dg.fit.success or dg.fit.iterations > WARM_START_ITERATIONS):
+            # the warm start stalled: a cold start reaches the optimum the model has
+            cold = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha)
+            if cold.rms_um <= dg.rms_um:
+                dg = cold
+        dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
+        steps.append(SelectionStep(added, dg.fit, dg, data=obs))
+        what = "start" if added is None else f"+ {added}"
+        progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
+        best = dg.live[0] if dg.live else None
+        stop = ""
+        if dg.verdict == "noise":
+            stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
+        elif best is None:
+            stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
+                    "from the model: see the aliased candidates")
+        elif best.p_value >= dg.threshold:
+            stop = (f"no candidate is significant: the best, {best.effect}, has p = {best.p_value:.2g} above the "
+                    f"threshold {dg.threshold:.2g}")
+        elif len(steps) > max_steps:
+            stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
+        elif folds:
+            from .crossval import cross_validate
+            from .effects import parse_effect as _parse
+
+            cv = cross_validate(machine, obs, effects, _parse(best.effect, machine), folds=folds, noise_um=noise_um,
+                                theta0=dg.fit.theta)
+            progress.say(f"  {'':<28} next: {best.effect}, p = {best.p_value:.2g}, {cv}")
+            if not cv.improves:
+                stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
+                        f"data better: {cv}")
+        if stop:
+            if robust:  # a misread may stand out only once the model is complete
+                kept, more = _set_aside(machine, obs, effects, noise_um, progress, aside)
+                if more != aside:
+                    obs, aside = kept, more
+                    dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,
+                                  theta0=dg.fit.theta)
+                    dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
+            steps[-1] = SelectionStep(added, dg.fit, dg, stopped=stop, data=obs)
+            progress.say(f"  stopped: {stop}")
+            break
+        from .effects import parse_effect
+
+        effects.append(parse_effect(best.effect, machine))
+        theta0 = np.r_[dg.fit.theta, np.zeros(effects[-1].n_params)]
+        added = best.effect
+        carried = dg.noise if dg.noise.known else None
+    return steps

@@ -1,0 +1,158 @@
+"""The house: variants are registries, imports form layers without cycles, modules stay readable.
+
+- Adding an effect basis is one registration (kinid.identification.bases): a test-only basis is
+  registered here and goes through identify, diagnose and compensate untouched elsewhere. (Adding a
+  controller format is tested the same way in test_compensation_files.py.)
+- The import graph of the whole package (imports inside functions included) has no cycle, and the
+  layers point one way: the ground floor and the shipped machine files, then vision, then
+  identification, then stages (and the URDF generator), then the command-line roof.
+"""
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinid.cli import main
+from kinid.identification import load_machine, save_fit
+from kinid.identification.bases import BASES, Basis, register_basis
+from kinid.identification.fit import fit, model_effects
+from kinid.identification.simulate import errors_from_mapping, load_plan, simulate
+from kinid.urdf import path as urdf_path
+
+ROOT = Path(__file__).resolve().parents[1]
+FOLDERS = {"kinid": "kinid", "identification": "kinid.identification", "vision": "kinid.vision",
+           "stages": "kinid.stages", "urdf": "kinid.urdf"}
+
+
+def _modules() -> dict:
+    out = {}
+    for folder, package in FOLDERS.items():
+        for f in (ROOT / folder).rglob("*.py"):
+            rel = f.relative_to(ROOT / folder).with_suffix("")
+            if folder == "kinid" and len(rel.parts) > 1:
+                continue
+            parts = [p for p in rel.parts if p != "__init__"]
+            out[".".join([package, *parts])] = f
+    return out
+
+
+def _graph() -> dict:
+    """Module -> the package modules it imports (anywhere in the file)."""
+    modules = _modules()
+    edges = {m: set() for m in modules}
+    for m, f in modules.items():
+        here = m.split(".") if f.name == "__init__.py" else m.split(".")[:-1]
+        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+            targets = []
+            if isinstance(node, ast.ImportFrom):
+                base = ".".join(here[: len(here) - node.level + 1] + ([node.module] if node.module else [])) \
+                    if node.level else node.module
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            edges[m] |= {t for t in targets if t in modules and t != m}
+    return edges
+
+
+def test_no_import_cycle_in_any_package():
+    edges = _graph()
+    state, cycles = {}, []
+
+    def visit(m, path):
+        state[m] = "open"
+        for t in sorted(edges[m]):
+            if state.get(t) == "open":
+                cycles.append(path[path.index(t):] + [t] if t in path else [m, t])
+            elif t not in state:
+                visit(t, path + [t])
+        state[m] = "done"
+
+    for m in sorted(edges):
+        if m not in state:
+            visit(m, [m])
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def _layer(module: str) -> int:
+    if module in ("kinid.cli", "kinid.__main__"):
+        return 4
+    if module == "kinid.urdf.generate" or module.startswith("kinid.stages"):
+        return 3
+    if module.startswith("kinid.identification"):
+        return 2
+    if module.startswith("kinid.vision"):
+        return 1
+    return 0  # the ground floor (kinid.*) and the shipped machine files (kinid.urdf)
+
+
+def test_layers_point_one_way():
+    """ground floor < vision < identification < stages < roof: nothing imports a higher layer."""
+    bad = [f"{m} ({_layer(m)}) imports {t} ({_layer(t)})" for m, ts in _graph().items() for t in ts
+           if _layer(t) > _layer(m)]
+    assert not bad, "\n".join(bad)
+
+
+def test_identification_modules_stay_readable():
+    long = {f.name: n for f in (ROOT / "identification").glob("*.py")
+            if (n := len(f.read_text(encoding="utf-8").splitlines())) > 500}
+    assert not long, f"modules over 500 lines: {long}"
+
+
+# --- a basis added by registration alone ----------------------------------------------------------
+
+def _triangle_values(e, q, t, s):
+    """A triangle wave of period P: the error of a screw whose lead error grows and shrinks linearly."""
+    phase = np.mod(q / e.period, 1.0)
+    return (1.0 - 4.0 * np.abs(phase - 0.5)).reshape(-1, 1)
+
+
+TRIANGLE = Basis(
+    kind="triangle", grammar=r"triangle:(?P<period>[0-9]*\.?[0-9]+)", syntax="triangle:<P>", driver="position",
+    parse=lambda m, ctx: {"period": float(m.group("period"))}, n_params=lambda e: 1,
+    param_names=lambda e: [e.name], param_units=lambda e, u, q: [u], values=_triangle_values,
+    describe=lambda e, u: f"triangle wave in {e.axis}, period {e.period:g}{u}")
+
+
+@pytest.fixture()
+def triangle():
+    register_basis(TRIANGLE)
+    try:
+        yield TRIANGLE
+    finally:
+        BASES.pop("triangle")
+
+
+def test_a_registered_basis_goes_through_identify_and_compensate(triangle, tmp_path, capsys):
+    m = load_machine(urdf_path("five_axis_bc"))
+    effects, theta = errors_from_mapping({"EX0C": 12.0, "EXX:triangle:12": [2.5]}, m)
+    obs = simulate(m, load_plan("patent", m), effects, theta, noise_um=0.3, rng=np.random.default_rng(4))
+    from kinid.identification.observations import write_observations
+
+    write_observations(tmp_path / "obs.csv", obs, m)
+    assert main(["identify", "--machine", str(urdf_path("five_axis_bc")), "--data", str(tmp_path / "obs.csv"),
+                 "--noise-um", "0.3", "--add", "EXX:triangle:12", "--out", str(tmp_path / "fit.json")]) == 0
+    params = {p["name"]: p for p in json.loads((tmp_path / "fit.json").read_text())["parameters"]}
+    assert params["EXX:triangle:12"]["value"] == pytest.approx(2.5, abs=4 * params["EXX:triangle:12"]["std"])
+    assert main(["compensate", "--fit", str(tmp_path / "fit.json"), "--out", str(tmp_path / "comp")]) == 0
+    rows = np.loadtxt(tmp_path / "comp" / "X.csv", delimiter=",", skiprows=1)
+    x, exx = rows[:, 0], rows[:, 1]
+    inside = (x > -60) & (x < 60)
+    truth = 2.5 * (1.0 - 4.0 * np.abs(np.mod(x / 12.0, 1.0) - 0.5))
+    assert np.abs(exx[inside] - truth[inside]).max() < 0.3
+    # the report's words come from the basis too
+    fit_result = fit(m, obs, model_effects(m, ["EXX:triangle:12"]), noise_um=0.3)
+    save_fit(fit_result, tmp_path / "fit2.json")
+    capsys.readouterr()
+    assert main(["diagnose", "--fit", str(tmp_path / "fit2.json"), "--data", str(tmp_path / "obs.csv"),
+                 "--report", str(tmp_path / "report")]) == 0
+    assert "triangle wave in X, period 12 mm" in (tmp_path / "report" / "index.html").read_text()
+
+
+def test_an_unregistered_basis_is_refused_with_the_known_ones():
+    m = load_machine(urdf_path("five_axis_bc"))
+    with pytest.raises(Exception, match="expected poly<k>.*periodic:<P>.*local:<step>:<from>:<to>"):
+        model_effects(m, ["EXX:triangle:12"])
