@@ -55,6 +55,11 @@ class Sensor:
         A calibrated camera (intrinsics and distortion), used instead of ``pixel_mm``.
     working_distance_mm : float or None
         With ``camera``: distance from the camera's projection centre to the tool point, mm.
+    laser_offset_mm : (float, float)
+        Where the laser beam (parallel to the tool z axis) crosses the tool point's plane, in the tool
+        frame, mm: (0, 0) for a laser on the camera's axis; ``kinid sensor`` measures it.
+    laser_offset_std_mm : (float, float) or None
+        Standard deviations of ``laser_offset_mm``, mm.
     """
 
     pixel_mm: float | None = None
@@ -63,9 +68,12 @@ class Sensor:
     laser_standoff_mm: float | None = None
     camera: object = None
     working_distance_mm: float | None = None
+    laser_offset_mm: tuple = (0.0, 0.0)
+    laser_offset_std_mm: tuple | None = None
 
 
-_SENSOR_KEYS = {"pixel_mm", "optical_axis_px", "image_x_angle_deg", "laser_standoff_mm", "camera", "working_distance_mm"}
+_SENSOR_KEYS = {"pixel_mm", "optical_axis_px", "image_x_angle_deg", "laser_standoff_mm", "camera", "working_distance_mm",
+                "laser_offset_mm", "laser_offset_std_mm", "measured_by"}
 
 
 def load_sensor(path) -> Sensor:
@@ -95,12 +103,24 @@ def load_sensor(path) -> Sensor:
             raise DataError(f"must be > 0, got {v!r}", path=path, column=key)
         return float(v)
 
-    axis_px = data.get("optical_axis_px")
-    if axis_px is not None:
-        if (not isinstance(axis_px, list) or len(axis_px) != 2
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in axis_px)):
-            raise DataError(f"expected [x, y] in pixels, got {axis_px!r}", path=path, column="optical_axis_px")
-        axis_px = (float(axis_px[0]), float(axis_px[1]))
+    def pair(key, what):
+        v = data.get(key)
+        if v is None:
+            return None
+        if (not isinstance(v, list) or len(v) != 2
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+            raise DataError(f"expected [x, y] in {what}, got {v!r}", path=path, column=key)
+        return (float(v[0]), float(v[1]))
+
+    axis_px = pair("optical_axis_px", "pixels")
+    laser_offset = pair("laser_offset_mm", "mm") or (0.0, 0.0)
+    laser_std = pair("laser_offset_std_mm", "mm")
+    if laser_std is not None and not all(s >= 0 for s in laser_std):
+        raise DataError(f"standard deviations must be >= 0, got {list(laser_std)}", path=path,
+                        column="laser_offset_std_mm")
+    if math.hypot(*laser_offset) > 200.0:
+        raise DataError(f"a laser {math.hypot(*laser_offset):.4g} mm from the camera's axis is not on the same tool; "
+                        f"the offset is in mm, in the tool frame", path=path, column="laser_offset_mm")
     camera = None
     if data.get("camera") is not None:
         from kinid.vision import CameraModel, load_camera
@@ -119,7 +139,8 @@ def load_sensor(path) -> Sensor:
         except (TypeError, ValueError) as exc:
             raise DataError(f"not a camera model ({exc})", path=path, column="camera") from None
     sensor = Sensor(number("pixel_mm", positive=True), axis_px, number("image_x_angle_deg", default=0.0),
-                    number("laser_standoff_mm"), camera, number("working_distance_mm", positive=True))
+                    number("laser_standoff_mm"), camera, number("working_distance_mm", positive=True), laser_offset,
+                    laser_std)
     if (sensor.pixel_mm is None) == (sensor.camera is None):
         raise DataError("give either pixel_mm (pixel equivalent on the board) or camera with working_distance_mm",
                         path=path, column="pixel_mm")
@@ -303,11 +324,13 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
             rejected.append(Rejected(line, name, "the board is seen edge-on (tilted more than 78° from the camera axis)"))
             continue
         xy = np.array([[m.x_px, m.y_px] for m in on_board])
+        # the spot is where the laser beam meets the board: at the laser's offset from the tool axis
+        spot = np.asarray(sensor.laser_offset_mm, float)
         d_xy = image_offsets_mm(sensor, xy, (w, h), dz_spot)
-        dz = dz_spot - (normal[0] * d_xy[:, 0] + normal[1] * d_xy[:, 1]) / normal[2]
+        dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
         if sensor.camera is not None:  # depth changes a calibrated camera's scale: once more with the marks' depth
             d_xy = image_offsets_mm(sensor, xy, (w, h), dz)
-            dz = dz_spot - (normal[0] * d_xy[:, 0] + normal[1] * d_xy[:, 1]) / normal[2]
+            dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
         offsets = np.column_stack([d_xy, dz])
         w_mm = np.array([_board_mark_mm(board, *board.position_of(m.code), origin) for m in on_board])
         # where the nominal machine expects each decoded mark: a misread code lands a pitch or more away

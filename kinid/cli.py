@@ -39,6 +39,7 @@ VERBS = {
     "predict": Verb("kinid.identification.commands", "axis readings at which the fitted machine aligns the tool point with each mark"),
     "compensate": Verb("kinid.identification.compensate_cli", "axis error tables, constants, a calibrated URDF and controller files from a fit"),
     "verify": Verb("kinid.identification.verify_cli", "the run after loading the compensation: error before and after, what is left"),
+    "sensor": Verb("kinid.identification.sensor_cli", "the laser's offset beside the camera from the hole or sphere set-up measurement"),
     "observe": Verb("kinid.identification.observe_cli", "images + axis readings of a run -> observation CSV (marks located and decoded)"),
     "board": Verb("kinid.vision.board_cli", "a printable ring-coded board (SVG and PDF at true scale) and its board file"),
     "markers": Verb("kinid.vision.cli", "detect and decode ring-coded marks in an image"),

@@ -93,7 +93,7 @@ def board_origin_w():
     return np.array([-half, half, 0.0])
 
 
-def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0):
+def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=(0.0, 0.0)):
     """The camera's image (uint8, IMAGE_PX²) and the laser reading (mm) at these true readings."""
     from kinid.vision import board_coverage, make_board, render_pattern
 
@@ -119,8 +119,8 @@ def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0):
 
     img = render_pattern(board_coverage(board), (IMAGE_PX, IMAGE_PX), image_to_plane, blur_px=0.7,
                          noise_sigma=noise, rng=rng)
-    # laser: along the camera axis from the tool point to the board surface
-    s_w = Rw.T @ (pt - pw)
+    # laser: parallel to the camera axis, from its offset beside the tool point to the board surface
+    s_w = Rw.T @ (pt + Rt @ np.array([laser_offset_mm[0], laser_offset_mm[1], 0.0]) - pw)
     d_w = Rw.T @ (Rt @ np.array([0.0, 0.0, -1.0]))
     laser = LASER_STANDOFF_MM + (-s_w[2] / d_w[2])
     return img, laser
@@ -130,7 +130,8 @@ def plan(tilts=(-40.0, 0.0, 40.0), turns=(0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
     return [(b, c, (mx, my, 0.0)) for b in tilts for c in turns for mx, my in marks]
 
 
-def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_noise_um=0.5, truth=TRUTH, image_noise=2.0):
+def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_noise_um=0.5, truth=TRUTH, image_noise=2.0,
+              laser_offset_mm=(0.0, 0.0)):
     """Render a run into ``folder``: images, run log, sensor and board files. Returns the true readings."""
     import cv2
 
@@ -139,7 +140,7 @@ def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_no
     rows, truth_rows = [], []
     for k, (b, c, m) in enumerate(poses):
         true = align(m, b, c, truth) + rng.normal(0.0, stop_mm, 3)
-        img, laser = render(true, b, c, rng, truth, noise=image_noise)
+        img, laser = render(true, b, c, rng, truth, noise=image_noise, laser_offset_mm=laser_offset_mm)
         name = f"images/{k:03d}.png"
         cv2.imwrite(str(folder / name), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
         logged = true + rng.normal(0.0, reading_noise_um * 1e-3, 3)

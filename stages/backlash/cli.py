@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError
+from ..outputs import add_output_options
+from .report import plot_result, write_report
 
 __all__ = ["register", "plot_result"]
 
@@ -29,11 +31,12 @@ def register(subparsers) -> None:
     p.add_argument("--travel-deg", type=float, default=2.0, help="θ travel about the start, degrees (default 2)")
     p.add_argument("--repeats", type=int, default=1, help="reversal cycles per axis and target (default 1)")
     p.add_argument("--targets", type=int, default=1, help="target positions per linear axis (default 1)")
-    p.add_argument("--out", metavar="RESULT.json", help="write the measured values (µm, deg, with spreads) as JSON")
-    p.add_argument("--tables", metavar="DIR", help="write X and Y backlash as controller tables (LinuxCNC, TwinCAT CNC)")
-    p.add_argument("--plot", metavar="OUT.png", help="write a plot: reversal gaps before and after compensation")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    p.add_argument("--report", metavar="DIR", help="write an HTML report (with the plot) into DIR")
+    outputs = add_output_options(
+        p, out=("RESULT.json", "write the measured values (µm, deg, with spreads) as JSON"),
+        tables=("DIR", "write X and Y backlash as controller tables (every format of kinid.axis_tables)"),
+        plot=("OUT.png", "write a plot: reversal gaps before and after compensation"),
+        json="print one JSON object instead of the table",
+        report=("DIR", "write an HTML report (with the plot) into DIR"))
     sim = p.add_argument_group("simulated stage (--simulate)")
     sim.add_argument("--backlash-x-um", type=float, default=4.0, help="true X backlash, µm (default 4)")
     sim.add_argument("--backlash-y-um", type=float, default=3.0, help="true Y backlash, µm (default 3)")
@@ -48,7 +51,7 @@ def register(subparsers) -> None:
                      help="random X/Y positioning scatter per move, µm (default 0)")
     sim.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.set_defaults(run=_run, parameter_options={"n_targets": "--targets"},
-                   outputs={"out": "file", "plot": "file", "plan_out": "file", "tables": "folder", "report": "folder"})
+                   outputs={**outputs, "plan_out": "file"})
 
 
 def _truth(stage) -> dict:
@@ -119,7 +122,7 @@ def _run(args) -> int:
     if args.plot:
         plot_result(res, args.plot, truth=truth, after=after)
     if args.report:
-        _report(res, args, truth, after, source)
+        write_report(res, args, truth, after, source)
     if args.json:
         out = {"measured": measured, "source": source}
         if truth is not None:
@@ -166,55 +169,6 @@ def _run(args) -> int:
     return 0
 
 
-def _report(res, args, truth, after, source) -> None:
-    """The HTML report of a backlash calibration (kinid.report_html)."""
-    from kinid.files import write_text
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
-
-    folder = Path(args.report)
-    folder.mkdir(parents=True, exist_ok=True)
-    plot_result(res, folder / "backlash.png", truth=truth, after=after)
-    m = res.summary()
-
-    def u(spread, n):  # expanded uncertainty of the mean of n single reversals, k = 2
-        return f"{2 * spread / np.sqrt(n):.3g}" if n > 1 else "—"
-
-    rows = [("backlash of X", f"{m['backlash_x_um']:.3f}", u(m["spread_x_um"], res.reversals_x_mm.size), "µm",
-             str(res.reversals_x_mm.size)),
-            ("backlash of Y", f"{m['backlash_y_um']:.3f}", u(m["spread_y_um"], res.reversals_y_mm.size), "µm",
-             str(res.reversals_y_mm.size)),
-            ("backlash of θ", f"{m['backlash_theta_deg']:.5f}", u(m["spread_theta_deg"], res.reversals_theta_deg.size),
-             "deg", str(res.reversals_theta_deg.size)),
-            ("pixel equivalent along X", f"{m['pixel_um_x']:.5f}", "", "µm/px", ""),
-            ("pixel equivalent along Y", f"{m['pixel_um_y']:.5f}", "", "µm/px", ""),
-            ("camera rotation", f"{m['camera_rotation_deg']:.3f}", "", "deg", ""),
-            ("ISO 230-2 reversal value B of X", f"{m['iso_reversal_x_um']:.3f}", "", "µm", ""),
-            ("ISO 230-2 reversal value B of Y", f"{m['iso_reversal_y_um']:.3f}", "", "µm", "")]
-    if truth is not None:
-        rows = [r + (f"{truth[k]:.5g}" if k in truth else "",) for r, k in zip(rows, (
-            "backlash_x_um", "backlash_y_um", "backlash_theta_deg", "pixel_um_x", "pixel_um_y", "camera_rotation_deg",
-            "backlash_x_um", "backlash_y_um"))]
-    header = ("quantity", "measured", "U (k = 2)", "unit", "reversals") + (("simulated",) if truth is not None else ())
-    table = Table(header, tuple(rows), numeric=tuple(range(1, len(header))),
-                  caption="U: expanded uncertainty of the mean of the single reversals (k = 2); one reversal gives "
-                          "none — run the plan with --repeats 3 or more")
-    summary = [f"The stage loses {m['backlash_x_um']:.3g} µm on X, {m['backlash_y_um']:.3g} µm on Y and "
-               f"{m['backlash_theta_deg']:.3g}° on θ at each reversal.",
-               "Next: load the bidirectional tables (kinid backlash --tables DIR) or the controller's backlash "
-               "parameters, then run the plan again with the compensation on to check what is left."]
-    prov = [("measured", "a simulated stage" if args.simulate else file_provenance(args.log)),
-            ("plan", f"travel ±{args.travel_mm:g} mm, ±{args.travel_deg:g}°, {args.repeats} repeat(s), "
-                     f"{args.targets} target(s); {res.moves} moves"),
-            ("made", now_utc())]
-    sections = [Section("Results", tables=(table,)),
-                Section("Photos, reversal gaps and pixel equivalent",
-                        figures=(Figure("backlash.png", "Left: the fiducial in every photo. Middle: each reversal "
-                                                        "gap along its axis, before"
-                                        + (" and after compensation" if after is not None else "")
-                                        + ". Right: the pixel equivalent of each non-reversal move."),))]
-    write_text(folder / "index.html", report_page("Stage backlash calibration", "kinid backlash", prov, summary, sections))
-
-
 def _result_json(res, source, truth) -> dict:
     """The measured values for a file: units in the keys, the spreads and counts of the single reversals."""
     out = {"source": source, "measured": res.summary(),
@@ -245,98 +199,3 @@ def _write_tables(res, folder, travel_mm) -> None:
     write_tables(folder, tables, comment="kinid backlash: error = actual - commanded")
 
 
-def _gaps_um(res):
-    """Reversal gaps (down − up) along each axis: X µm, Y µm, θ as the arc at the fiducial, µm."""
-    out = {}
-    for axis in ("x", "y", "theta"):
-        ups = [r for r in res.log if r.axis == axis and r.role == "up"]
-        downs = [r for r in res.log if r.axis == axis and r.role == "down"]
-        d = res.matrix.to_machine(np.array([[b.x_px - a.x_px, b.y_px - a.y_px] for a, b in zip(ups, downs)])) * 1e3
-        if axis == "theta":
-            v = -np.asarray(res.theta_centre_mm, float)
-            tangent = np.array([-v[1], v[0]]) / np.hypot(*v)
-            out[axis] = d @ tangent
-        else:
-            out[axis] = d[:, 0 if axis == "x" else 1]
-    return out
-
-
-def plot_result(res, path, *, truth=None, after=None) -> None:
-    """Write a PNG: fiducial per photo, reversal gaps before (and after) compensation, pixel equivalent.
-
-    Parameters
-    ----------
-    res : BacklashResult
-    path : str or path-like
-        Output PNG, written whole or not at all.
-    truth : dict or None
-        Simulated truth (keys ``backlash_x_um``, ``backlash_y_um``, ``backlash_theta_deg``,
-        ``pixel_um_x``, ``pixel_um_y``) drawn for comparison.
-    after : BacklashResult or None
-        The same plan run again through the compensation: its gaps are drawn as "after".
-    """
-    from kinid.figures import new_figure, save_figure
-
-    fig = new_figure((13, 4.4))
-    ax0, ax1, ax2 = fig.subplots(1, 3)
-    colours = {"scale": "tab:blue", "up": "tab:green", "down": "tab:red", "centre": "tab:purple"}
-    for role, col in colours.items():
-        recs = [r for r in res.log if r.role == role]
-        if recs:
-            ax0.plot([r.x_px for r in recs], [r.y_px for r in recs], "o", color=col, ms=5, label=role,
-                     mfc="none" if role == "down" else col)
-    for r in res.log:
-        if r.role == "scale" or r.role == "centre":
-            ax0.annotate(str(r.index), (r.x_px, r.y_px), fontsize=8, xytext=(3, 3), textcoords="offset points")
-    ax0.invert_yaxis()
-    ax0.set_aspect("equal", adjustable="datalim")
-    ax0.set_xlabel("image x (px)")
-    ax0.set_ylabel("image y (px)")
-    ax0.set_title(f"fiducial per photo ({res.moves} moves)")
-    ax0.legend(fontsize=8)
-
-    # reversal gaps along each axis, before and after compensation
-    before = _gaps_um(res)
-    labels = {"x": "X", "y": "Y", "theta": "θ (arc)"}
-    for k, axis in enumerate(("x", "y", "theta")):
-        g = before[axis]
-        ax1.plot(np.full(g.size, k - 0.12), g, "o", color="tab:red", ms=7, label="before" if k == 0 else None)
-        if after is not None:
-            a = _gaps_um(after)[axis]
-            ax1.plot(np.full(a.size, k + 0.12), a, "o", color="tab:green", ms=7, label="after" if k == 0 else None)
-    if truth is not None:
-        arc = np.radians(truth["backlash_theta_deg"]) * res.theta_radius_mm * 1e3
-        ax1.plot([-0.3, 0.3], [truth["backlash_x_um"]] * 2, "k--", lw=1, label="simulated backlash")
-        ax1.plot([0.7, 1.3], [truth["backlash_y_um"]] * 2, "k--", lw=1)
-        ax1.plot([1.7, 2.3], [arc] * 2, "k--", lw=1)
-    ax1.axhline(0, color="0.7", lw=0.8)
-    ax1.set_xticks([0, 1, 2], [labels[a] for a in ("x", "y", "theta")])
-    ax1.set_xlim(-0.6, 2.6)
-    ax1.set_ylabel("reversal gap along the axis (µm)")
-    title = (f"backlash X {res.backlash_x_mm * 1e3:.3f} µm, Y {res.backlash_y_mm * 1e3:.3f} µm, "
-             f"θ {res.backlash_theta_deg:.5f}°")
-    if after is not None:
-        title += (f"\nafter compensation: X {after.backlash_x_mm * 1e3:+.3f} µm, Y {after.backlash_y_mm * 1e3:+.3f} µm, "
-                  f"θ {after.backlash_theta_deg:+.5f}°")
-    else:
-        title += "\n(after: run the plan again with the compensation on)"
-    ax1.set_title(title, fontsize=9)
-    ax1.legend(fontsize=8, loc="upper right")
-
-    per = res.scale.per_move * 1e3
-    idx = np.arange(1, per.size + 1)
-    cols = ["tab:blue" if a == "x" else "tab:orange" if a == "y" else "0.4" for a in res.scale.axes]
-    ax2.scatter(idx, per, c=cols)
-    for i, a in zip(idx, res.scale.axes):
-        ax2.annotate(a.upper(), (i, per[i - 1]), fontsize=8, xytext=(4, 2), textcoords="offset points")
-    if truth is not None:
-        ax2.axhline(truth["pixel_um_x"], color="tab:blue", ls="--", lw=1, label="true along X")
-        ax2.axhline(truth["pixel_um_y"], color="tab:orange", ls=":", lw=1, label="true along Y")
-        ax2.legend(fontsize=8)
-    ax2.set_xticks(idx)
-    ax2.set_xlabel("non-reversal move")
-    ax2.set_ylabel("pixel equivalent (µm/px)")
-    ax2.set_title(f"pixel equivalent X {res.pixel_mm_x * 1e3:.5f}, Y {res.pixel_mm_y * 1e3:.5f} µm/px", fontsize=9)
-    ax2.ticklabel_format(axis="y", useOffset=False)
-    fig.tight_layout()
-    save_figure(fig, path, tight=False)

@@ -6,6 +6,8 @@ import math
 import sys
 
 from kinid.errors import DataError
+from ..outputs import add_output_options
+from .report import report_text, write_report
 
 __all__ = ["register"]
 
@@ -42,10 +44,11 @@ def register(subparsers) -> None:
     p.add_argument("--path-file", metavar="PATH.csv", help="polyline vertices: CSV with columns x_mm,y_mm")
     p.add_argument("--fps", type=float, metavar="F",
                    help="frame rate: t_s = frame / F (default: the video's rate; for a folder t_s is left empty)")
-    p.add_argument("--out", metavar="TRACK.csv", help="track and contour error per frame (required on measured frames)")
-    p.add_argument("--json", action="store_true", help="print the JSON summary only")
-    p.add_argument("--plot", metavar="OUT.png", help="polar plot of the radial deviation (circle) or error plot")
-    p.add_argument("--report", metavar="DIR", help="write an HTML report (results, plot) into DIR")
+    outputs = add_output_options(
+        p, out=("TRACK.csv", "track and contour error per frame (required on measured frames)"),
+        plot=("OUT.png", "polar plot of the radial deviation (circle) or error plot"),
+        json="print the JSON summary only",
+        report=("DIR", "write an HTML report (results, plot) into DIR"))
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--scheduler", metavar="ADDRESS|local",
                    help="map the frames on a Dask cluster: its scheduler's address (tcp://host:8786), or 'local' "
@@ -58,7 +61,7 @@ def register(subparsers) -> None:
                    help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
     p.add_argument("--seed", type=int, default=0, help="with --simulate: seed of the image noise (default 0)")
     p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
-    p.set_defaults(run=_run, outputs={"out": "file", "plot": "file", "keep": "folder", "report": "folder"})
+    p.set_defaults(run=_run, outputs={**outputs, "keep": "folder"})
 
 
 def _pair(text, option):
@@ -121,11 +124,11 @@ def _simulate(args) -> int:
     if args.out:
         write_text(args.out, track_csv(m))
     if args.plot:
-        from .plot import plot_contour
+        from .report import plot_contour
 
         plot_contour(m, args.plot)
     if args.report:
-        _report(m, args, frames=frames, board=folder / "board.json", scale=folder / "camera.json", simulated=True)
+        write_report(m, args, frames=frames, board=folder / "board.json", scale=folder / "camera.json", simulated=True)
     ok = m.track.located
     track_err = np.sqrt(np.mean(np.sum(((m.track.xy_mm - seq.track_mm) * 1e3)[ok] ** 2, axis=1)))
     truth = contour_error(seq.track_mm, CirclePath())
@@ -216,11 +219,11 @@ def _run(args) -> int:
         progress.close()
     write_text(args.out, track_csv(m))
     if args.plot:
-        from .plot import plot_contour
+        from .report import plot_contour
 
         plot_contour(m, args.plot)
     if args.report:
-        _report(m, args, frames=args.frames, board=args.board,
+        write_report(m, args, frames=args.frames, board=args.board,
                 scale=f"--pixel-mm {args.pixel_mm:g}" if args.pixel_mm else Path(args.camera))
     tr = m.track
     if tr.not_located:
@@ -233,71 +236,7 @@ def _run(args) -> int:
     if args.json:
         print(json.dumps(m.summary))
         return 0
-    print(_report_text(m, settings))
+    print(report_text(m, settings))
     return 0
 
 
-def _report(m, args, *, frames, board, scale, simulated=False) -> None:
-    """The HTML report of a contour measurement (kinid.report_html)."""
-    from pathlib import Path
-
-    from kinid.files import write_text
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
-    from .plot import plot_contour
-
-    folder = Path(args.report)
-    folder.mkdir(parents=True, exist_ok=True)
-    plot_contour(m, folder / "contour.png")
-    tr, ce, c = m.track, m.contour, m.circular
-    rows = [("contour error, RMS", f"{ce.rms_um:.3f}", "µm"), ("contour error, largest", f"{ce.max_um:.3f}", "µm")]
-    if c is not None:
-        rows += [("ISO 230-4 circular deviation G", f"{c.G_um:.3f}", "µm"),
-                 ("ISO 230-4 radial deviation F, max / min", f"{c.F_max_um:+.3f} / {c.F_min_um:+.3f}", "µm")]
-        if math.isfinite(c.H_um):
-            rows.append(("ISO 230-4 circular hysteresis H", f"{c.H_um:.3f}", "µm"))
-    rows += [("frames located", f"{int(tr.located.sum())} of {len(tr.located)}", ""),
-             ("board rotation in the image", f"{tr.angle_deg:.4f}", "deg")]
-    summary = [f"The machine follows the programmed path within {ce.max_um:.3g} µm (RMS {ce.rms_um:.3g} µm)"
-               + (f"; ISO 230-4 circular deviation G = {c.G_um:.3g} µm." if c is not None else "."),
-               "Next: compare with the machine's specification; the polar plot shows where on the path the "
-               "deviation comes from (reversal spikes at the quadrants, an ellipse from a servo mismatch)."]
-    prov = [("frames", f"{frames} ({len(tr.located)} frames{', rendered by --simulate' if simulated else ''})"),
-            ("board", file_provenance(board)),
-            ("scale", scale if isinstance(scale, str) else f"camera {file_provenance(scale)}"),
-            ("made", now_utc())]
-    sections = [Section("Results", tables=(Table(("quantity", "value", "unit"), tuple(rows), numeric=(1,)),)),
-                Section("Radial deviation and track", figures=(Figure("contour.png", "Left: the deviation from the "
-                        "path, magnified (circle) or along the path. Right: the reference mark's track."),))]
-    write_text(folder / "index.html", report_page("Contour error", "kinid contour", prov, summary, sections))
-
-
-def _report_text(m, settings) -> str:
-    tr, ce = m.track, m.contour
-    unit = settings.unit
-    lines = [f"frames            {len(tr.located)}  (located {int(tr.located.sum())})",
-             f"reference mark    code {tr.reference_code} at row {tr.reference_rc[0]}, column {tr.reference_rc[1]}",
-             f"board rotation    {tr.angle_deg:.4f} deg (in the image, clockwise as seen)"]
-    if unit == "mm":
-        lines.append(f"pixel size        {settings.pixel_mm * 1e3 / tr.scale:.5f} µm from the board's pitch "
-                     f"(given {settings.pixel_mm * 1e3:.5f} µm)")
-    else:
-        lines.append(f"pixel size        {1e3 / tr.scale:.5f} µm (object side, ideal pixels)")
-    res = tr.residual_rms / tr.scale * 1e3
-    lines.append(f"mark residual     {res:.3f} µm RMS per coordinate" if math.isfinite(res) else
-                 "mark residual     n/a (no frame with two marks)")
-    path = ce.path
-    name = type(path).__name__.replace("Path", "").lower()
-    if name == "circle":
-        lines.append(f"path              circle, centre ({path.centre_mm[0]:.4f}, {path.centre_mm[1]:.4f}) mm, "
-                     f"radius {path.radius_mm:.4f} mm")
-    else:
-        lines.append(f"path              {name}")
-    lines.append(f"contour error     RMS {ce.rms_um:.3f} µm, max |e| {ce.max_um:.3f} µm")
-    c = m.circular
-    if c is not None:
-        h = f"{c.H_um:.3f} µm" if math.isfinite(c.H_um) else "n/a (one direction only)"
-        lines += [f"ISO 230-4 G       {c.G_um:.3f} µm (circular deviation)",
-                  f"ISO 230-4 F       max {c.F_max_um:+.3f} µm, min {c.F_min_um:+.3f} µm (radial deviation, "
-                  f"R0 {c.nominal_radius_mm:.4f} mm)",
-                  f"ISO 230-4 H       {h} (circular hysteresis)"]
-    return "\n".join(lines)

@@ -1,0 +1,164 @@
+"""What ``kinid contour`` draws: a ballbar-like polar plot for circles (error along the path otherwise),
+the text report and the HTML report of a contour measurement."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["plot_contour", "write_report", "report_text"]
+
+
+def _nice(x: float) -> float:
+    """1, 2 or 5 × 10^k at or above x."""
+    k = np.floor(np.log10(max(x, 1e-12)))
+    for m in (1, 2, 5, 10):
+        if m * 10**k >= x:
+            return float(m * 10**k)
+    return float(10 ** (k + 1))
+
+
+def plot_contour(measurement, out_png, *, magnification=None):
+    """Write a PNG of the measured contour error (whole or not at all).
+
+    Circle: polar plot of the radial deviation about the fitted/given centre,
+    magnified like a ballbar plot (the nominal circle drawn at the plot's
+    reference radius), plus the track. Line/polyline: the track and the error
+    along it.
+
+    Parameters
+    ----------
+    measurement : stages.contour.measure.ContourMeasurement
+    out_png : str or path
+    magnification : float or None
+        Circles only: the deviation, µm, drawn as 0.4 of the plot radius
+        (default: the largest absolute deviation).
+    """
+    from kinid.figures import new_figure, save_figure
+
+    from .paths import CirclePath
+
+    m = measurement
+    xy = m.track.xy_mm
+    ok = np.all(np.isfinite(xy), axis=1)
+    err = m.contour.error_um
+    fig = new_figure((11, 5))
+    if isinstance(m.contour.path, CirclePath):
+        c = m.contour.path.centre_mm
+        ax = fig.add_subplot(1, 2, 1, projection="polar")
+        # image axes are y down: angle measured clockwise as seen, draw it that way
+        ang = np.arctan2(xy[ok, 1] - c[1], xy[ok, 0] - c[0])
+        e = err[ok]
+        emax = float(np.max(np.abs(e))) if e.size else 1.0
+        span = emax if magnification is None else float(magnification)
+        span = max(span, 1e-9)
+        ax.plot(np.linspace(0, 2 * np.pi, 361), np.ones(361), "k--", lw=0.8, label="nominal circle")
+        r = 1.0 + 0.4 * e / span
+        a_plot, r_plot = ang, r
+        turned = np.ptp(np.unwrap(ang)) if ang.size > 2 else 0.0
+        if turned >= 2 * np.pi * 0.97:  # a full turn: close the trace
+            a_plot, r_plot = np.r_[ang, ang[:1]], np.r_[r, r[:1]]
+        ax.plot(a_plot, r_plot, "b.-", lw=1, ms=3, label="measured")
+        ax.set_theta_direction(-1)
+        ax.set_ylim(0, 1.5)
+        # radial scale in µm of deviation: the nominal circle is 0
+        step = _nice(span / 2)
+        devs = np.arange(-2, 3) * step
+        devs = devs[np.abs(1.0 + 0.4 * devs / span - 0.75) <= 0.75]
+        ax.set_yticks(1.0 + 0.4 * devs / span)
+        ax.set_yticklabels([f"{d:+.3g} µm" if d else "0" for d in devs], fontsize=8)
+        ax.set_rlabel_position(112.5)
+        title = f"radial deviation ({span:.3g} µm = 0.4 R)"
+        if m.circular is not None:
+            title += f"\nG {m.circular.G_um:.2f} µm"
+            if np.isfinite(m.circular.H_um):
+                title += f", H {m.circular.H_um:.2f} µm"
+        ax.set_title(title, fontsize=10)
+        ax.legend(loc="upper left", bbox_to_anchor=(-0.32, 1.12), fontsize=8, frameon=False)
+    else:
+        ax = fig.add_subplot(1, 2, 1)
+        ax.plot(np.flatnonzero(ok), err[ok], "b.-", ms=3)
+        ax.set_xlabel("frame")
+        ax.set_ylabel("contour error (µm)")
+        ax.grid(True, alpha=0.3)
+    ax2 = fig.add_subplot(1, 2, 2)
+    track = xy[ok]
+    if isinstance(m.contour.path, CirclePath) and len(track) > 2 and \
+            np.hypot(*(track[0] - track[-1])) < 3 * np.median(np.hypot(*np.diff(track, axis=0).T)):
+        track = np.r_[track, track[:1]]  # a closed circle
+    ax2.plot(track[:, 0], track[:, 1], "b.-", ms=2, lw=0.8)
+    ax2.set_aspect("equal")
+    ax2.invert_yaxis()
+    ax2.set_xlabel("x, mm (image right)")
+    ax2.set_ylabel("y, mm (image down)")
+    ax2.set_title(f"track of mark {m.track.reference_code}, {int(ok.sum())}/{len(ok)} frames located",
+                  fontsize=9)
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, out_png, dpi=100, tight=False)
+
+
+def write_report(m, args, *, frames, board, scale, simulated=False) -> None:
+    """The HTML report of a contour measurement (kinid.report_html)."""
+    from pathlib import Path
+
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+    from .report import plot_contour
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_contour(m, folder / "contour.png")
+    tr, ce, c = m.track, m.contour, m.circular
+    rows = [("contour error, RMS", f"{ce.rms_um:.3f}", "µm"), ("contour error, largest", f"{ce.max_um:.3f}", "µm")]
+    if c is not None:
+        rows += [("ISO 230-4 circular deviation G", f"{c.G_um:.3f}", "µm"),
+                 ("ISO 230-4 radial deviation F, max / min", f"{c.F_max_um:+.3f} / {c.F_min_um:+.3f}", "µm")]
+        if math.isfinite(c.H_um):
+            rows.append(("ISO 230-4 circular hysteresis H", f"{c.H_um:.3f}", "µm"))
+    rows += [("frames located", f"{int(tr.located.sum())} of {len(tr.located)}", ""),
+             ("board rotation in the image", f"{tr.angle_deg:.4f}", "deg")]
+    summary = [f"The machine follows the programmed path within {ce.max_um:.3g} µm (RMS {ce.rms_um:.3g} µm)"
+               + (f"; ISO 230-4 circular deviation G = {c.G_um:.3g} µm." if c is not None else "."),
+               "Next: compare with the machine's specification; the polar plot shows where on the path the "
+               "deviation comes from (reversal spikes at the quadrants, an ellipse from a servo mismatch)."]
+    prov = [("frames", f"{frames} ({len(tr.located)} frames{', rendered by --simulate' if simulated else ''})"),
+            ("board", file_provenance(board)),
+            ("scale", scale if isinstance(scale, str) else f"camera {file_provenance(scale)}"),
+            ("made", now_utc())]
+    sections = [Section("Results", tables=(Table(("quantity", "value", "unit"), tuple(rows), numeric=(1,)),)),
+                Section("Radial deviation and track", figures=(Figure("contour.png", "Left: the deviation from the "
+                        "path, magnified (circle) or along the path. Right: the reference mark's track."),))]
+    write_text(folder / "index.html", report_page("Contour error", "kinid contour", prov, summary, sections))
+
+
+def report_text(m, settings) -> str:
+    tr, ce = m.track, m.contour
+    unit = settings.unit
+    lines = [f"frames            {len(tr.located)}  (located {int(tr.located.sum())})",
+             f"reference mark    code {tr.reference_code} at row {tr.reference_rc[0]}, column {tr.reference_rc[1]}",
+             f"board rotation    {tr.angle_deg:.4f} deg (in the image, clockwise as seen)"]
+    if unit == "mm":
+        lines.append(f"pixel size        {settings.pixel_mm * 1e3 / tr.scale:.5f} µm from the board's pitch "
+                     f"(given {settings.pixel_mm * 1e3:.5f} µm)")
+    else:
+        lines.append(f"pixel size        {1e3 / tr.scale:.5f} µm (object side, ideal pixels)")
+    res = tr.residual_rms / tr.scale * 1e3
+    lines.append(f"mark residual     {res:.3f} µm RMS per coordinate" if math.isfinite(res) else
+                 "mark residual     n/a (no frame with two marks)")
+    path = ce.path
+    name = type(path).__name__.replace("Path", "").lower()
+    if name == "circle":
+        lines.append(f"path              circle, centre ({path.centre_mm[0]:.4f}, {path.centre_mm[1]:.4f}) mm, "
+                     f"radius {path.radius_mm:.4f} mm")
+    else:
+        lines.append(f"path              {name}")
+    lines.append(f"contour error     RMS {ce.rms_um:.3f} µm, max |e| {ce.max_um:.3f} µm")
+    c = m.circular
+    if c is not None:
+        h = f"{c.H_um:.3f} µm" if math.isfinite(c.H_um) else "n/a (one direction only)"
+        lines += [f"ISO 230-4 G       {c.G_um:.3f} µm (circular deviation)",
+                  f"ISO 230-4 F       max {c.F_max_um:+.3f} µm, min {c.F_min_um:+.3f} µm (radial deviation, "
+                  f"R0 {c.nominal_radius_mm:.4f} mm)",
+                  f"ISO 230-4 H       {h} (circular hysteresis)"]
+    return "\n".join(lines)

@@ -1,0 +1,114 @@
+"""What ``kinid dual-axis`` draws: plate offsets before and after the table (simulated and measured
+rounds), the text report and the HTML report."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_simulation", "simulation_text", "write_measured_report", "plot_measured"]
+
+
+def plot_simulation(path, result) -> None:
+    
+    from kinid.figures import new_figure, save_figure
+
+    g, table, smooth = result["gantry"], result["table"], result["smooth"]
+    y0 = float(table.y_mm[0])
+    head0 = (0.0, y0)
+    ys = np.linspace(table.y_mm[0], table.y_mm[-1], 241)
+
+    def offsets(comp):
+        out = []
+        for p in ys:
+            dx, dy = (0.0, p - y0) if comp is None else comp.head_move(y0, p)
+            out.append(g.plate_offset_um(y0, head0, p, (head0[0] + dx, head0[1] + dy)))
+        return np.array(out)
+
+    before, after_t, after_s = offsets(None), offsets(table), offsets(smooth)
+    fig = new_figure((11, 7))
+    axes = fig.subplots(2, 2, sharex=True)
+    for col, name in enumerate(("head X", "head Y")):
+        ax = axes[0, col]
+        ax.plot(ys, before[:, col], "k-", label="before compensation")
+        ax.plot(table.y_mm, -table.offset_mm[:, col] * 1e3, "o", ms=3, label="table vertices (negated)")
+        ax.set_title(f"plate offset, {name}")
+        ax.set_ylabel("µm")
+        ax.legend(fontsize=8)
+        ax = axes[1, col]
+        ax.plot(ys, after_t[:, col], "-", label="after: table")
+        ax.plot(ys, after_s[:, col], "-", label=f"after: smooth (degree {smooth.degree})")
+        ax.plot(result["held_out_mm"], result["measured_um"]["table"][:, col], "x", ms=4,
+                label="held-out, table, measured by camera")
+        ax.axhline(table.spec_um, color="grey", lw=0.5, ls="--")
+        ax.axhline(-table.spec_um, color="grey", lw=0.5, ls="--")
+        ax.set_xlabel("camera Y, mm")
+        ax.set_ylabel("µm")
+        ax.legend(fontsize=8)
+    fig.suptitle(f"dual Y axes: {table.message}", fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)
+
+
+def simulation_text(rep: dict) -> str:
+    lines = [
+        f"dual-axis calibration on the simulated gantry (urdf/gantry_dual_y.urdf): {rep['steps']} steps of "
+        f"{rep['step_mm']:g} mm from camera Y {rep['y_start_mm']:g} mm, spec {rep['spec_um']:g} µm",
+        "pixel_to_mm measured (mm/px): " + np.array2string(np.array(rep["pixel_to_mm"]), precision=6),
+        "round  max entry change (µm)",
+    ]
+    lines += [f"{i:5d}  {c:10.3f}" for i, c in enumerate(rep["max_change_um"], 1)]
+    lines.append(f"{'converged' if rep['converged'] else 'NOT converged'} after {rep['rounds']} round(s)")
+    s = rep["smooth"]
+    lines.append(f"smooth model (degree {s['degree']}): parallelism {s['parallelism_urad']:.2f} µrad, "
+                 f"scale {s['scale_um_per_m']:.2f} µm/m, fit RMS x {s['fit_rms_um'][0]:.3f} µm, "
+                 f"y {s['fit_rms_um'][1]:.3f} µm")
+    h = rep["held_out"]
+    lines.append(f"held-out positions ({h['positions']} mid-steps)   max|x| µm  max|y| µm  max µm  RMS µm")
+    for key, label in (("uncompensated_truth", "uncompensated (truth)"),
+                       ("table_measured", "table, measured by camera"), ("table_truth", "table (truth)"),
+                       ("smooth_measured", "smooth, measured by camera"), ("smooth_truth", "smooth (truth)")):
+        v = h[key]
+        lines.append(f"  {label:34s} {v['max_x_um']:9.3f} {v['max_y_um']:9.3f} {v['max_um']:7.3f} {v['rms_um']:7.3f}")
+    lines.append(f"better on held-out positions: {rep['better']}")
+    return "\n".join(lines)
+
+
+def write_measured_report(args, table, smooth) -> None:
+    """The HTML report of one measured round (kinid.report_html)."""
+    from pathlib import Path
+
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_measured(folder / "offset_table.png", table, smooth)
+    rows = tuple((f"{y:.3f}", f"{dx:.3f}", f"{dy:.3f}") for y, (dx, dy) in zip(table.y_mm, table.offset_mm * 1e3))
+    big = float(abs(table.offset_mm).max() * 1e3)
+    summary = [f"Between the two Y axes the head is off by up to {big:.3g} µm along the travel; parallelism "
+               f"{smooth.parallelism_urad:.3g} µrad, scale {smooth.scale_um_per_m:.3g} µm/m.",
+               f"{table.message[0].upper() + table.message[1:]}."]
+    prov = [("measured", file_provenance(args.data)), ("pixel to mm", " ".join(f"{v:g}" for v in args.pixel_to_mm)),
+            ("made", now_utc())]
+    sections = [Section("Offset table", tables=(Table(("camera Y (mm)", "head dx (µm)", "head dy (µm)"), rows,
+                                                      numeric=(0, 1, 2)),)),
+                Section("Table and smooth model", figures=(Figure("offset_table.png", "The measured table and the "
+                        f"smooth model (degree {smooth.degree}) fitted to it"),))]
+    write_text(folder / "index.html", report_page("Dual-axis offset table", "kinid dual-axis", prov, summary, sections))
+
+
+def plot_measured(path, table, smooth) -> None:
+    from kinid.figures import new_figure, save_figure
+
+    fig = new_figure((10, 4))
+    ax0, ax1 = fig.subplots(1, 2)
+    yy = np.linspace(table.y_mm[0], table.y_mm[-1], 400)
+    fitted = smooth.correction_mm(yy) * 1e3
+    for k, (ax, label) in enumerate(((ax0, "head X"), (ax1, "head Y"))):
+        ax.plot(table.y_mm, table.offset_mm[:, k] * 1e3, "o", ms=4, label="offset table (measured)")
+        ax.plot(yy, fitted[:, k], "-", lw=1.2, label=f"smooth model (degree {smooth.degree})")
+        ax.set_xlabel("camera Y (mm)")
+        ax.set_ylabel(f"{label} correction (µm)")
+        ax.set_title(f"{label}: fit RMS {smooth.rms_um[k]:.3f} µm", fontsize=10)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)

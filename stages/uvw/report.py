@@ -1,0 +1,122 @@
+"""What ``kinid uvw`` draws: the measured actuator models' figure and HTML report, and the text report
+of the simulated story."""
+from __future__ import annotations
+
+from .kinematics import ACTUATORS
+
+__all__ = ["write_measured_report", "plot_measured", "demo_text", "quantity"]
+
+
+def quantity(name: str, value: float, std: float, truth: str = "") -> str:
+    """``offset_um`` 1.653, 0.007 -> "offset 1.653 ± 0.007 µm" (the unit out of the parameter's name)."""
+    stem, _, unit = name.rpartition("_")
+    unit = {"um": "µm", "ppm": "ppm"}.get(unit, unit)
+    return f"{stem} {value:.3f} ± {std:.3f} {unit}{truth}"
+
+
+def write_measured_report(models, args) -> None:
+    """The HTML report of the actuator models (kinid.report_html)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from kinid.files import write_text
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_measured(models, folder / "actuators.png")
+    rows = []
+    for a, m in models.items():
+        for n, v, s in zip(m.names, m.values, m.std):
+            stem, _, unit = n.rpartition("_")
+            rows.append((a, stem, f"{v:.3f}", f"{2 * s:.3f}", {"um": "µm"}.get(unit, unit)))
+    table = Table(("actuator", "parameter", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(2, 3),
+                  caption="measured = command + offset + scale·c − d·B/2 (+ bow) + lead harmonics s_h, k_h; "
+                          "U: expanded uncertainty, k = 2")
+    before = {a: float(np.max(np.abs(m.error_um(m.commands_um, m.directions) + m.residuals_um))) for a, m in models.items()}
+    worst = max(before, key=before.get)
+    summary = [f"Uncompensated, the actuators miss their commands by up to {before[worst]:.3g} µm ({worst}); the "
+               f"fitted models leave {max(m.rms_um for m in models.values()):.3g} µm RMS at most.",
+               "Next: load the actuator tables (kinid uvw --moves ... --tables DIR) or the models into the "
+               "alignment's compensation, and check with new moves."]
+    prov = [("measured", file_provenance(args.moves)), ("lead", f"{args.lead_um:g} µm"), ("made", now_utc())]
+    sections = [Section("Actuator models", tables=(table,)),
+                Section("Errors before and after", figures=(Figure("actuators.png", "Top: measured − commanded "
+                        "position per actuator, each approach direction, with the model. Bottom: what the model "
+                        "leaves (the error after compensation)."),))]
+    write_text(folder / "index.html", report_page("UVW stage: actuator error models", "kinid uvw", prov, summary,
+                                                  sections))
+
+
+def plot_measured(models, path) -> None:
+    """Measured error against command per actuator with the model (both directions), and the residuals."""
+    import numpy as np
+
+    from kinid.figures import new_figure, save_figure
+
+    fig = new_figure((12, 6.5))
+    axes = fig.subplots(2, len(models), squeeze=False)
+    for k, (a, m) in enumerate(models.items()):
+        c, d = m.commands_um, m.directions
+        measured_err = m.error_um(c, d) + m.residuals_um
+        grid = np.linspace(*m.span_um, 400)
+        top, bottom = axes[0, k], axes[1, k]
+        for sign, col, label in ((1.0, "tab:blue", "approached +"), (-1.0, "tab:red", "approached −")):
+            sel = d == sign
+            top.plot(c[sel] * 1e-3, measured_err[sel], "o", ms=3, color=col, label=f"measured, {label}")
+            top.plot(grid * 1e-3, m.error_um(grid, sign), "-", lw=1, color=col)
+            bottom.plot(c[sel] * 1e-3, m.residuals_um[sel], "o", ms=3, color=col)
+        top.set_title(f"{a}: error before compensation (model lines)", fontsize=10)
+        top.set_ylabel("measured − commanded (µm)")
+        top.legend(fontsize=8)
+        bottom.axhline(0, color="0.6", lw=0.8)
+        bottom.set_title(f"{a}: left after compensation, RMS {m.rms_um:.3f} µm", fontsize=10)
+        bottom.set_xlabel("command (mm)")
+        bottom.set_ylabel("residual (µm)")
+    fig.tight_layout()
+    save_figure(fig, path, tight=False)
+
+
+def demo_text(r: dict, plot) -> str:
+    w = r["worked_example"]
+    lines = [
+        f"UVW stage, simulated: lead {r['lead_um']:g} µm, vision noise {r['noise_um']:g} µm, seed {r['seed']}",
+        "",
+        "Patent worked example (fig. 6):",
+        f"  dXn {w['delta_xn_um']:.2f}  dXm {w['delta_xm_um']:.2f}  dX {w['delta_x_um']:.2f} µm, "
+        f"X1 = X2 = {w['stroke_um']:g} µm -> forward {w['forward_um']:.2f} µm, reverse {w['reverse_um']:.2f} µm",
+        "",
+        f"Patent test on this stage ({r['calibration_moves']['patent']} moves): errors are shortfalls, µm",
+        "  actuator    dXn     dXm      dX   slope_ppm",
+    ]
+    for n in ACTUATORS:
+        p = r["patent"][n]
+        lines.append(f"  {n:8s} {p['delta_xn_um']:6.2f}  {p['delta_xm_um']:6.2f}  {p['delta_x_um']:6.2f}  "
+                     f"{p['slope_ppm']:9.0f}")
+    lines += ["", f"Model fit ({r['calibration_moves']['model']} moves; terms chosen by BIC): value ± std (truth)"]
+    for n in ACTUATORS:
+        m = r["model"][n]
+        parts = []
+        for name, v in m["parameters"].items():
+            t = f" ({v['truth']:g})" if "truth" in v else ""
+            parts.append(quantity(name, v["value"], v["std"], t))
+        lines.append(f"  {n} (degree {m['degree']}, {m['harmonics']} harmonics): " + ", ".join(parts))
+        lines.append(f"      residual rms {m['rms_um']:.3f} µm; without the periodic terms "
+                     f"{m['linear_only_rms_um']:.3f} µm (what the patent's linear model misses)")
+    lines += ["", f"Validation: {r['moves_per_actuator']} random alignment moves of 50-2000 µm per actuator "
+                  "(true position error, µm)",
+              "  actuator   uncompensated      patent          model",
+              "             max    rms      max    rms      max    rms"]
+    val = r["validation"]
+    for n in list(ACTUATORS) + ["all"]:
+        v = val["all"] if n == "all" else val["per_actuator"][n]
+        lines.append(f"  {n:8s} " + "  ".join(f"{v[k]['max_um']:6.2f} {v[k]['rms_um']:6.2f}"
+                                              for k in ("uncompensated", "patent", "model")))
+    lines += ["", "Stage moves (x, y and rotation together; max |error|):"]
+    for k, s in r["stage"].items():
+        lines.append(f"  {k:14s} x {s['max_x_um']:.2f} µm  y {s['max_y_um']:.2f} µm  "
+                     f"theta {s['max_theta_urad']:.2f} µrad")
+    if plot:
+        lines += ["", f"plot written to {plot}"]
+    return "\n".join(lines)
