@@ -121,7 +121,7 @@ class Diagnosis:
 
     def summary(self) -> dict:
         """The JSON object of ``kinid diagnose --json`` (docs/cli.md)."""
-        return {
+        out = {
             "verdict": self.verdict,
             "rms_um": float(self.rms_um),
             "noise_um": float(self.noise_um),
@@ -130,6 +130,11 @@ class Diagnosis:
             "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": float(a.residual_um), "sigmas": float(a.sigmas)}
                           for a in self.fit.set_aside],
         }
+        odd = self.fit.implausible()
+        if odd:  # only when the fit needs sizes no machine has (docs/cli.md)
+            out["implausible"] = [{"effect": a.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit}
+                                  for a in odd]
+        return out
 
     def text(self, top: int = 10) -> str:
         """A readable report."""
@@ -179,6 +184,13 @@ class Diagnosis:
         if self.outliers:
             lines.append("")
             lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
+        odd = f.implausible()
+        if odd:
+            lines.append("")
+            lines.append("the fit needs sizes no machine has: the observations look inconsistent (a sensor offset "
+                         "not in the sensor file, a camera model that does not fit the lens, a unit) — check them "
+                         "before adding effects:")
+            lines += [f"  - {a.describe()}" for a in odd]
         missing = joints_the_urdf_lacks(f.machine)
         if missing and self.verdict == "missing-effect":
             lines.append("")

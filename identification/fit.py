@@ -153,7 +153,19 @@ class FitResult:
             lines += [f"  - {a.describe()}" for a in self.set_aside]
         if not self.success:
             lines.append(f"WARNING: {self.message}")
+        odd = self.implausible()
+        if odd:
+            lines.append("WARNING: sizes no machine has (the observations look inconsistent — a sensor offset, a "
+                         "camera model, a unit — rather than these errors being there):")
+            lines += [f"  - {a.describe()}" for a in odd]
         return "\n".join(lines)
+
+    def implausible(self) -> tuple:
+        """The effects whose fitted size is beyond what a machine or a set-up could have
+        (:mod:`~kinid.identification.plausibility`)."""
+        from .plausibility import implausible_effects
+
+        return implausible_effects(self)
 
 
 def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
@@ -354,6 +366,8 @@ def fit_to_dict(result: FitResult) -> dict:
         "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": _finite(a.residual_um),
                        "sigmas": _finite(a.sigmas)} for a in result.set_aside],
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
+        "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit}
+                        for a in result.implausible()],
     }
 
 

@@ -15,6 +15,7 @@ from .effects import check_effects
 from .fit import FitResult
 from .machine import Machine, check_machine
 from .observations import Observations, check_observations
+from .plausibility import implausible_effects
 
 __all__ = ["SelectionStep", "forward_select"]
 
@@ -96,6 +97,14 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
             if cold.rms_um <= dg.rms_um:
                 dg = cold
         dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
+        odd = () if added is None else implausible_effects(dg.fit, names=(added,))
+        if odd:  # the candidate explains the data only with a size no machine has: not added
+            effects.pop()
+            stop = (f"adding {added} needs {odd[0].describe()}: the observations look inconsistent (a sensor "
+                    f"offset, a camera model, a unit) rather than the machine having it; not added")
+            steps[-1] = replace(steps[-1], stopped=stop)
+            progress.say(f"  stopped: {stop}")
+            break
         steps.append(SelectionStep(added, dg.fit, dg, data=obs))
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")

@@ -92,3 +92,24 @@ def test_sensor_refuses_a_tilted_tool_and_unknown_roles(tmp_path, capsys):
                  str(tmp_path / "s.json")]) == 2
     assert "role must be camera or laser" in capsys.readouterr().err
     assert not (tmp_path / "s.json").exists()
+
+
+def test_a_wrong_sensor_offset_is_called_inconsistent_and_nothing_implausible_is_added(run, tmp_path, capsys):
+    """The same run observed as if the laser were on the camera's axis: the fit needs centimetres, which is
+    flagged; --auto refuses the effect that would explain the laser's tan B error; diagnose says why."""
+    folder, truth = run
+    sensor = json.loads((folder / "sensor.json").read_text())
+    for name, s in (("wrong", sensor), ("right", {**sensor, "laser_offset_mm": list(LASER_MM)})):
+        (tmp_path / f"{name}.json").write_text(json.dumps(s))
+        assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
+                     str(tmp_path / f"{name}.json"), "--log", str(folder / "log.csv"), "--out",
+                     str(tmp_path / f"{name}.csv")]) == 0
+        assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / f"{name}.csv"), "--auto",
+                     "--out", str(tmp_path / f"{name}_fit.json")]) == 0
+    capsys.readouterr()
+    wrong = json.loads((tmp_path / "wrong_fit.json").read_text())
+    right = json.loads((tmp_path / "right_fit.json").read_text())
+    assert wrong["implausible"] and not right["implausible"]
+    assert all(":" not in e for e in wrong["effects"])  # nothing added on top of the default model
+    assert main(["diagnose", "--fit", str(tmp_path / "wrong_fit.json"), "--data", str(tmp_path / "wrong.csv")]) == 0
+    assert "the observations look inconsistent" in capsys.readouterr().out

@@ -1,0 +1,71 @@
+"""Fitted errors too large to be a machine's: flagged, never added by ``--auto`` (docs/identification.md).
+
+A machine tool's geometric errors are micrometres to a few tens of micrometres and microradians to a
+few hundred; a fit that needs a millimetre or ten milliradians is explaining something else — a
+sensor offset not in the sensor file, a camera model that does not fit the lens, a unit mistake —
+and the effect it names is not there. The set-up of the board and the sensor may be off by more
+(a board placed by hand), so it has wider limits.
+
+The size of an effect is its largest value over the data: the value of a constant, the largest
+|value| of a position-dependent effect over the fitted range of its axis, a drift over an hour.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bases import basis_of
+from .effects import basis_values
+
+__all__ = ["Implausible", "implausible_effects", "LIMITS"]
+
+#: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
+LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
+#: Drift sizes are judged over this time, s.
+DRIFT_HORIZON_S = 3600.0
+
+
+@dataclass(frozen=True)
+class Implausible:
+    """An effect whose fitted size is beyond what a machine (or a set-up) could have."""
+
+    effect: str
+    size: float
+    limit: float
+    unit: str
+
+    def describe(self) -> str:
+        return f"{self.effect} = {self.size:.4g} {self.unit}, beyond {self.limit:g} {self.unit}"
+
+
+def _size(effect, theta, machine, axis_ranges) -> float:
+    basis = basis_of(effect)
+    if basis.driver in ("position", "direction") and effect.axis in axis_ranges:
+        lo, hi = axis_ranges[effect.axis]
+        q = np.linspace(lo, hi, 201)
+        axes = np.zeros((q.size, len(machine.axes)))
+        axes[:, machine.axis_names.index(effect.axis)] = q
+        dirs = {effect.axis: np.where(np.arange(q.size) % 2 == 0, 1.0, -1.0)}
+        return float(np.max(np.abs(basis_values(effect, machine, axes, directions=dirs) @ theta)))
+    if basis.driver == "time":
+        return float(np.max(np.abs(theta))) * DRIFT_HORIZON_S
+    return float(np.max(np.abs(theta))) if theta.size else 0.0
+
+
+def implausible_effects(result, names=None) -> tuple:
+    """The effects of a fit (or only those in ``names``) whose size is beyond :data:`LIMITS`."""
+    machine = result.machine
+    theta = np.where(result.identifiable, np.nan_to_num(result.values), 0.0)
+    out, k = [], 0
+    for e in result.effects:
+        th = theta[k:k + e.n_params]
+        k += e.n_params
+        if names is not None and e.name not in names:
+            continue
+        setup = machine.error_joint(e.code).axis in ("W", "T")
+        limit = LIMITS[("setup_" if setup else "") + e.unit]
+        size = _size(e, th, machine, result.axis_ranges)
+        if size > limit:
+            out.append(Implausible(e.name, size, limit, "µm" if e.unit == "um" else "µrad"))
+    return tuple(out)
