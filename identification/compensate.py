@@ -46,9 +46,6 @@ __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axi
 BOUND_SHARE = 0.10
 #: Most points of a plain CSV table when its step is chosen by kinid.
 CSV_MAX_POINTS = 20001
-#: Model samples per table interval, and at least over a range, when a grid's interpolation error is measured.
-_FINE = 8
-_DENSE = 20001
 
 
 # --- what goes into the compensation ------------------------------------------------------------
