@@ -68,11 +68,7 @@ def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max
     y0 = float(y_start_mm)
 
     def truth(comp):
-        out = []
-        for p in held:
-            dx, dy = (0.0, p - y0) if comp is None else comp.head_move(y0, p)
-            out.append(g.plate_offset_um(y0, head0, p, (head0[0] + dx, head0[1] + dy)))
-        return np.array(out)
+        return g.compensated_offsets_um(y0, head0, held, comp)
 
     measured = {"table": verify(g, table, y0, head0, held, mr.matrix),
                 "smooth": verify(g, smooth, y0, head0, held, mr.matrix)}

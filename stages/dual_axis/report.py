@@ -17,11 +17,7 @@ def plot_simulation(path, result) -> None:
     ys = np.linspace(table.y_mm[0], table.y_mm[-1], 241)
 
     def offsets(comp):
-        out = []
-        for p in ys:
-            dx, dy = (0.0, p - y0) if comp is None else comp.head_move(y0, p)
-            out.append(g.plate_offset_um(y0, head0, p, (head0[0] + dx, head0[1] + dy)))
-        return np.array(out)
+        return g.compensated_offsets_um(y0, head0, ys, comp)
 
     before, after_t, after_s = offsets(None), offsets(table), offsets(smooth)
     fig = new_figure((11, 7))

@@ -271,6 +271,15 @@ class SimulatedGantry:
         ref = self.plate_point_mm(y_ref_mm, *head_ref_mm)
         return -(self.plate_point_mm(cam_y_mm, *head_mm) - ref) * 1e3
 
+    def compensated_offsets_um(self, y_ref_mm: float, head_ref_mm, cam_ys_mm, compensation=None) -> np.ndarray:
+        """(N, 2) true plate offsets (µm) at camera positions ``cam_ys_mm`` when the head follows
+        ``compensation`` (its ``head_move``), or moves only with the camera (None: uncompensated)."""
+        out = []
+        for p in cam_ys_mm:
+            dx, dy = (0.0, p - y_ref_mm) if compensation is None else compensation.head_move(y_ref_mm, p)
+            out.append(self.plate_offset_um(y_ref_mm, head_ref_mm, p, (head_ref_mm[0] + dx, head_ref_mm[1] + dy)))
+        return np.array(out)
+
     # --------------------------------------------------------------- protocol
     def move(self, cam_y_mm: float, head_x_mm: float, head_y_mm: float) -> None:
         """Drive camera Y, head X and head Y (axis V) to absolute positions, mm.
