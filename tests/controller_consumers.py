@@ -42,7 +42,7 @@ def twincat_reads(text, rotary):
     scale = 1e-4 if rotary else 1e-4  # 0.0001° or 0.1 µm (= 1e-4 mm)
     pos = np.array([int(kv[f"kw.ssfk.table[{i}].pos"]) for i in range(n)]) * scale
     neg = np.array([int(kv[f"kw.ssfk.table[{i}].neg"]) for i in range(n)]) * scale
-    modulo = kv["kw.ssfk.modulo"].strip() == "1"
+    modulo = kv.get("kw.ssfk.modulo", "0").strip() == "1"
     return lambda x, forward=True: _hold_interp(x, setpoint, pos if forward else neg, modulo)
 
 
