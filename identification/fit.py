@@ -49,7 +49,7 @@ class FitResult:
     values : array (P,)
         Identified values; NaN where the parameter is not identifiable.
     std : array (P,)
-        Standard deviations from the covariance at ``noise_um``; NaN where held.
+        Standard deviations: the covariance at ``noise_um`` combined with ``shared_std``; NaN where held.
     identifiable : array (P,) of bool
     aliases : tuple of Alias
         The parameters held fixed, by name, with what they alias with.
@@ -78,6 +78,10 @@ class FitResult:
     axis_ranges : dict axis name -> (low, high)
         The readings the fitted data span, mm / deg (where a compensation table
         may be trusted when the URDF gives an axis no limits).
+    shared_std : dict source -> array (P,)
+        For each shared (type B) source of the observations' uncertainty
+        (``Observations.shifts_mm``): the change of every parameter when the
+        source is one standard deviation off; included in ``std``.
     """
 
     machine: Machine
@@ -103,6 +107,7 @@ class FitResult:
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
     set_aside: tuple = ()
     axis_ranges: dict = field(default_factory=dict)
+    shared_std: dict = field(default_factory=dict)
 
     @property
     def noise_um(self) -> float:
@@ -119,7 +124,9 @@ class FitResult:
         if noise == self.noise:
             return self
         scale = noise.value_um / self.noise.value_um if self.noise.value_um > 0 else float("nan")
-        return replace(self, noise=noise, std=self.std * scale)
+        shared = sum((v**2 for v in self.shared_std.values()), np.zeros(len(self.std)))
+        from_noise = np.sqrt(np.maximum(self.std**2 - shared, 0.0))
+        return replace(self, noise=noise, std=np.sqrt((from_noise * scale) ** 2 + shared))
 
     @property
     def theta(self) -> np.ndarray:
@@ -145,6 +152,8 @@ class FitResult:
             f"σ = {self.noise_um:.4f} µm ({self.noise_source}); rank {self.rank}/{len(self.param_names)}; "
             f"condition {self.condition_number:.3g}; O1 {self.o1:.3g}; O3 {self.o3:.3g}"
         )
+        if self.shared_std:
+            lines.append(f"std includes the shared uncertainty of {', '.join(sorted(self.shared_std))} (type B)")
         if self.aliases:
             lines.append("not identifiable from these data (held fixed, not returned as values):")
             lines += [f"  - {a.message}" for a in self.aliases]
@@ -304,6 +313,8 @@ def fit(
     cov_scaled = (Vt.T / s**2) @ Vt
     std = np.full(P, np.nan)
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
+    shared = _shared_std(machine, d, obs, theta, J.reshape(M, P)[:, free], free)
+    std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
     final = analyse(J.reshape(M, P) / sigma, names, tol=rank_tol)
     stats = final  # observability at the solution
     if not np.array_equal(final.identifiable, free):
@@ -316,8 +327,27 @@ def fit(
         identifiable=free.copy(), aliases=ident.aliases, rank=rank, condition_number=stats.condition_number,
         o1=stats.o1, o3=stats.o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
         iterations=it, success=success, message=message, singular_values=stats.singular_values,
-        axis_ranges=_axis_ranges(machine, obs),
+        axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
     )
+
+
+def _shared_std(machine: Machine, d, obs: Observations, theta, J_free, free) -> dict:
+    """Each shared source's change of the parameters at one standard deviation: the least-squares answer to the
+    residuals' change when the offsets move by ``obs.shifts_mm[source]`` (the residual is affine in the offset)."""
+    from .machine import evaluate
+    from .residuals import joint_values
+
+    if not obs.shifts_mm:
+        return {}
+    values = joint_values(machine, d, theta)
+    base = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm)
+    out = {}
+    for source, shift in obs.shifts_mm.items():
+        moved = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm + shift)
+        change = np.full(len(theta), np.nan)
+        change[free] = -np.linalg.lstsq(J_free, ((moved - base) * 1e3).ravel(), rcond=None)[0]
+        out[source] = change
+    return out
 
 
 def _axis_ranges(machine: Machine, obs: Observations) -> dict:
@@ -366,6 +396,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": _finite(a.residual_um),
                        "sigmas": _finite(a.sigmas)} for a in result.set_aside],
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
+        "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
         "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit}
                         for a in result.implausible()],
     }
@@ -420,7 +451,9 @@ def load_fit(path) -> FitResult:
                                      _number(a, "residual_um"), _number(a, "sigmas"))
                             for a in data.get("set_aside", ())),
             axis_ranges={str(k): (float(v[0]), float(v[1])) for k, v in data.get("axis_ranges", {}).items()
-                         if str(k) in machine.axis_names and None not in v})
+                         if str(k) in machine.axis_names and None not in v},
+            shared_std={str(k): np.array([np.nan if x is None else float(x) for x in v])
+                        for k, v in data.get("shared_std", {}).items()})
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

@@ -6,12 +6,16 @@ coincided with it; optionally ``t_s`` and ``dir_<axis>`` columns, and the
 offset columns ``mark_dx_mm``, ``mark_dy_mm``, ``mark_dz_mm``: where the mark
 was seen relative to the tool point, in the tool frame (a row with offsets
 says "at these readings the mark was at this offset"; without them it is an
-alignment, offset 0).
+alignment, offset 0). Columns ``shift_<source>_<dx|dy|dz>_mm`` name a shared (type B)
+source of uncertainty of those offsets: how far the offset moves when the
+source is one standard deviation off (``observe`` writes them for the laser's
+offset from the camera); the fit carries them into its uncertainties.
 """
 from __future__ import annotations
 
 import csv
 import io
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -28,6 +32,8 @@ __all__ = ["SetAside", "OFFSET_COLUMNS", "Observations", "read_observations", "w
 _MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
 #: Offset of the mark from the tool point in the tool frame, mm (optional columns).
 OFFSET_COLUMNS = ("mark_dx_mm", "mark_dy_mm", "mark_dz_mm")
+#: A shared source's shift of the offsets for one standard deviation: shift_<source>_<dx|dy|dz>_mm.
+_SHIFT_COLUMN = re.compile(r"shift_([a-z][a-z0-9_]*)_(dx|dy|dz)_mm")
 
 
 @dataclass(frozen=True)
@@ -50,6 +56,9 @@ class Observations:
     offsets_mm : array (N, 3) or None
         Where the mark was seen relative to the tool point, in the ``tool`` frame, mm
         (camera x, y and laser stand-off deviation); None for alignments (offset 0).
+    shifts_mm : dict source -> array (N, 3)
+        For each shared source of uncertainty of the offsets (e.g. ``laser_offset_x``): how far the
+        offsets move, tool frame, mm, when the source is one standard deviation off.
     """
 
     marks: tuple
@@ -60,6 +69,7 @@ class Observations:
     lines: tuple = ()
     source: str = "<memory>"
     offsets_mm: np.ndarray | None = None
+    shifts_mm: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.marks)
@@ -76,6 +86,7 @@ class Observations:
             directions={k: v[idx] for k, v in self.directions.items()},
             lines=tuple(self.lines[i] for i in idx) if self.lines else (),
             offsets_mm=None if self.offsets_mm is None else self.offsets_mm[idx],
+            shifts_mm={k: v[idx] for k, v in self.shifts_mm.items()},
         )
 
 
@@ -106,7 +117,15 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     offsets = None
     if any(c in t.header for c in OFFSET_COLUMNS):
         offsets = np.column_stack([t.numbers(c) if c in t.header else np.zeros(len(marks)) for c in OFFSET_COLUMNS])
-    return Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets)
+    shifts = {}
+    for h in t.header:
+        m = _SHIFT_COLUMN.fullmatch(h)
+        if m:
+            if offsets is None:
+                raise DataError("a shift column needs the offset columns (mark_dx_mm, mark_dy_mm, mark_dz_mm)",
+                                path=t.path, line=t.header_line, column=h)
+            shifts.setdefault(m[1], np.zeros((len(marks), 3)))[:, "xyz".index(m[2][1])] = t.numbers(h)
+    return Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets, shifts)
 
 
 def check_observations(obs, name: str = "obs") -> Observations:
@@ -148,6 +167,9 @@ def observations_text(obs: Observations, machine: Machine, *, extra: dict | None
     header += [f"dir_{a.name.lower()}" for a in dir_axes]
     if obs.offsets_mm is not None:
         header += list(OFFSET_COLUMNS)
+    shift_columns = [(f"shift_{k}_{c}_mm", v[:, j]) for k, v in obs.shifts_mm.items() for j, c in enumerate(("dx", "dy", "dz"))
+                     if np.any(v[:, j] != 0)]
+    header += [name for name, _ in shift_columns]
     extra = extra or {}
     header += list(extra)
     buf = io.StringIO()
@@ -162,6 +184,7 @@ def observations_text(obs: Observations, machine: Machine, *, extra: dict | None
         row += [f"{int(obs.directions[a.name][i]):d}" for a in dir_axes]
         if obs.offsets_mm is not None:
             row += [f"{v:.6f}" for v in obs.offsets_mm[i]]
+        row += [f"{v[i]:.6g}" for _, v in shift_columns]
         row += [f"{extra[k][i]:.6g}" if isinstance(extra[k][i], (float, np.floating)) else str(extra[k][i]) for k in extra]
         writer.writerow(row)
     return buf.getvalue()

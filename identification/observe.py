@@ -33,8 +33,11 @@ from kinid.progress import as_progress
 from .machine import Machine, evaluate, tool_rotation_in_workpiece
 from .observations import Observations
 
+#: Passes of the calibrated camera's depth and perspective corrections (the third changes < 1e-6 µm).
+PERSPECTIVE_PASSES = 3
+
 __all__ = ["Sensor", "load_sensor", "read_run_log", "RunLog", "observe", "Rejected", "ObserveResult",
-           "image_offsets_mm"]
+           "image_offsets_mm", "perspective_bias_n"]
 
 
 @dataclass(frozen=True)
@@ -150,11 +153,32 @@ def load_sensor(path) -> Sensor:
     return sensor
 
 
-def image_offsets_mm(sensor: Sensor, xy_px, image_size, dz_mm=0.0) -> np.ndarray:
+def _axis_ray_n(sensor: Sensor) -> np.ndarray:
+    """Normalised image coordinates of the tool point's ray (a calibrated camera; (0, 0): the principal point)."""
+    if sensor.optical_axis_px is None:
+        return np.zeros(2)
+    cam = sensor.camera
+    k = cam.camera_matrix
+    a = cam.undistort_points(np.array([sensor.optical_axis_px], float))[0]
+    ay = (a[1] - k[1, 2]) / k[1, 1]
+    return np.array([(a[0] - k[0, 2] - k[0, 1] * ay) / k[0, 0], ay])
+
+
+def _tool_to_camera(sensor: Sensor, xy):
+    """Camera-frame (x right, y down) components of tool-frame (x, y) components, and back (the map is its own inverse)."""
+    a = math.radians(sensor.image_x_angle_deg)
+    c, s = math.cos(a), math.sin(a)
+    xy = np.atleast_2d(xy)
+    return np.column_stack([c * xy[:, 0] + s * xy[:, 1], s * xy[:, 0] - c * xy[:, 1]])
+
+
+def image_offsets_mm(sensor: Sensor, xy_px, image_size, dz_mm=0.0, bias_n=None) -> np.ndarray:
     """Tool-frame (dx, dy) in mm of image points ``xy_px`` (N, 2).
 
     ``image_size`` is (width, height); ``dz_mm`` (N,) the tool-frame z of the points (their depth
-    below the tool point is −dz), used by a calibrated camera's scale.
+    below the tool point is −dz), used by a calibrated camera's scale; ``bias_n`` (N, 2), for a
+    calibrated camera, is taken off the undistorted normalised coordinates first (the ellipse-centre
+    bias of :func:`kinid.vision.circle_centre_bias`).
     """
     xy = np.atleast_2d(np.asarray(xy_px, float))
     if sensor.camera is not None:
@@ -163,20 +187,31 @@ def image_offsets_mm(sensor: Sensor, xy_px, image_size, dz_mm=0.0) -> np.ndarray
         k = cam.camera_matrix
         y_n = (ideal[:, 1] - k[1, 2]) / k[1, 1]
         x_n = (ideal[:, 0] - k[0, 2] - k[0, 1] * y_n) / k[0, 0]
-        if sensor.optical_axis_px is not None:  # the tool point's ray, if it is not the principal point
-            a = cam.undistort_points(np.array([sensor.optical_axis_px], float))[0]
-            ay = (a[1] - k[1, 2]) / k[1, 1]
-            x_n, y_n = x_n - (a[0] - k[0, 2] - k[0, 1] * ay) / k[0, 0], y_n - ay
+        if bias_n is not None:
+            x_n, y_n = x_n - bias_n[:, 0], y_n - bias_n[:, 1]
+        a = _axis_ray_n(sensor)  # the tool point's ray, if it is not the principal point
         depth = sensor.working_distance_mm - np.asarray(dz_mm, float)
-        u, v = x_n * depth, y_n * depth
+        u, v = (x_n - a[0]) * depth, (y_n - a[1]) * depth
     else:
         w, h = image_size
         cx, cy = sensor.optical_axis_px if sensor.optical_axis_px is not None else ((w - 1) / 2.0, (h - 1) / 2.0)
         u, v = (xy[:, 0] - cx) * sensor.pixel_mm, (xy[:, 1] - cy) * sensor.pixel_mm
     # camera frame: x right, y down, looking along tool -z  ->  tool frame (x, -y) turned by the angle
-    a = math.radians(sensor.image_x_angle_deg)
-    c, s = math.cos(a), math.sin(a)
-    return np.column_stack([c * u + s * v, s * u - c * v])
+    return _tool_to_camera(sensor, np.column_stack([u, v]))
+
+
+def perspective_bias_n(sensor: Sensor, offsets_mm, normal_tool, radius_mm) -> np.ndarray:
+    """The ellipse-centre bias (normalised image units, (N, 2)) of circles of ``radius_mm`` centred at tool-frame
+    ``offsets_mm`` (N, 3) on a plane of tool-frame normal ``normal_tool`` (3,), seen by the sensor's calibrated camera."""
+    from kinid.vision import circle_centre_bias
+
+    off = np.atleast_2d(offsets_mm)
+    depth = sensor.working_distance_mm - off[:, 2]
+    a = _axis_ray_n(sensor)
+    uv = _tool_to_camera(sensor, off[:, :2])
+    centre = np.column_stack([uv[:, 0] + a[0] * depth, uv[:, 1] + a[1] * depth, depth])
+    normal = np.array([*_tool_to_camera(sensor, normal_tool[:2])[0], -normal_tool[2]])
+    return circle_centre_bias(centre, normal, radius_mm)
 
 
 @dataclass(frozen=True)
@@ -261,6 +296,20 @@ def default_board_origin_mm(board) -> tuple:
     return (-(board.cols - 1) * board.pitch_mm / 2.0, (board.rows - 1) * board.pitch_mm / 2.0, 0.0)
 
 
+def _laser_offset_shifts(sensor: Sensor, slope) -> dict:
+    """How far each row's mark_dz moves when the laser's offset is one standard deviation off in x or y:
+    the board's slope at the spot (``slope`` (N, 2): the board normal's tool-frame x, y over its z) times σ."""
+    if sensor.laser_offset_std_mm is None:
+        return {}
+    shifts = {}
+    for j, axis in enumerate("xy"):
+        if sensor.laser_offset_std_mm[j] > 0:
+            shift = np.zeros((len(slope), 3))
+            shift[:, 2] = slope[:, j] * sensor.laser_offset_std_mm[j]
+            shifts[f"laser_offset_{axis}"] = shift
+    return shifts
+
+
 def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origin_mm=None, marks: str = "nearest",
             progress=None) -> ObserveResult:
     """Locate and decode the board's marks in every image of a run and make observation rows.
@@ -328,9 +377,14 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         spot = np.asarray(sensor.laser_offset_mm, float)
         d_xy = image_offsets_mm(sensor, xy, (w, h), dz_spot)
         dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
-        if sensor.camera is not None:  # depth changes a calibrated camera's scale: once more with the marks' depth
-            d_xy = image_offsets_mm(sensor, xy, (w, h), dz)
-            dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
+        if sensor.camera is not None:
+            # depth changes a calibrated camera's scale, and a tilted mark's ellipse centre is not the image of
+            # its centre: redo with the marks' depth and the perspective bias at the nominal board pose
+            for k in range(PERSPECTIVE_PASSES):
+                bias = None if k == 0 else perspective_bias_n(sensor, np.column_stack([d_xy, dz]), normal,
+                                                              board.center_d_mm / 2.0)
+                d_xy = image_offsets_mm(sensor, xy, (w, h), dz, bias)
+                dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
         offsets = np.column_stack([d_xy, dz])
         w_mm = np.array([_board_mark_mm(board, *board.position_of(m.code), origin) for m in on_board])
         # where the nominal machine expects each decoded mark: a misread code lands a pitch or more away
@@ -343,7 +397,7 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
                 rejected.append(Rejected(line, name, f"code {on_board[k].code} decoded {miss[k]:.1f} mm from where the "
                                                      f"readings put it (a misread code or a wrong board origin)"))
                 continue
-            rows.append((i, on_board[k].code, w_mm[k], offsets[k]))
+            rows.append((i, on_board[k].code, w_mm[k], offsets[k], normal[:2] / normal[2]))
     if not rows:
         raise DataError(f"no image of the run gave an observation ({len(rejected)} rejected; the first: line "
                         f"{rejected[0].line}, {rejected[0].image}: {rejected[0].reason})" if rejected else
@@ -358,5 +412,6 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         lines=tuple(log.lines[j] for j in idx),
         source=log.source,
         offsets_mm=np.array([r[3] for r in rows]),
+        shifts_mm=_laser_offset_shifts(sensor, np.array([r[4] for r in rows])),
     )
     return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected))

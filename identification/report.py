@@ -162,8 +162,11 @@ def _provenance(fit_result, obs, extra=()) -> list:
     rows += list(extra)
     rows += [("alignments", f"{fit_result.n_observations}" + (f" ({len(fit_result.set_aside)} set aside as gross "
                                                                 f"errors)" if fit_result.set_aside else "")),
-             ("noise σ used", f"{fit_result.noise_um:.3g} µm per coordinate ({fit_result.noise_source})"),
-             ("made", now_utc())]
+             ("noise σ used", f"{fit_result.noise_um:.3g} µm per coordinate ({fit_result.noise_source})")]
+    if fit_result.shared_std:
+        rows.append(("uncertainties also include", ", ".join(s.replace("_", " ") for s in sorted(fit_result.shared_std))
+                     + " (shared by every alignment: type B, from the sensor file)"))
+    rows += [("made", now_utc())]
     return rows
 
 

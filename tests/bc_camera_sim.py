@@ -26,6 +26,29 @@ PIXEL_MM = 0.045
 IMAGE_PX = 400
 IMAGE_X_ANGLE_DEG = 3.0
 LASER_STANDOFF_MM = 30.0
+#: A calibrated pinhole camera 120 mm above the tool point (f 4800 px: 0.025 mm per pixel there), with
+#: OpenCV's distortion (k1, k2, p1, p2, k3); its principal point is where the tool point appears.
+PINHOLE = {"f_px": 4800.0, "size_px": 720, "working_distance_mm": 120.0, "dist": (-0.12, 0.3, 4e-4, -3e-4, 0.0)}
+
+
+def _undistort(xd, yd, dist, iterations=30):
+    """Ideal normalised coordinates of distorted ones (OpenCV's model, fixed-point iteration)."""
+    k1, k2, p1, p2, k3 = dist
+    x, y = xd.copy(), yd.copy()
+    for _ in range(iterations):
+        r2 = x * x + y * y
+        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        x = (xd - 2 * p1 * x * y - p2 * (r2 + 2 * x * x)) / radial
+        y = (yd - p1 * (r2 + 2 * y * y) - 2 * p2 * x * y) / radial
+    return x, y
+
+
+def pinhole_sensor(camera=PINHOLE):
+    """The sensor file's camera entries for ``camera`` (docs/observe.md)."""
+    f, n = camera["f_px"], camera["size_px"]
+    c0 = (n - 1) / 2.0
+    return {"camera": {"camera_matrix": [[f, 0.0, c0], [0.0, f, c0], [0.0, 0.0, 1.0]], "dist_coeffs": list(camera["dist"]),
+                       "image_size": [n, n]}, "working_distance_mm": camera["working_distance_mm"]}
 
 
 def _ry(rad):
@@ -93,8 +116,12 @@ def board_origin_w():
     return np.array([-half, half, 0.0])
 
 
-def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=(0.0, 0.0)):
-    """The camera's image (uint8, IMAGE_PX²) and the laser reading (mm) at these true readings."""
+def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=(0.0, 0.0), camera=None):
+    """The camera's image (uint8) and the laser reading (mm) at these true readings.
+
+    ``camera`` None: a telecentric lens, IMAGE_PX² at PIXEL_MM; else a pinhole camera (see PINHOLE) whose
+    pixel rays start at its projection centre, ``working_distance_mm`` above the tool point on the tool axis.
+    """
     from kinid.vision import board_coverage, make_board, render_pattern
 
     board = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
@@ -103,21 +130,27 @@ def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=
     pt, Rt = tool(x, z, truth)
     a = np.radians(IMAGE_X_ANGLE_DEG)
     cam = np.array([[np.cos(a), np.sin(a), 0.0], [np.sin(a), -np.cos(a), 0.0], [0.0, 0.0, -1.0]]).T  # columns: camera x, y, z in tool axes
-    c0 = (IMAGE_PX - 1) / 2.0
+    size = IMAGE_PX if camera is None else camera["size_px"]
+    c0 = (size - 1) / 2.0
     origin = board_origin_w()
 
     def image_to_plane(xy_px):
-        u = (xy_px[:, 0] - c0) * PIXEL_MM
-        v = (xy_px[:, 1] - c0) * PIXEL_MM
-        start = pt + (Rt @ (cam[:, 0:1] * u + cam[:, 1:2] * v)).T  # on the plane through the tool point
-        direction = Rt @ cam[:, 2]  # telecentric: every ray along the camera axis
+        if camera is None:  # telecentric: every ray along the camera axis, from the plane through the tool point
+            u = (xy_px[:, 0] - c0) * PIXEL_MM
+            v = (xy_px[:, 1] - c0) * PIXEL_MM
+            start = pt + (Rt @ (cam[:, 0:1] * u + cam[:, 1:2] * v)).T
+            direction = np.broadcast_to(Rt @ cam[:, 2], start.shape)
+        else:  # pinhole: from the projection centre through the undistorted pixel
+            xn, yn = _undistort((xy_px[:, 0] - c0) / camera["f_px"], (xy_px[:, 1] - c0) / camera["f_px"], camera["dist"])
+            start = np.broadcast_to(pt + Rt @ np.array([0.0, 0.0, camera["working_distance_mm"]]), (len(xn), 3))
+            direction = (Rt @ (cam[:, 0:1] * xn + cam[:, 1:2] * yn + cam[:, 2:3])).T
         s_w = (start - pw) @ Rw  # workpiece frame
-        d_w = Rw.T @ direction
-        t = -s_w[:, 2] / d_w[2]
+        d_w = direction @ Rw
+        t = -s_w[:, 2] / d_w[:, 2]
         hit = s_w + t[:, None] * d_w
         return np.column_stack([hit[:, 0] - origin[0], -(hit[:, 1] - origin[1])])  # board frame
 
-    img = render_pattern(board_coverage(board), (IMAGE_PX, IMAGE_PX), image_to_plane, blur_px=0.7,
+    img = render_pattern(board_coverage(board), (size, size), image_to_plane, blur_px=0.7,
                          noise_sigma=noise, rng=rng)
     # laser: parallel to the camera axis, from its offset beside the tool point to the board surface
     s_w = Rw.T @ (pt + Rt @ np.array([laser_offset_mm[0], laser_offset_mm[1], 0.0]) - pw)
@@ -126,13 +159,21 @@ def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=
     return img, laser
 
 
+def laser_offset_as_measured(offset_mm, truth=TRUTH):
+    """The laser's offset as the hole measurement finds it: in machine axes at B = C = 0 (the tool's own
+    rotation EC0T turns the laser with the camera)."""
+    return tuple(float(v) for v in (tool(0.0, 0.0, truth)[1] @ np.array([offset_mm[0], offset_mm[1], 0.0]))[:2])
+
+
 def plan(tilts=(-40.0, 0.0, 40.0), turns=(0.0, 60.0, 120.0, 180.0, 240.0, 300.0), marks=((40.0, 40.0), (-40.0, 40.0), (-40.0, -40.0), (40.0, -40.0))):
     return [(b, c, (mx, my, 0.0)) for b in tilts for c in turns for mx, my in marks]
 
 
 def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_noise_um=0.5, truth=TRUTH, image_noise=2.0,
-              laser_offset_mm=(0.0, 0.0)):
-    """Render a run into ``folder``: images, run log, sensor and board files. Returns the true readings."""
+              laser_offset_mm=(0.0, 0.0), camera=None):
+    """Render a run into ``folder``: images, run log, sensor and board files. Returns the true readings.
+
+    The sensor file describes the camera (``camera``: a pinhole, see :func:`render`) but not the laser's offset."""
     import cv2
 
     folder = Path(folder)
@@ -140,7 +181,7 @@ def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_no
     rows, truth_rows = [], []
     for k, (b, c, m) in enumerate(poses):
         true = align(m, b, c, truth) + rng.normal(0.0, stop_mm, 3)
-        img, laser = render(true, b, c, rng, truth, noise=image_noise, laser_offset_mm=laser_offset_mm)
+        img, laser = render(true, b, c, rng, truth, noise=image_noise, laser_offset_mm=laser_offset_mm, camera=camera)
         name = f"images/{k:03d}.png"
         cv2.imwrite(str(folder / name), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
         logged = true + rng.normal(0.0, reading_noise_um * 1e-3, 3)
@@ -151,7 +192,8 @@ def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_no
         w = csv.writer(f)
         w.writerow(["image", "x_mm", "y_mm", "z_mm", "b_deg", "c_deg", "laser_mm"])
         w.writerows(rows)
-    (folder / "sensor.json").write_text(json.dumps({"pixel_mm": PIXEL_MM, "image_x_angle_deg": IMAGE_X_ANGLE_DEG,
+    optics = {"pixel_mm": PIXEL_MM} if camera is None else pinhole_sensor(camera)
+    (folder / "sensor.json").write_text(json.dumps({**optics, "image_x_angle_deg": IMAGE_X_ANGLE_DEG,
                                                     "laser_standoff_mm": LASER_STANDOFF_MM}))
     (folder / "board.json").write_text(json.dumps(board_dict()))
     return truth_rows

@@ -113,3 +113,48 @@ def test_a_wrong_sensor_offset_is_called_inconsistent_and_nothing_implausible_is
     assert all(":" not in e for e in wrong["effects"])  # nothing added on top of the default model
     assert main(["diagnose", "--fit", str(tmp_path / "wrong_fit.json"), "--data", str(tmp_path / "wrong.csv")]) == 0
     assert "the observations look inconsistent" in capsys.readouterr().out
+
+
+def test_the_laser_offsets_uncertainty_is_carried_into_the_fit(run, tmp_path, capsys):
+    """observe writes how mark_dz moves per σ of the laser offset (the board's slope); the fit's std includes it,
+    and the parameter changes it states are those of refitting with the offset moved by one σ."""
+    folder, _ = run
+    sensor = json.loads((folder / "sensor.json").read_text())
+    offset = list(sim.laser_offset_as_measured(LASER_MM))
+    std_mm = [0.01, 0.01]
+
+    def fitted(name, laser, std):
+        (tmp_path / f"{name}.json").write_text(json.dumps({**sensor, "laser_offset_mm": laser,
+                                                           **({"laser_offset_std_mm": std} if std else {})}))
+        assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
+                     str(tmp_path / f"{name}.json"), "--log", str(folder / "log.csv"), "--out",
+                     str(tmp_path / f"{name}.csv")]) == 0
+        assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / f"{name}.csv"), "--noise-um", "0.5",
+                     "--out", str(tmp_path / f"{name}_fit.json")]) == 0
+        fit = json.loads((tmp_path / f"{name}_fit.json").read_text())
+        return fit, {p["name"]: p for p in fit["parameters"] if p["identified"]}
+
+    plain, p0 = fitted("plain", offset, None)
+    carried, p1 = fitted("carried", offset, std_mm)
+    header = open(tmp_path / "carried.csv").readline()
+    # B tilts the board about the tool's y axis: the slope, and so the laser's y offset, moves nothing
+    assert "shift_laser_offset_x_dz_mm" in header and "shift_laser_offset_y" not in header
+    assert "shared uncertainty of laser_offset_x (type B)" in capsys.readouterr().out
+    assert not plain["shared_std"] and set(carried["shared_std"]) == {"laser_offset_x"}
+    names = [p["name"] for p in carried["parameters"]]
+    worst = 0.0
+    for j, axis in enumerate("x"):
+        moved = list(offset)
+        moved[j] += std_mm[j]
+        _, p2 = fitted(f"moved_{axis}", moved, None)
+        stated = dict(zip(names, carried["shared_std"][f"laser_offset_{axis}"]))
+        for n in p0:
+            refit = p2[n]["value"] - p0[n]["value"]
+            # linear propagation against the refit: within 2 % of the change, or a third of the noise's σ where a
+            # 7 mrad camera rotation (EC0T absorbs the laser's x offset) bends the model
+            worst = max(worst, abs(refit - stated[n]) / (0.02 * abs(stated[n]) + p0[n]["std"] / 3))
+    grown = max(p1[n]["std"] / p0[n]["std"] for n in p0)
+    print(f"the std grows up to {grown:.1f}×; stated vs refitted change: {worst:.2f} of the tolerance")
+    assert grown > 1.5  # a 10 µm offset uncertainty matters on a board tilted 40°
+    assert worst <= 1.0
+    assert all(p1[n]["std"] >= p0[n]["std"] for n in p0)

@@ -14,7 +14,7 @@ module                 what it does
 =====================  =========================================================
 """
 from .board import Board, load_board, make_board, match_to_board, save_board
-from .camera import CameraModel, calibrate_camera, load_camera, save_camera
+from .camera import CameraModel, calibrate_camera, circle_centre_bias, load_camera, save_camera
 from .circles import CircleResult, locate_disk, locate_hole, locate_sphere
 from .laser_offsets import axial_offset, radial_offset_from_hole, radial_offset_from_sphere
 from .motion_scale import MatrixResult, ScaleResult, backlash_from_reversals, pixel_equivalent, pixel_to_machine_matrix
@@ -22,4 +22,4 @@ from .render import board_coverage, render_disk, render_pattern
 from .ringcode import Marker, detect_markers
 from .template import locate_template, make_template
 
-__all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "CameraModel", "load_camera", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]
+__all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "circle_centre_bias", "CameraModel", "load_camera", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]

@@ -35,6 +35,7 @@ from kinid.errors import DataError, ImageError
 __all__ = [
     "CameraModel",
     "CalibrationResult",
+    "circle_centre_bias",
     "calibrate_camera",
     "detect_pattern",
     "load_camera",
@@ -198,6 +199,45 @@ class CameraModel:
             "image_size": list(self.image_size),
             "rms_px": None if math.isnan(self.rms_px) else self.rms_px,
         }
+
+
+def circle_centre_bias(centre, normal, radius):
+    """How far a pinhole camera images a circle's ellipse centre from its centre's image.
+
+    A circle seen obliquely through a pinhole is an ellipse whose centre is not the image of the
+    circle's centre (perspective is not affine); a locator finds the ellipse's centre. The bias is
+    about ``r² sinθ cosθ / D`` (radius r, tilt θ, distance D): 26 µm on the board for a Ø5 mm
+    circle tilted 40° at 120 mm. Exact for an ideal pinhole: the circle's conic ``a² + b² = r²``
+    in its plane is mapped by the homography ``[u v C]`` and the ellipse's centre solved for.
+
+    Parameters
+    ----------
+    centre : array_like, shape (N, 3)
+        Circle centres in the camera frame (z > 0), any length unit.
+    normal : array_like, shape (N, 3) or (3,)
+        Normals of the circles' planes in the camera frame (either sign).
+    radius : float
+        Circle radius, same unit as ``centre``.
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        Ellipse centre minus the centre's projection, normalised image coordinates (x / z, y / z).
+    """
+    c = np.atleast_2d(np.asarray(centre, dtype=float))
+    n = np.broadcast_to(np.asarray(normal, dtype=float), c.shape)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    # two unit vectors spanning each plane: start from the camera axis least aligned with the normal
+    helper = np.eye(3)[np.argmin(np.abs(n), axis=1)]
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(n, u)
+    H = np.stack([u, v, c], axis=2)  # plane (a, b, 1) -> homogeneous image point
+    Hinv = np.linalg.inv(H)
+    Q = np.diag([1.0, 1.0, -float(radius) ** 2])
+    conic = np.einsum("nji,jk,nkl->nil", Hinv, Q, Hinv)  # H^-T Q H^-1
+    ellipse_centre = np.linalg.solve(conic[:, :2, :2], -conic[:, :2, 2:3])[:, :, 0]
+    return ellipse_centre - c[:, :2] / c[:, 2:3]
 
 
 @dataclass(frozen=True, eq=False)
