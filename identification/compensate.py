@@ -96,6 +96,9 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
             reason = "not identifiable from these data"
         elif basis_of(e).driver == "time":
             reason = "a drift with time: no table holds it"
+        elif basis_of(e).driver == "positions":
+            reason = (f"varies with {e.args[0]} as well as {e.axis}: a cross compensation (the controller's table of "
+                      f"{e.code} over {e.args[0]}), not written")
         elif not all_terms:
             std = np.asarray(result.std[sl], float)[ok]
             v = np.abs(values[sl][ok])
@@ -247,7 +250,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         The controller's axis numbers (default: the axis's place in the URDF).
     """
     from kinid import __version__
-    from kinid.files import write_json, write_text
+    from kinid.files import check_outputs, json_text, write_text
+    from kinid.folders import check_output_folder, staged_folder
 
     if beyond not in ("hold", "zero"):
         raise DataError(f"must be 'hold' or 'zero', got {beyond!r}", parameter="beyond")
@@ -260,8 +264,12 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     if unknown:
         raise DataError(f"names no axis of the machine: {', '.join(unknown)}; axes: {', '.join(machine.axis_names)}",
                         parameter="axis_numbers")
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    # every file is made first, then written into a new folder that replaces ``folder`` whole (staged_folder);
+    # no input may lie in that folder (the fit, the machine's URDF it names)
+    check_outputs([("output", folder, "replaced folder")],
+                  [("fit_path", fit_path), ("the fit's machine", getattr(machine, "path", None))])
+    check_output_folder(folder, foreign=_not_earlier_compensation)
+    files = {}  # name -> text, in the order written
     written, tables, skipped, controller, notes = [], {}, [], [], []
     for place, a in enumerate(machine.axes, start=1):
         rotary = a.kind == "revolute"
@@ -283,7 +291,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         bounds = np.maximum(BOUND_SHARE * np.sqrt(np.mean(stack(inside) ** 2, axis=1)), 1e-3)
         q = table_grid(stack, rng, bounds, CSV_MAX_POINTS - extra_points(rng, beyond, False), step)
         q_ext, cols = with_ends(q, cols_at(q), rng, beyond, False)
-        write_text(folder / f"{a.name}.csv", neutral_csv_text(a.column, q_ext, cols))
+        files[f"{a.name}.csv"] = neutral_csv_text(a.column, q_ext, cols)
         written.append(f"{a.name}.csv")
         tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(rng.low), "to": float(rng.high),
                           "points": int(q_ext.size), "range": rng.source, "modulo": rng.modulo,
@@ -316,7 +324,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                                    comment=f"kinid {__version__}: {code} of {Path(machine.path).name}, "
                                            f"error = actual - commanded")
             name = fmt.file_name(a.name)
-            write_text(folder / name, fmt.write(table, options))
+            files[name] = fmt.write(table, options)
             written.append(name)
             left = left_after(fmt, table, values_at, inside, res)
             if fq.size >= most and left["rms"] > BOUND_SHARE * error_rms:
@@ -339,22 +347,22 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                              f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
                              f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
     setup = setup_offsets(result)
-    write_json(folder / "constants.json", {"errors": constant_errors(result, comp)})
+    files["constants.json"] = json_text({"errors": constant_errors(result, comp)},
+                                        path=Path(folder) / "constants.json")
     written.append("constants.json")
     if setup:
-        write_json(folder / "setup.json", {
+        files["setup.json"] = json_text({
             "meaning": "where the workpiece (board) and the sensor (tool) really are, in their nominal frames: "
                        "oMw_actual = oMw_nominal · S_W, oMt_actual = oMt_nominal · S_T; load them as the work "
                        "offset and the tool offset, not into the machine's compensation",
-            **setup})
+            **setup}, path=Path(folder) / "setup.json")
         written.append("setup.json")
-    write_text(folder / "calibrated.urdf", calibrated_urdf(model))
+    files["calibrated.urdf"] = calibrated_urdf(model)
     written.append("calibrated.urdf")
     notes += [f"{n}: left out ({why})" for n, why in comp.left_out if not why.startswith("set-up")]
     info = {
         "kinid_version": __version__,
-        "fit": None if fit_path is None else {"file": str(fit_path),
-                                              "sha256": hashlib.sha256(Path(fit_path).read_bytes()).hexdigest()},
+        "fit": None if fit_path is None else {"file": str(fit_path), "sha256": _sha256(fit_path)},
         "machine": machine.path,
         "sign_convention": "error = actual - commanded, µm (linear) or µrad (rotary); direction + unless _rev",
         "range_policy": {"data": "the measured readings of each axis", "travel": "the URDF travel"}[range_policy],
@@ -370,8 +378,49 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         "left_out": [{"effect": n, "reason": why} for n, why in comp.left_out],
         "setup_file": "setup.json" if setup else None,
     }
-    write_json(folder / "compensation.json", info)
+    files["compensation.json"] = json_text(info, path=Path(folder) / "compensation.json")
     written.append("compensation.json")
+    with staged_folder(folder, foreign=_not_earlier_compensation) as stage:
+        for name, text in files.items():
+            write_text(stage / name, text)
     return CompensationFiles(tuple(written), tuple(notes), tuple(controller))
 
 
+def _sha256(path) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as exc:
+        raise DataError(f"cannot read the fit file ({exc.strerror or exc})", path=path) from None
+
+
+#: Files every compensation folder holds (``setup.json`` where the fit has a set-up).
+FIXED_FILES = ("constants.json", "setup.json", "calibrated.urdf", "compensation.json")
+
+
+def _not_earlier_compensation(folder) -> list:
+    """Names in ``folder`` that are not an earlier result of :func:`write_compensation`.
+
+    An earlier result holds ``compensation.json`` written by kinid and only the files it lists (tables,
+    controller files) besides :data:`FIXED_FILES`; anything else — the user's files, a sub-folder, a
+    link, or no such ``compensation.json`` at all — keeps the folder from being replaced.
+    """
+    import os
+
+    from kinid.files import read_json
+
+    folder = Path(folder)
+    names = sorted(os.listdir(folder))
+    marker = folder / "compensation.json"
+    try:
+        info = read_json(marker, what="compensation file") if marker.is_file() and not marker.is_symlink() else None
+    except DataError:
+        info = None
+    if not isinstance(info, dict) or "kinid_version" not in info:
+        return names
+    own = set(FIXED_FILES)
+    tables, controller = info.get("tables"), info.get("controller_files")
+    for entry in [*(tables.values() if isinstance(tables, dict) else ()),
+                  *(controller if isinstance(controller, list) else ())]:
+        if isinstance(entry, dict) and isinstance(entry.get("file"), str):
+            own.add(entry["file"])
+    return [n for n in names if n not in own or (folder / n).is_symlink() or not (folder / n).is_file()]

@@ -18,7 +18,9 @@ def register(sub) -> None:
                     "significant machine errors are compensated: a term whose every parameter is within its "
                     "expanded uncertainty (k = 2) is left out, as are the set-up and drifts.")
     p.add_argument("--fit", required=True, help="FIT.json written by kinid identify")
-    p.add_argument("--out", required=True, metavar="DIR", help="folder to write (created if missing)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder to write, whole or not at all (created if missing; an existing one is replaced only "
+                        "if it is empty or holds an earlier compensation)")
     p.add_argument("--format", dest="formats", nargs="+", choices=sorted(CONTROLLER_FORMATS),
                    default=list(default_formats()),
                    help=f"controller formats to write (default: {' '.join(default_formats())})")
@@ -36,7 +38,8 @@ def register(sub) -> None:
                         "follows the model within 10%% of the error's RMS)")
     p.add_argument("--step-deg", type=float, default=None, help="fixed grid step of rotary axes, degrees "
                                                                 "(default: chosen like --step-mm)")
-    p.set_defaults(run=_compensate, outputs={"out": "folder"})
+    # the folder is written whole (kinid.folders.staged_folder): no input may lie anywhere in it
+    p.set_defaults(run=_compensate, outputs={"out": "replaced folder"})
 
 
 def _axis_numbers(items) -> dict:

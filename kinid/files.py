@@ -8,7 +8,7 @@ import tempfile
 from pathlib import Path
 
 __all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
-           "image_size", "MAX_IMAGE_PIXELS"]
+           "image_size", "MAX_IMAGE_PIXELS", "json_text"]
 
 
 @contextlib.contextmanager
@@ -51,8 +51,11 @@ def atomic_write(path, mode: str = "w", **kwargs):
         os.chmod(tmp, file_mode)
         with os.fdopen(fd, mode, **kwargs) as f:
             yield f
-            f.flush()
-            os.fsync(f.fileno())
+            try:
+                f.flush()
+                os.fsync(f.fileno())
+            except OSError as exc:  # a full disk often shows only here
+                raise DataError(f"cannot write the file ({exc.strerror or exc})", path=path) from None
         try:
             os.replace(tmp, path)
         except OSError as exc:
@@ -72,8 +75,13 @@ def write_text(path, text: str) -> None:
         stream.write(text)                                                      # command line sends its messages
         stream.flush()                                                          # to stderr meanwhile
         return
-    with atomic_write(path, "w", encoding="utf-8", newline="") as f:
-        f.write(text)
+    from .errors import DataError
+
+    try:
+        with atomic_write(path, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+    except OSError as exc:  # ENOSPC, EDQUOT, EIO while writing: one line naming the file
+        raise DataError(f"cannot write the file ({exc.strerror or exc})", path=path) from None
 
 
 def write_json(path, data, *, indent: int | None = 1) -> None:
@@ -84,6 +92,11 @@ def write_json(path, data, *, indent: int | None = 1) -> None:
     DataError
         Naming the file, if ``data`` holds a number JSON cannot represent.
     """
+    write_text(path, json_text(data, indent=indent, path=path))
+
+
+def json_text(data, *, indent: int | None = 1, path=None) -> str:
+    """The text :func:`write_json` writes (a DataError naming ``path`` for a NaN or infinity anywhere)."""
     import json
 
     from .errors import DataError
@@ -92,7 +105,7 @@ def write_json(path, data, *, indent: int | None = 1) -> None:
         text = json.dumps(data, indent=indent, ensure_ascii=False, allow_nan=False)
     except ValueError as exc:
         raise DataError(f"refusing to write a non-finite number into JSON ({exc})", path=path) from None
-    write_text(path, text + "\n")
+    return text + "\n"
 
 
 def read_limited_text(path, *, what: str, max_bytes: int, error=None) -> str:
@@ -320,7 +333,9 @@ def check_outputs(outputs, inputs) -> None:
     Parameters
     ----------
     outputs : iterable of (option, path, kind)
-        ``kind`` is ``"file"`` or ``"folder"`` (a report folder: every file in it is an output).
+        ``kind`` is ``"file"``, ``"folder"`` (a report folder: files of the names in ``REPORT_FILES``
+        in it are outputs) or ``"replaced folder"`` (a folder written whole by :func:`staged_folder`:
+        no input may lie anywhere in it).
     inputs : iterable of (option, path)
         Existing files or folders the command reads.
 
@@ -351,6 +366,10 @@ def check_outputs(outputs, inputs) -> None:
             for in_opt, src in inputs:
                 if src.is_dir() and _inside(path, src) and os.path.realpath(path) == os.path.realpath(src):
                     raise DataError(f"{opt} is the input folder given as {in_opt}; choose another {opt} folder",
+                                    path=path)
+                if kind == "replaced folder" and _inside(src, path):
+                    raise DataError(f"the {opt} folder holds {src.name}, an input ({in_opt}); kinid replaces the whole "
+                                    f"{opt} folder and never writes over its inputs: choose another {opt} folder",
                                     path=path)
                 if src.is_file() and _inside(src, path) and any(fnmatch.fnmatch(src.name, p) for p in REPORT_FILES):
                     raise DataError(f"the {opt} folder holds the input given as {in_opt} ({src.name}), a name a "
