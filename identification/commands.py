@@ -1,13 +1,13 @@
 """``kinid identify``, ``predict``, ``simulate``, ``diagnose`` and ``demo`` (docs/cli.md)."""
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from kinid.errors import DataError
+
+# NumPy and the modules that do the work are imported inside the function that runs the verb:
+# building the parsers (``kinid identify --help``) imports none of them.
 
 __all__ = ["register"]
 
@@ -73,6 +73,8 @@ def register(sub) -> None:
 
 
 def _positive(value, name):
+    import numpy as np
+
     if value is not None and not (np.isfinite(value) and value > 0):
         raise DataError(f"{name} must be a positive number of µm, got {value}")
 
@@ -94,6 +96,8 @@ def _without_duplicates(obs):
     An exact copy (every reading equal) is the same measurement written twice; counted as
     more data it would make σ look smaller and the tests stricter than the data allow.
     """
+    import numpy as np
+
     from .observations import exact_duplicates
 
     dup = exact_duplicates(obs)
@@ -165,6 +169,8 @@ def _predict(args) -> int:
 def _simulate(args) -> int:
     from dataclasses import replace
 
+    import numpy as np
+
     from .machine import load_machine
     from .observations import write_observations
     from .simulate import load_errors, load_plan, simulate
@@ -187,6 +193,10 @@ def _simulate(args) -> int:
 
 
 def _diagnose(args) -> int:
+    import json
+
+    import numpy as np
+
     from .diagnose import diagnose
     from .fit import load_fit
     from .noise import Noise

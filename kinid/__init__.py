@@ -15,13 +15,25 @@ Importing ``kinid`` imports nothing heavy; import the domain you need.
 """
 from __future__ import annotations
 
-from importlib import metadata as _metadata
-
 from .errors import DataError, ImageError, KinidError, MachineError, StageError
 
-try:
-    __version__ = _metadata.version("kinid")
-except _metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree that is not installed
-    __version__ = "0+unknown"
-
 __all__ = ["__version__", "KinidError", "MachineError", "DataError", "ImageError", "StageError"]
+
+
+def __getattr__(name: str):
+    # ``__version__`` is read from the installed distribution on first use: importlib.metadata costs
+    # about as much as the rest of ``kinid --help``
+    if name == "__version__":
+        from importlib import metadata
+
+        try:
+            version = metadata.version("kinid")
+        except metadata.PackageNotFoundError:  # pragma: no cover - a source tree that is not installed
+            version = "0+unknown"
+        globals()["__version__"] = version
+        return version
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

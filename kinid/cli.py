@@ -64,6 +64,14 @@ def _version() -> str:
     return __version__
 
 
+class _Version(argparse._VersionAction):
+    """``--version``, which reads the installed version only when it is asked for."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        self.version = f"kinid {_version()}"
+        super().__call__(parser, namespace, values, option_string)
+
+
 def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     """The ``kinid`` parser; the full parser of ``verb`` only (others get their help line).
 
@@ -71,7 +79,7 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     """
     parser = _Parser(prog="kinid", description="Identify and compensate kinematic errors of machine tools and "
                                                "precision stages from vision measurements.")
-    parser.add_argument("--version", action="version", version=f"kinid {_version()}")
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="verb", metavar="VERB", parser_class=_Parser)
     sub.required = True
     if verb in VERBS:

@@ -13,13 +13,40 @@ module                 what it does
 ``laser_offsets``      camera / laser displacement sensor offsets (hole, sphere, edges, axial)
 =====================  =========================================================
 """
-from .board import Board, load_board, make_board, match_to_board, save_board
-from .camera import CameraModel, calibrate_camera, circle_centre_bias, load_camera, save_camera
-from .circles import CircleResult, locate_disk, locate_hole, locate_sphere
-from .laser_offsets import axial_offset, radial_offset_from_hole, radial_offset_from_sphere
-from .motion_scale import MatrixResult, ScaleResult, backlash_from_reversals, pixel_equivalent, pixel_to_machine_matrix
-from .render import board_coverage, render_disk, render_pattern
-from .ringcode import Marker, detect_markers
-from .template import locate_template, make_template
+import importlib as _importlib
+import importlib.util as _importlib_util
+
+#: Each public name and the module of this package that defines it. The module is imported on first
+#: use of the name (PEP 562): importing the package (for instance to build the ``kinid`` command
+#: line's parsers) imports neither OpenCV nor NumPy.
+_SOURCES = {
+    "Board": "board", "load_board": "board", "make_board": "board", "match_to_board": "board",
+    "save_board": "board",
+    "CameraModel": "camera", "calibrate_camera": "camera", "circle_centre_bias": "camera", "load_camera": "camera",
+    "save_camera": "camera",
+    "CircleResult": "circles", "locate_disk": "circles", "locate_hole": "circles", "locate_sphere": "circles",
+    "axial_offset": "laser_offsets", "radial_offset_from_hole": "laser_offsets",
+    "radial_offset_from_sphere": "laser_offsets",
+    "MatrixResult": "motion_scale", "ScaleResult": "motion_scale", "backlash_from_reversals": "motion_scale",
+    "pixel_equivalent": "motion_scale", "pixel_to_machine_matrix": "motion_scale",
+    "board_coverage": "render", "render_disk": "render", "render_pattern": "render",
+    "Marker": "ringcode", "detect_markers": "ringcode",
+    "locate_template": "template", "make_template": "template",
+}
 
 __all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "circle_centre_bias", "CameraModel", "load_camera", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]
+
+
+def __getattr__(name: str):
+    if name in _SOURCES:
+        value = getattr(_importlib.import_module(f"{__name__}.{_SOURCES[name]}"), name)
+    elif not name.startswith("__") and _importlib_util.find_spec(f"{__name__}.{name}") is not None:
+        value = _importlib.import_module(f"{__name__}.{name}")  # a module of the package, e.g. board
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
