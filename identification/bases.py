@@ -99,9 +99,10 @@ class Basis:
         bare code (constant).
     syntax : str
         The name as users write it, for messages: ``periodic:<P>``.
-    driver : {"none", "position", "direction", "time"}
+    driver : {"none", "position", "direction", "time", "positions"}
         What the value varies with: nothing, the position of the joint's axis, the approach
-        direction of that axis, or time (column ``t_s``).
+        direction of that axis, time (column ``t_s``), or the positions of the joint's axis and of
+        the other axis the effect names (``q`` is then (N, 2)).
     parse : callable (re.Match, BasisInput) -> dict
         The effect's fields beyond name, code, basis, axis and unit (``degree``, ``period``,
         ``knots``, ``args``); raises ``BasisInput.fail(...)`` for a bad value.
@@ -157,8 +158,9 @@ def register_basis(basis: Basis) -> Basis:
     """Add ``basis`` to :data:`BASES` (replacing one of the same kind) and return it."""
     if not isinstance(basis, Basis):
         raise DataError(f"must be a Basis, got {type(basis).__name__}", parameter="basis")
-    if basis.driver not in ("none", "position", "direction", "time"):
-        raise DataError(f"must be none, position, direction or time, got {basis.driver!r}", parameter="driver")
+    if basis.driver not in ("none", "position", "direction", "time", "positions"):
+        raise DataError(f"must be none, position, direction, time or positions, got {basis.driver!r}",
+                        parameter="driver")
     BASES[basis.kind] = basis
     return basis
 
@@ -274,6 +276,48 @@ register_basis(Basis(
     candidates=lambda j, kind, *, varying, has_directions, has_time: [f"{j.code}:drift"] if has_time else []))
 
 
+# --- errors of one axis that vary with another axis's position -----------------------------------
+
+def _parse_cross(m, ctx: BasisInput) -> dict:
+    other = m.group("other")
+    if other not in ctx.machine.axis_names:
+        raise ctx.fail(f"{other!r} is not an axis of this machine; axes: {', '.join(ctx.machine.axis_names)}")
+    if other == ctx.axis:
+        raise ctx.fail(f"the other axis must differ from the joint's own axis {ctx.axis}; use poly<k> for that")
+    return {"args": (other,)}
+
+
+register_basis(Basis(
+    kind="with", grammar=r"with:(?P<other>[A-Za-z][A-Za-z0-9]*)", syntax="with:<other axis>", driver="positions",
+    parse=_parse_cross, n_params=lambda e: 2,
+    param_names=lambda e: [f"{e.name}[{e.args[0]}]", f"{e.name}[{e.axis}·{e.args[0]}]"],
+    param_units=lambda e, u, q: [f"{u}/mm", f"{u}/mm²"],
+    values=lambda e, q, t, s: np.stack([q[:, 1], q[:, 0] * q[:, 1]], axis=1),
+    describe=lambda e, u: (f"varies with the position of {e.args[0]}, and its slope along {e.axis} too "
+                           f"(a thermal gradient, a twist)")))
+
+
+#: Time constants (s) of the warm-up candidates: a log grid a factor 3 apart (a fit at the nearest
+#: one keeps ≥ 90 % of a first-order growth of any τ between them over a run of a few τ).
+WARMUP_TAUS_S = (600, 1800, 5400)
+
+
+def _parse_tau(m, ctx):
+    tau = float(m.group("tau"))
+    if not (np.isfinite(tau) and tau > 0):
+        raise ctx.fail(f"the time constant must be > 0 s, got {m.group('tau')}")
+    return {"args": (tau,)}
+
+
+register_basis(Basis(
+    kind="warmup", grammar=rf"warmup:(?P<tau>{NUMBER})", syntax="warmup:<tau_s>", driver="time", parse=_parse_tau,
+    n_params=_one, param_names=_own_name, param_units=_unit,
+    values=lambda e, q, t, s: (1.0 - np.exp(-np.maximum(np.asarray(t, float), 0.0) / e.args[0])).reshape(-1, 1),
+    describe=lambda e, u: f"thermal growth levelling off, A·(1 − e^(−t/τ)) with τ = {e.args[0]:g} s from t = 0",
+    candidates=lambda j, kind, *, varying, has_directions, has_time:
+        [f"{j.code}:warmup:{tau}" for tau in WARMUP_TAUS_S] if has_time and j.location else []))
+
+
 # --- maps and local errors ------------------------------------------------------------------------
 
 def map_knots(ctx: BasisInput, step_text, lo_text, hi_text) -> tuple:
@@ -375,7 +419,7 @@ def parse_name(name: str, joint, machine, source: str) -> tuple:
         m = None if basis.grammar is None else re.fullmatch(basis.grammar, rest)
         if basis.grammar is not None and m is None:
             continue
-        if basis.driver in ("position", "direction") and (joint.axis in ("W", "T")
+        if basis.driver in ("position", "direction", "positions") and (joint.axis in ("W", "T")
                                                           or joint.axis not in machine.axis_names):
             raise ctx.fail(f"a {rest.split(':')[0]} basis needs the position of an axis; {code} is a set-up error")
         return basis, basis.parse(m, ctx)

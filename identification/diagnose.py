@@ -35,13 +35,30 @@ from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
 from .scoring import Candidate, _f_log10_p, score_all
+from .structure import structure_left
 
-__all__ = ["Candidate", "Diagnosis", "diagnose", "noise_from_replicates", "axis_residuals", "joints_the_urdf_lacks",
+__all__ = ["Candidate", "Diagnosis", "diagnose", "time_follows", "TIME_CONFOUND", "noise_from_replicates", "axis_residuals", "joints_the_urdf_lacks",
            "ALPHA"]
 
 
 #: Family-wise significance level of the verdict.
 ALPHA = 0.01
+#: |correlation| of time with an axis's readings beyond which the plan's order confounds them.
+TIME_CONFOUND = 0.8
+
+
+def time_follows(obs: Observations, machine: Machine) -> tuple:
+    """(axis, correlation) for every axis whose readings follow time in ``obs`` (|r| ≥ TIME_CONFOUND)."""
+    if obs.t_s is None or len(obs) < 3 or np.ptp(obs.t_s) <= 0:
+        return ()
+    out = []
+    for k, a in enumerate(machine.axes):
+        q = obs.axes[:, k]
+        if np.all(np.isfinite(q)) and np.ptp(q) > 0:
+            rho = float(np.corrcoef(obs.t_s, q)[0, 1])
+            if abs(rho) >= TIME_CONFOUND:
+                out.append((a.name, rho))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -75,7 +92,14 @@ class Diagnosis:
     axis_names : tuple of str
         The axes of ``axis_residuals_um``.
     note : str
-        When the verdict needs a word more: a σ given too small for these data.
+        When the verdict needs a word more: a σ given too small for these data, or structure left that
+        no candidate describes.
+    structure : Structure or None
+        The nearest-neighbour test of the residuals (:mod:`~kinid.identification.structure`), run when
+        no candidate is significant.
+    time_follows : tuple of (axis, correlation)
+        Axes whose readings the plan's order makes follow time (|correlation| ≥
+        :data:`TIME_CONFOUND`): a drift and an error of that axis look alike in these data.
     """
 
     fit: FitResult
@@ -91,6 +115,8 @@ class Diagnosis:
     axis_residuals_um: np.ndarray = None
     axis_names: tuple = ()
     note: str = ""
+    structure: object = None
+    time_follows: tuple = ()
 
     @property
     def noise_um(self) -> float:
@@ -130,6 +156,11 @@ class Diagnosis:
             "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": float(a.residual_um), "sigmas": float(a.sigmas)}
                           for a in self.fit.set_aside],
         }
+        if self.time_follows:
+            out["time_follows"] = [{"axis": a, "correlation": float(rho)} for a, rho in self.time_follows]
+        if self.structure is not None:
+            st = self.structure
+            out["structure"] = {"ratio": float(st.ratio), "p_value": float(st.p_value), "along": st.along, "axis": st.axis}
         odd = self.fit.implausible()
         if odd:  # only when the fit needs sizes no machine has (docs/cli.md)
             out["implausible"] = [{"effect": a.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit}
@@ -153,6 +184,8 @@ class Diagnosis:
             if best is not None and best.p_value < self.threshold:
                 lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {_p(best)} < {self.threshold:.3g})")
                 lines.append(f"  add it:  kinid identify ... --add {best.effect}")
+            elif self.note:
+                lines.append(f"verdict: missing-effect — {self.note}")
             else:
                 lines.append("verdict: missing-effect — the residual exceeds the noise, but no candidate in the library explains it")
         lines.append("")
@@ -198,6 +231,13 @@ class Diagnosis:
                          "can describe their position-dependent errors:")
             lines += [f"  - {axis}: add {', '.join(codes)} directly after joint {axis} (docs/machines.md)"
                       for axis, codes in missing]
+        if self.time_follows:
+            lines.append("")
+            axes = ", ".join(f"{a} (correlation {rho:+.2f})" for a, rho in self.time_follows)
+            lines.append(f"time follows {axes} in the order of these alignments: a drift or warm-up and an error "
+                         f"of that axis look alike here, and an effect found on one may be the other; to tell them "
+                         f"apart, measure the plan in another order (serpentine or random over that axis, or a "
+                         f"reference pose repeated through the run)")
         if f.set_aside:
             lines.append("")
             lines.append(f"set aside as gross errors before fitting ({len(f.set_aside)}; --no-robust keeps them):")
@@ -268,7 +308,10 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     result = result.with_noise(noise)
     sigma, known = noise.value_um, noise.known
     d_errors, d_axes, q0 = model_pass(machine, obs, result)
-    scored = score_all(machine, obs, result, sigma, known, d_errors, q0)
+    # Candidates are judged by the F test, which estimates σ from the residual left beside each candidate:
+    # a σ given too small would make every candidate look significant by χ² (and one given too large, none).
+    # The given σ still judges the residual as a whole (χ² below) and sizes the uncertainties.
+    scored = score_all(machine, obs, result, sigma, False, d_errors, q0)
     location = {j.code for j in machine.error_joints if j.location}
     # best first; exact ties (identical columns) go to the location error, the more physical reading
     live = sorted([c for c in scored if c.status == "live"], key=lambda c: (round(c.log10_p, 6), c.effect.split(":")[0] not in location, c.rms_after_um))
@@ -278,16 +321,26 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     significant = bool(live) and live[0].p_value < threshold
     verdict = "missing-effect" if significant or (known and chi2_p < alpha) else "noise"
     note = ""
+    structure = None
+    f_passes = True
     if known and chi2_p < alpha:
         # The residual exceeds the given σ. Structure, or a σ given too small? The F test of the best
-        # candidates does not depend on σ at all: if none passes it, the excess is white noise.
+        # candidates does not depend on σ at all.
         dof = max(result.dof, 1)
         rss = float(np.sum(r**2)) / sigma**2
-        passes = [c for c in live[:5] if _f_log10_p(c, rss, dof) + math.log10(c.trials) < math.log10(threshold)]
-        if not passes:
+        f_passes = any(_f_log10_p(c, rss, dof) + math.log10(c.trials) < math.log10(threshold) for c in live[:5])
+    if not significant or not f_passes:
+        # No candidate explains more than noise would. Structure outside the library, or noise (and, when
+        # the residual exceeds a given σ, a σ given too small)? Neighbouring alignments tell, with no σ.
+        structure = structure_left(r, obs.axes, obs.t_s, names=tuple(a.name for a in machine.axes))
+        if structure is not None and structure.p_value < alpha:
+            verdict = "missing-effect"
+            note = f"an effect no candidate describes remains: {structure.describe()}"
+        elif not f_passes:
             verdict = "noise"
             note = (f"the residual looks like noise of about {np.sqrt(rss / dof) * sigma:.2g} µm, not "
-                    f"{sigma:.2g} µm as given: no candidate explains more than white noise would")
+                    f"{sigma:.2g} µm as given: no candidate explains more than white noise would, and "
+                    f"neighbouring alignments do not agree more than noise would")
     stud, lev = studentized(result, q0, sigma)
     bound = chi2_isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
@@ -295,4 +348,5 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     axis_r, axis_names = axis_residuals(machine, obs, result, d_axes=d_axes)
     return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
-                     axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks))
+                     axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), structure=structure,
+                     time_follows=time_follows(obs, machine))

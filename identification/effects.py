@@ -86,7 +86,7 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         raise DataError(f"{source} {name!r}: {code!r} is not an error joint of this machine{hint}")
     joint = machine.error_joint(code)
     basis, fields = parse_name(name, joint, machine, source)
-    axis = joint.axis if basis.driver in ("position", "direction") else ""
+    axis = joint.axis if basis.driver in ("position", "direction", "positions") else ""
     return Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
 
 
@@ -132,11 +132,15 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
     have = {e.name for e in model}
     varying = {code for code, _ in axis_dependent_joints(machine)}
     out = []
+    linear = [a.name for a in machine.axes if a.kind == "prismatic"]
     for j in machine.error_joints:
         kind = machine.axis(j.axis).kind if j.code in varying else ""
         for basis in BASES.values():
             out += basis.candidates(j, kind, varying=j.code in varying, has_directions=has_directions,
                                     has_time=has_time)
+        # a translation error of a linear axis that varies with another linear axis's position
+        if "with" in BASES and j.code in varying and kind == "prismatic" and not j.location and j.kind == "prismatic":
+            out += [f"{j.code}:with:{b}" for b in linear if b != j.axis]
     return [parse_effect(n, machine) for n in out if n not in have]
 
 
@@ -202,6 +206,8 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
         t = np.asarray(t_s, float).reshape(n)
     elif basis.driver == "position":
         q = axes_user[:, machine.axis_names.index(effect.axis)]
+    elif basis.driver == "positions":  # the joint's own axis, then the other axis the effect names
+        q = axes_user[:, [machine.axis_names.index(effect.axis), machine.axis_names.index(effect.args[0])]]
     elif basis.driver == "direction":
         if directions is None or effect.axis not in directions:
             raise DataError(f"effect {effect.name!r} needs the column 'dir_{effect.axis.lower()}' in the data")

@@ -259,7 +259,13 @@ def fit(
     sigma0 = noise_um or 1.0
     ident = analyse(J.reshape(M, P) / sigma0, names, tol=rank_tol)
     free = ident.identifiable
-    theta[~free] = 0.0
+    if np.any(theta[~free] != 0.0):
+        # a warm start that gives values to parameters these data cannot identify (another subset of the
+        # data held others) is no start for these data: its aliased pairs would lose their sums. From zero.
+        theta[:] = 0.0
+        r, J, _ = residuals(machine, d, obs, theta)
+        ident = analyse(J.reshape(M, P) / sigma0, names, tol=rank_tol)
+        free = ident.identifiable
     D = np.linalg.norm(J.reshape(M, P)[:, free], axis=0)
     lo = np.full(P, -np.inf)
     hi = np.full(P, np.inf)

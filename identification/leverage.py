@@ -76,4 +76,9 @@ def axis_residuals(machine: Machine, obs: Observations, result, *, d_axes=None):
     if d_axes is None:
         _, d_axes, _ = model_pass(machine, obs, result)
     A = d_axes[:, :, cols]  # µm per mm
-    return np.linalg.solve(A, result.residuals_um[:, :, None])[:, :, 0] * 1e3, names
+    out = np.full((len(obs), 3), np.nan)
+    # axes that do not span the three directions at a pose (two parallel rails of a gantry, a tool point
+    # that never moves in z) have no unique readings there
+    ok = np.linalg.cond(A) < 1e8
+    out[ok] = np.linalg.solve(A[ok], result.residuals_um[ok, :, None])[:, :, 0] * 1e3
+    return out, names

@@ -24,7 +24,8 @@ raise false alarms on noise.
 
 The shortest period searched is twice the usual spacing of the axis's
 readings (on a regular grid of positions a shorter period aliases onto a
-longer one), and at least 2 mm or 10°.
+longer one; readings within 0.001 mm or 0.001° count as one position), and at
+least 2 mm or 1° (a gear of 360 teeth).
 
 Every sum is over alignments, O(N · periods · rank), in chunks of periods:
 memory stays flat in the number of alignments.
@@ -43,7 +44,7 @@ __all__ = ["PeriodEstimate", "search_periods", "MIN_PERIOD_MM", "MIN_PERIOD_DEG"
 
 #: Shortest period searched on linear axes, mm (the library's shortest), and on rotary axes, deg.
 MIN_PERIOD_MM = 2.0
-MIN_PERIOD_DEG = 10.0
+MIN_PERIOD_DEG = 1.0
 #: Grid density: frequencies spaced 1 / (OVERSAMPLE × span of the axis readings).
 OVERSAMPLE = 6
 #: Memory per array of one chunk of frequencies, bytes (a chunk holds N × chunk values; memory flat in N).
@@ -145,7 +146,7 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
             continue
         a = machine.axis(joint.axis)
         q = obs.axes[:, machine.axis_names.index(joint.axis)]
-        unique = np.unique(np.round(q, 9))
+        unique = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
         if unique.size < 6:
             continue
         span = float(unique[-1] - unique[0])

@@ -48,7 +48,7 @@ def _size(effect, theta, machine, axis_ranges) -> float:
         axes[:, machine.axis_names.index(effect.axis)] = q
         dirs = {effect.axis: np.where(np.arange(q.size) % 2 == 0, 1.0, -1.0)}
         return float(np.max(np.abs(basis_values(effect, machine, axes, directions=dirs) @ theta)))
-    if basis.driver == "time":
+    if basis.kind == "drift":
         return float(np.max(np.abs(theta))) * DRIFT_HORIZON_S
     return float(np.max(np.abs(theta))) if theta.size else 0.0
 

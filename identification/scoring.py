@@ -309,57 +309,64 @@ def _nice_step(span: float) -> float:
 
 
 def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
-    """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range) as a candidate.
+    """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range), or a local error
+    inside one, as a candidate.
 
-    It competes with the parametric candidates on its p-value, so a map wins
-    only where no parametric effect describes the structure (a local bump).
+    It competes with the parametric candidates on its p-value, so a map wins only where no parametric
+    effect describes the structure. Local errors are tried inside the best maps, and where the readings
+    leave gaps that rule out every whole map, on the joints of the best candidates of any kind (windows
+    whose knots all rest on readings).
     """
+    from dataclasses import replace
+
     from kinid.errors import DataError
 
     from .effects import axis_dependent_joints, parse_effect
 
-    maps = []
+    maps, grids = [], {}
     for code, axis in axis_dependent_joints(machine):
         q = obs.axes[:, machine.axis_names.index(axis)]
         lo, hi = float(np.min(q)), float(np.max(q))
-        if not hi > lo or np.unique(np.round(q, 9)).size < 2 * MAP_INTERVALS:
+        positions = np.unique(np.round(q, 9)).size
+        if not hi > lo or positions < LOCAL_MIN_POSITIONS:
             continue
         step = _nice_step(hi - lo)
         lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
         knots = np.arange(lo, hi + step / 2, step)
         support = np.clip(1.0 - np.abs(q[:, None] - knots[None, :]) / step, 0.0, None).sum(axis=0)
-        if support.min() < MAP_MIN_SUPPORT:
-            continue  # readings clustered (a few preset positions): a knot between them would be a guess
         try:
-            maps.append(parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine))
+            whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
         except DataError:
             continue
+        grids[code] = (whole, support)
+        # a whole map needs readings at every knot; else they cluster at a few positions and a knot is a guess
+        if positions >= 2 * MAP_INTERVALS and support.min() >= MAP_MIN_SUPPORT:
+            maps.append(whole)
     have = {c.effect for c in scored}
     fresh = [m for m in maps if m.name not in have]
-    live = [c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
-                                        q0=q0) if c.status == "live"]
-    if not live:
-        return []
-    best = min(live, key=lambda c: c.log10_p)
-    # a local error: windows of the best map's knots, zero at their ends, scored the same way; fewer
-    # parameters than the whole map, so a bump is described without a map's noise along the whole travel
-    whole = next(m for m in fresh if m.name == best.effect)
-    windows = _local_windows(whole, machine)
+    live = sorted((c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
+                                               q0=q0) if c.status == "live"), key=lambda c: c.log10_p)
+    best = live[0] if live else None
+    # where to look for a local error: inside the best maps; where the readings rule out every map, on the
+    # joints of the best candidates
+    codes = [c.effect.split(":")[0] for c in live[:LOCAL_MAPS]] or [
+        c.effect.split(":")[0] for c in sorted((c for c in scored if c.status == "live"), key=lambda c: c.log10_p)[:LOCAL_MAPS]]
+    codes = [c for c in dict.fromkeys(codes) if c in grids]
+    windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
     local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
                                          d_errors=d_errors, q0=q0) if c.status == "live"] if windows else []
     if local:
-        best_local = min(local, key=lambda c: c.log10_p)
-        log10_local = best_local.log10_p + math.log10(len(windows) * len(fresh))
-        if log10_local < best.log10_p + math.log10(len(fresh)):
-            from dataclasses import replace as _replace
-
-            return [_replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
-                             trials=float(len(windows) * len(fresh)))] if _beats_parametric(best_local, scored) else []
-    if not _beats_parametric(best, scored):
+        # near ties (within a factor LOCAL_TIE in p) go to the joint of the best map, where the structure was seen
+        home = codes[0]
+        best_local = min(local, key=lambda c: c.log10_p - (math.log10(LOCAL_TIE) if c.effect.startswith(home + ":") else 0.0))
+        trials = float(len(windows))
+        log10_local = best_local.log10_p + math.log10(trials)
+        if best is None or log10_local < best.log10_p + math.log10(len(fresh)):
+            return [replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
+                            trials=trials)] if _beats_parametric(best_local, scored) else []
+    if best is None or not _beats_parametric(best, scored):
         return []
     log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
-    from dataclasses import replace
-
     return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
 
 
@@ -374,10 +381,17 @@ def _beats_parametric(candidate, scored) -> bool:
 
 #: Knot intervals of the local windows tried inside a proposed map (each zero at its ends).
 LOCAL_WIDTHS = (5, 6, 7, 8, 10)
+#: Local windows are tried inside this many of the best maps, and on the joints of as many best candidates.
+LOCAL_MAPS = 3
+#: A local error on the best map's joint is preferred to one this many times likelier elsewhere.
+LOCAL_TIE = 10.0
+#: Local windows need the axis read at this many distinct positions at least.
+LOCAL_MIN_POSITIONS = 12
 
 
-def _local_windows(whole, machine) -> list:
-    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the map ``whole``."""
+def _local_windows(whole, support, machine) -> list:
+    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the map ``whole``, those
+    whose knots all have ``support`` (readings, hat-weighted) of at least MAP_MIN_SUPPORT."""
     from kinid.errors import DataError
 
     from .effects import parse_effect
@@ -388,6 +402,8 @@ def _local_windows(whole, machine) -> list:
         knots = np.arange(whole.knots[0], whole.knots[-1] + step / 2, step)
         for width in LOCAL_WIDTHS:
             for i in range(0, len(knots) - width):
+                if len(support) == len(knots) and np.min(support[i:i + width + 1]) < MAP_MIN_SUPPORT:
+                    continue
                 try:
                     out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
                 except DataError:

@@ -117,7 +117,7 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
                     "from the model: see the aliased candidates")
         elif best.p_value >= dg.threshold:
             stop = (f"no candidate is significant: the best, {best.effect}, has p = {best.p_value:.2g} above the "
-                    f"threshold {dg.threshold:.2g}")
+                    f"threshold {dg.threshold:.2g}" + (f"; {dg.note}" if dg.note else ""))
         elif len(steps) > max_steps:
             stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
         elif folds:

@@ -59,7 +59,8 @@ def test_diagnose_json_names_the_hidden_effect(workdir, capsys):
     capsys.readouterr()
     assert main(["diagnose", "--fit", str(d / "fit0.json"), "--data", str(d / "obs.csv"), "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
-    assert set(result) == {"verdict", "rms_um", "noise_um", "candidates", "note", "set_aside"}
+    assert set(result) - {"time_follows", "structure"} == {"verdict", "rms_um", "noise_um", "candidates", "note", "set_aside"}
+    assert [t["axis"] for t in result.get("time_follows", [])] == ["B"]  # the patent plan tilts B as its outer loop
     assert result["verdict"] == "missing-effect"
     assert result["noise_um"] == 1.0
     assert result["candidates"][0]["effect"] == "EXX:periodic:10"

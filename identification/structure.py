@@ -1,0 +1,112 @@
+"""Is structure left in the residuals, whatever its form? A test that needs no candidate and no σ.
+
+The candidates of the diagnosis describe the effects kinid knows; a machine may have one it does not.
+Noise is independent from alignment to alignment; an effect of the machine is not: alignments close
+to each other in the readings (or in time) have similar residuals. The statistic is the mean squared
+difference between each alignment's residual and that of its nearest neighbour, over twice the mean
+squared residual: about 1 for noise, well below 1 for a smooth effect. Its null distribution comes
+from permutations of the residual rows (no σ, no distribution assumed), for neighbours in the
+readings (every axis scaled by its range) and, when the data have times, in time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Structure", "structure_left"]
+
+#: Permutations of the null distribution (the smallest p-value is 1 / (PERMUTATIONS + 1)).
+PERMUTATIONS = 999
+#: At most this many alignments (drawn at random) enter the test: its cost grows with their square.
+MAX_ROWS = 2000
+
+
+@dataclass(frozen=True)
+class Structure:
+    """The nearest-neighbour test of the residuals.
+
+    Attributes
+    ----------
+    ratio : float
+        Smallest of the statistics (readings, time): ~1 for noise, < 1 for structure.
+    p_value : float
+        Permutation p-value of that statistic (with the two-look correction).
+    along : str
+        ``"readings"`` or ``"time"``: where the neighbours agree best.
+    axis : str
+        The axis (or ``"time"``) along which alone neighbouring residuals agree best: where to look.
+    """
+
+    ratio: float
+    p_value: float
+    along: str
+    axis: str = ""
+
+    def describe(self) -> str:
+        where = "time" if self.axis == "time" else f"the readings of {self.axis}" if self.axis else "the readings"
+        return (f"neighbouring alignments have similar residuals (nearest-neighbour ratio {self.ratio:.2f}, 1 for noise; "
+                f"p = {self.p_value:.2g}), most clearly along {where}")
+
+
+def _neighbours(coords: np.ndarray) -> np.ndarray:
+    """Index of each row's nearest other row (Euclidean), by chunks to bound memory."""
+    n = len(coords)
+    out = np.empty(n, dtype=int)
+    for start in range(0, n, 512):
+        block = coords[start:start + 512]
+        d = np.sum((block[:, None, :] - coords[None, :, :]) ** 2, axis=2)
+        d[np.arange(len(block)), np.arange(start, start + len(block))] = np.inf
+        out[start:start + 512] = np.argmin(d, axis=1)
+    return out
+
+
+def _ratio(r: np.ndarray, nn: np.ndarray) -> np.ndarray:
+    """The statistic for residual matrices ``r`` (..., N, 3) and neighbours ``nn``."""
+    num = np.mean(np.sum((r - r[..., nn, :]) ** 2, axis=-1), axis=-1)
+    den = 2.0 * np.mean(np.sum(r**2, axis=-1), axis=-1)
+    return num / np.where(den > 0, den, 1.0)
+
+
+def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Structure | None:
+    """The nearest-neighbour test of ``residuals_um`` (N, 3) over readings ``axes`` (N, n_axes) and times.
+
+    ``names`` are the axes' names (for :attr:`Structure.axis`). Returns None when there are too few
+    alignments (< 12) to tell.
+    """
+    r = np.asarray(residuals_um, float)
+    n = len(r)
+    if n < 12:
+        return None
+    rng = np.random.default_rng(0) if rng is None else rng
+    a = np.asarray(axes, float)
+    t = None if t_s is None else np.asarray(t_s, float)
+    if n > MAX_ROWS:
+        keep = np.sort(rng.choice(n, MAX_ROWS, replace=False))
+        r, a, t, n = r[keep], a[keep], None if t is None else t[keep], MAX_ROWS
+    names = list(names) or [f"axis {k + 1}" for k in range(a.shape[1])]
+    usable = np.all(np.isfinite(a), axis=0) & (np.ptp(np.where(np.isfinite(a), a, 0.0), axis=0) > 0)
+    a, names = a[:, usable], [nm for nm, u in zip(names, usable) if u]
+    a = a / np.ptp(a, axis=0)
+    looks = [("readings", a)]
+    if t is not None and np.ptp(t) > 0:
+        looks.append(("time", t[:, None]))
+    perms = np.stack([r[rng.permutation(n)] for _ in range(PERMUTATIONS)])
+    best = None
+    for along, coords in looks:
+        if coords.shape[1] == 0:
+            continue
+        nn = _neighbours(coords)
+        ratio = float(_ratio(r, nn))
+        null = _ratio(perms, nn)
+        p = (1 + int(np.sum(null <= ratio))) / (PERMUTATIONS + 1)
+        if best is None or p < best.p_value:
+            best = Structure(ratio, p, along)
+    if best is None:
+        return None
+    # where to look: the single coordinate whose neighbours agree best
+    singles = [(float(_ratio(r, _neighbours(a[:, [k]]))), nm) for k, nm in enumerate(names)]
+    if t is not None and np.ptp(t) > 0:
+        singles.append((float(_ratio(r, _neighbours(t[:, None]))), "time"))
+    axis = min(singles)[1] if singles else ""
+    return Structure(best.ratio, min(1.0, best.p_value * len(looks)), best.along, axis)

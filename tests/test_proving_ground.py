@@ -1,0 +1,149 @@
+"""The diagnosis on machines nobody described: the CI-sized subset of benchmarks/proving_ground.py, and one test
+per failure class it exposed, each with its effect injected by a plain formula (benchmarks/proving_truth.py:
+plain numpy on the URDF text, no kinid code).
+
+The full run (``python benchmarks/proving_ground.py --scenarios 500``) is a benchmark; its table is in
+docs/identification.md.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+import proving_ground as pg  # noqa: E402
+import proving_truth as truth  # noqa: E402
+
+
+def test_the_truth_is_the_urdf_as_pinocchio_reads_it():
+    """Two implementations that share nothing agree: the proving ground's numpy chain and kinid's Pinocchio pass."""
+    from kinid.identification.machine import evaluate, machine_from_urdf
+
+    rng = np.random.default_rng(0)
+    for layout in pg.LAYOUTS:
+        text = pg.urdf_text(layout)
+        km, tm = machine_from_urdf(text, f"{layout}.urdf"), truth.read_urdf(text)
+        readings = {a.name: rng.uniform(-50, 50, 40) for a in km.axes}
+        errors = {e.code: rng.uniform(-50, 50, 40) for e in km.error_joints}
+        ours = evaluate(km, np.column_stack([readings[a.name] for a in km.axes]),
+                        np.column_stack([errors[e.code] for e in km.error_joints]), jacobian=False)
+        assert np.abs(ours - truth.tool_point_mm(tm, readings, errors, 40)).max() < 1e-9, layout
+
+
+def _line(sc):
+    r = sc.result
+    return (f"{sc.seed} {sc.layout} {sc.plan} {sc.order} {sc.kinds} σ {sc.sigma_declared} {r['verdict']} "
+            f"held-out {r['held_out_um']:.3f} oracle {r['oracle_um']:.3f} default {r['default_um']:.3f} added {r['added']}")
+
+
+@pytest.mark.slow
+def test_rates_on_drawn_scenarios(capsys):
+    """A fixed CI-sized draw of the proving ground: the rates the full run reports, on 40 scenarios."""
+    scenarios = [pg.run(20261124 + k) for k in range(40)]
+    summary = pg.summarise(scenarios)
+    with capsys.disabled():
+        print()
+        for sc in scenarios:
+            print(("PASS " if pg.verdict_of(sc)["pass"] else "FAIL ") + _line(sc))
+        pg.print_table(summary)
+    everything = summary["all"]
+    assert everything["pass"] >= 0.75
+    assert everything["worse_than_default"] <= 0.05
+    none = [sc for sc in scenarios if not sc.hidden and sc.sigma_declared == pg.NOISE_UM]
+    assert all(not sc.result["added"] for sc in none)
+
+
+def test_the_held_out_check_refits_with_the_candidate():
+    """Class 1: a six-joint arm, location errors only, a gear error of J6 (a 30° period on EA0J6). The diagnosis
+    ranks it first; the held-out check warm-started from the full data's fit must refit it (it gave the same
+    figure to the last digit before and after when a warm start held other aliased parameters)."""
+    from kinid.identification import default_model, diagnose, parse_effect
+    from kinid.identification.crossval import cross_validate
+
+    sc, machine, obs = _data(3, "arm6", ["gear"])
+    effects = list(default_model(machine))
+    dg = diagnose(machine, obs, effects, noise_um=1.0)
+    best = parse_effect(dg.live[0].effect, machine)
+    assert best.code == sc.hidden[0].joint
+    cold = cross_validate(machine, obs, effects, best, noise_um=1.0)
+    warm = cross_validate(machine, obs, effects, best, noise_um=1.0, theta0=dg.fit.theta)
+    print(f"cold {cold}; warm {warm}")
+    assert warm.rms_with_um < 0.8 * warm.rms_without_um
+    assert warm.rms_without_um == pytest.approx(cold.rms_without_um, rel=1e-6)
+    # every live candidate with a column that is not zero moves the held-out figure
+    for c in dg.live[:6]:
+        cv = cross_validate(machine, obs, effects, parse_effect(c.effect, machine), noise_um=1.0, theta0=dg.fit.theta)
+        assert cv.rms_with_um != cv.rms_without_um, c.effect
+
+
+def _data(seed, layout, kinds, **fixed):
+    """The proving ground's rows for one scenario, as kinid Observations (fit rows only)."""
+    from kinid.identification.machine import machine_from_urdf
+    from kinid.identification.observations import Observations
+
+    sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(seed, layout, kinds, **fixed)
+    n = len(t_s)
+    values = dict(errors)
+    for h in sc.hidden:
+        values[h.joint] = values.get(h.joint, 0.0) + h(readings, t_s)
+    p = truth.tool_point_mm(tm, readings, values, n) + rng.normal(0.0, 1e-3, (n, 3))
+    machine = machine_from_urdf(text, f"{layout}.urdf")
+    axes = np.column_stack([readings[a.name] for a in machine.axes])
+    return sc, machine, Observations(tuple(f"M{k}" for k in labels), p, axes, t_s, {}, tuple(range(2, n + 2)), "<drawn>")
+
+
+def test_time_that_follows_an_axis_is_named_and_a_warm_up_is_found_in_random_order():
+    """Class 2 and 3: a spindle warm-up A·(1 − e^(−t/τ)) on the tool. Visited tilt-major, time follows the tilt
+    axis: the diagnosis says so. Visited in random order, --auto finds the warm-up at the oracle's error."""
+    from kinid.identification import default_model, diagnose
+
+    _, machine, obs = _data(11, "five_axis_bc", ["warm-up"], plan_kind="patent", order="axis-major")
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    assert [a for a, _ in dg.time_follows] == ["B"]
+    assert "time follows B" in dg.text()
+    sc = pg.run(11, "five_axis_bc", ["warm-up"], plan_kind="patent", order="random", misread_share=0.0, sigma=1.0)
+    print(_line(sc))
+    assert any(":warmup:" in a for a in sc.result["added"])
+    assert sc.result["held_out_um"] <= 1.5 * sc.result["oracle_um"]
+
+
+def test_an_error_of_one_axis_that_varies_with_another_is_found():
+    """Class 3: X's positioning error growing along X at a rate set by Y (a thermal gradient): EXX:with:Y."""
+    sc = pg.run(10, "five_axis_ac", ["cross-axis"], misread_share=0.0, sigma=1.0)
+    print(_line(sc))
+    assert any(":with:" in a for a in sc.result["added"])
+    assert sc.result["held_out_um"] <= 1.5 * sc.result["oracle_um"]
+
+
+def test_misreads_above_two_percent_are_set_aside_when_they_stand_apart():
+    """Class 4: 5 % of the rows misread by 10–40 µm, no effect hidden: every misread is set aside (the fixed 2 %
+    cap set none aside) and the held-out error is the oracle's."""
+    sc = pg.run(6, "gantry_dual_y", [], misread_share=0.05, sigma=1.0, plan_kind="large")
+    print(_line(sc), sc.result["misreads"], sc.result["set_aside"])
+    assert sc.result["misreads"] >= 20
+    assert sc.result["set_aside"] >= sc.result["misreads"] - 1  # a misread of 10 µm along the noise may hide
+    assert sc.result["held_out_um"] <= 1.2 * sc.result["oracle_um"]
+
+
+def test_structure_left_with_sigma_given_is_a_missing_effect_not_noise(monkeypatch):
+    """Class 5: an effect no candidate describes (here: the candidate library emptied), σ given correctly. The
+    residual exceeds σ and neighbouring alignments agree: the verdict is missing-effect, naming where — never the
+    note that blames σ. With no effect hidden, the same path says noise."""
+    import importlib
+
+    from kinid.identification import default_model, diagnose
+
+    diagnose_module = importlib.import_module("kinid.identification.diagnose")
+    monkeypatch.setattr(diagnose_module, "score_all", lambda *args, **kwargs: [])
+    _, machine, obs = _data(4, "five_axis_ac", ["sag"], plan_kind="patent", misread_share=0.0)
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    print(dg.note)
+    assert dg.chi2_p < 1e-3
+    assert dg.verdict == "missing-effect" and "looks like noise" not in dg.note
+    assert dg.structure.p_value < 0.01 and dg.structure.axis == "Y"  # the sag is of Y
+    _, machine, obs = _data(4, "five_axis_ac", [], plan_kind="patent", misread_share=0.0)
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    assert dg.verdict == "noise" and dg.structure.p_value > 0.01
