@@ -338,7 +338,13 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     data = rows(fit_rows, true_p + noise + misread)
     default = list(default_model(machine))
     started = time.perf_counter()
-    steps = forward_select(machine, data, default, noise_um=sc.sigma_declared, max_steps=max_steps)
+    try:
+        steps = forward_select(machine, data, default, noise_um=sc.sigma_declared, max_steps=max_steps)
+    except Exception as exc:  # a crash is a failure of the scenario, recorded, not the end of the run
+        sc.result = {"verdict": f"crash: {type(exc).__name__}: {exc}", "added": [], "stopped": "", "set_aside": 0,
+                     "misreads": int(len(bad)), "held_out_um": float("inf"), "default_um": float("nan"),
+                     "oracle_um": float("nan"), "named": [], "wanted": [], "seconds": time.perf_counter() - started}
+        return sc
     seconds = time.perf_counter() - started
     final = steps[-1]
 
@@ -383,6 +389,8 @@ def _named_axes(effect: str, machine) -> set:
 
 def verdict_of(sc: Scenario) -> dict:
     r = sc.result
+    if r["verdict"].startswith("crash"):
+        return {"pass": False, "ratio": float("inf"), "worse_than_default": True}
     ratio = r["held_out_um"] / max(r["oracle_um"], 1e-9)
     worse = r["held_out_um"] > 1.05 * r["default_um"] and r["held_out_um"] > 1.05 * r["oracle_um"]
     if sc.hidden:
@@ -457,7 +465,8 @@ def main(argv=None):
         keys = [k for k in summary if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all"))]
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
         for i, key in enumerate(keys):
-            vals = [verdict_of(sc)["ratio"] for sc in scenarios if (sc.kinds if len(sc.hidden) <= 1 else "combination") == key]
+            vals = [v for v in (verdict_of(sc)["ratio"] for sc in scenarios
+                                if (sc.kinds if len(sc.hidden) <= 1 else "combination") == key) if np.isfinite(v)]
             ax.scatter(np.full(len(vals), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(vals)), vals, s=12)
         ax.axhline(1.5, color="k", lw=0.8, ls="--", label="1.5 × oracle")
         ax.set_yscale("log")

@@ -18,10 +18,14 @@ from kinid.errors import DataError
 from kinid.files import csv_number, read_csv_table
 from .machine import Machine, axis_limits
 
-__all__ = ["AxisTable", "read_axis_table", "check_travel", "TRAVEL_MARGIN"]
+__all__ = ["AxisTable", "read_axis_table", "check_travel", "TRAVEL_MARGIN", "TRAVEL_TOLERANCE"]
 
 #: Readings beyond the URDF travel by less than this share of the limit (or 1e-9 mm / deg) are on it.
 TRAVEL_MARGIN = 1e-9
+#: Readings beyond the travel by at most this share of its span (at least TRAVEL_TOLERANCE_MIN mm / deg)
+#: are accepted with a warning naming them: a stop past a soft limit, a limit written a little tight.
+TRAVEL_TOLERANCE = 0.005
+TRAVEL_TOLERANCE_MIN = 0.5
 
 
 @dataclass(frozen=True)
@@ -144,17 +148,31 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
 
 
 def check_travel(machine: Machine, axes: np.ndarray, lines, path) -> None:
-    """Refuse the first reading outside its axis's URDF travel (beyond a margin of ``TRAVEL_MARGIN``):
-    almost always a unit or column mistake. NaN readings (absent axes) pass."""
+    """Refuse the first reading outside its axis's URDF travel by more than the tolerance (``TRAVEL_TOLERANCE``
+    of the span, at least ``TRAVEL_TOLERANCE_MIN`` mm / deg): almost always a unit or column mistake. Readings
+    beyond it by less are accepted with a warning naming their lines. NaN readings (absent axes) pass."""
+    import warnings
+
     limits = axis_limits(machine)
     for j, a in enumerate(machine.axes):
         lo, hi = limits[j]
         margin = TRAVEL_MARGIN * max(1.0, abs(lo) if np.isfinite(lo) else 1.0, abs(hi) if np.isfinite(hi) else 1.0)
-        bad = np.flatnonzero((axes[:, j] < lo - margin) | (axes[:, j] > hi + margin))
-        if bad.size:
-            i = int(bad[0])
-            unit = "mm" if a.kind == "prismatic" else "deg"
+        outside = (axes[:, j] < lo - margin) | (axes[:, j] > hi + margin)
+        if not outside.any():
+            continue
+        unit = "mm" if a.kind == "prismatic" else "deg"
+        span = hi - lo if np.isfinite(hi - lo) else 0.0
+        tol = max(TRAVEL_TOLERANCE * span, TRAVEL_TOLERANCE_MIN)
+        far = np.flatnonzero((axes[:, j] < lo - tol) | (axes[:, j] > hi + tol))
+        if far.size:
+            i = int(far[0])
             raise DataError(f"{axes[i, j]:g} {unit} is outside the travel of axis {a.name} in the URDF "
-                            f"({lo:g} .. {hi:g} {unit}); check the units and the column, or pass "
-                            f"--allow-outside-limits if the URDF's limits are wrong",
+                            f"({lo:g} .. {hi:g} {unit}) by more than {tol:.3g} {unit}; check the units and the column, "
+                            f"or pass --allow-outside-limits if the URDF's limits are wrong",
                             path=path, line=lines[i], column=a.column)
+        near = np.flatnonzero(outside)
+        worst = float(np.max(np.maximum(lo - axes[near, j], axes[near, j] - hi)))
+        shown = ", ".join(str(lines[i]) for i in near[:8]) + (" …" if near.size > 8 else "")
+        warnings.warn(f"{path}: {near.size} reading(s) of {a.column} beyond the URDF travel ({lo:g} .. {hi:g} {unit}) "
+                      f"by up to {worst:.3g} {unit}, within the tolerance of {tol:.3g} {unit}; used (lines {shown})",
+                      stacklevel=2)

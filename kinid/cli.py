@@ -15,6 +15,7 @@ import contextlib
 import importlib
 import os
 import sys
+import warnings
 from dataclasses import dataclass
 
 from .errors import KinidError
@@ -152,9 +153,16 @@ def main(argv=None) -> int:
     # numpy-heavy verbs work on small matrices, where threaded BLAS costs more than it gives; the
     # library limits itself around the fit and the diagnosis, this covers the rest of a command
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    with warnings.catch_warnings():
+        return _run(argv)
+
+
+def _run(argv) -> int:
     verb = parser = args = None
     try:
         verb = _chosen_verb(argv)
+        # the library's warnings (a value that looks wrong but is valid) as one line each, not Python's format
+        warnings.showwarning = lambda message, *rest, **kw: print(f"kinid {verb}: warning: {message}", file=sys.stderr)
         parser = build_parser(verb)
         args = parser.parse_args(argv)
         _check_files(parser, args, verb)

@@ -171,3 +171,28 @@ def test_demo_lead_case_finds_the_unlisted_period(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "hidden effect: EXX:periodic:12.7" in out and "found and added as EXX:periodic:12.7" in out
     assert "period found by search" in out
+
+
+def test_a_reading_just_past_the_travel_is_used_with_a_warning(workdir, tmp_path, capsys):
+    """A reading 0.3° past B's ±90° is a stop past a soft limit (accepted, its line named); 5° past is a mistake."""
+    rows = (workdir / "obs.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    j = header.index("b_deg")
+
+    def with_b(values):
+        out = [rows[0]]
+        for k, line in enumerate(rows[1:], start=2):
+            cells = line.split(",")
+            if k in values:
+                cells[j] = values[k]
+            out.append(",".join(cells))
+        (tmp_path / "obs.csv").write_text("\n".join(out) + "\n")
+
+    with_b({4: "90.3", 6: "-90.2"})
+    assert main(["identify", "--machine", BC, "--data", str(tmp_path / "obs.csv"), "--out", str(tmp_path / "f.json")]) == 0
+    err = capsys.readouterr().err
+    assert "warning:" in err and "2 reading(s) of b_deg beyond the URDF travel" in err and "(lines 4, 6)" in err
+    with_b({4: "95"})
+    assert main(["identify", "--machine", BC, "--data", str(tmp_path / "obs.csv"), "--out", str(tmp_path / "g.json")]) == 2
+    assert "obs.csv:4, column 'b_deg': 95 deg is outside the travel of axis B" in capsys.readouterr().err
+    assert not (tmp_path / "g.json").exists()
