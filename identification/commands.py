@@ -13,7 +13,12 @@ __all__ = ["register"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("identify", help="fit the default model plus added effects to alignment observations")
+    p = sub.add_parser("identify", help="fit the default model plus added effects to alignment observations",
+                       description="Fit the machine's error model to alignment observations: every location error "
+                                   "of the URDF as a constant, plus the effects given with --add, or added one by one "
+                                   "with --auto while the data ask for them. Prints the identified errors with their "
+                                   "standard deviations and writes the fit (FIT.json) that diagnose, predict and "
+                                   "compensate read (docs/identification.md).")
     p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
     p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
@@ -28,33 +33,40 @@ def register(sub) -> None:
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_identify)
 
-    p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark")
-    p.add_argument("--fit", required=True)
+    p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark",
+                       description="Solve, for each pose of a CSV, the axis readings at which the fitted machine puts "
+                                   "the tool point on the mark: the commands a compensated program would send.")
+    p.add_argument("--fit", required=True, help="FIT.json written by kinid identify")
     p.add_argument("--poses", required=True, help="CSV with the observation columns without the solved axes")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="CSV to write: the poses with the solved readings")
     p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_predict)
 
-    p = sub.add_parser("simulate", help="alignment readings of a machine with a known error set")
-    p.add_argument("--machine", required=True)
+    p = sub.add_parser("simulate", help="alignment readings of a machine with a known error set",
+                       description="Make the observation CSV a measurement run would give on a machine whose errors "
+                                   "you state: to try a plan, a model or the whole chain before the machine is free.")
+    p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
     p.add_argument("--errors", required=True, help='JSON: effect name -> value(s), e.g. {"EX0C": 12, "EXX:periodic:10": [1.5, 0]}')
     p.add_argument("--plan", default="patent", help="'patent' (7 tilt x 12 table angles x 4 marks) or a CSV of poses")
     p.add_argument("--noise-um", type=float, default=0.0, help="σ of the reading noise, µm")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (the same seed gives the same file)")
     p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
     p.add_argument("--no-directions", action="store_true", help="do not write dir_<axis> columns")
     p.add_argument("--no-time", action="store_true", help="do not write the t_s column")
     p.add_argument("--stop-scatter-um", type=float, default=0.0, metavar="S",
                    help="the operator stops within about S µm of each alignment; the rows record where the mark "
                         "was seen relative to the tool point (mark_dx_mm, mark_dy_mm, mark_dz_mm)")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="observation CSV to write (docs/formats.md)")
     p.set_defaults(run=_simulate)
 
-    p = sub.add_parser("diagnose", help="compare a fit with data and rank the effects that may be missing")
-    p.add_argument("--fit", required=True)
-    p.add_argument("--data", required=True)
+    p = sub.add_parser("diagnose", help="compare a fit with data and rank the effects that may be missing",
+                       description="Refit a model on observations, say whether what is left is noise or a missing "
+                                   "effect, where (by mark, by axis), and which effects of the candidate library "
+                                   "would explain it, best first; with the command that adds it.")
+    p.add_argument("--fit", required=True, help="FIT.json written by kinid identify (its model is refitted)")
+    p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: replicates, else the fit's)")
     p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
     p.add_argument("--report", default=None, metavar="DIR", help="write plots and an HTML report to DIR")
@@ -63,9 +75,12 @@ def register(sub) -> None:
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_diagnose)
 
-    p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect")
+    p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect",
+                       description="Simulate a measurement of the shipped B/C machine with an effect the default "
+                                   "model lacks, fit it, diagnose what is missing, add it and show the error fall; "
+                                   "writes a report folder.")
     p.add_argument("--out", default=None, help="report folder (default: a fresh kinid-demo-<time> folder)")
-    p.add_argument("--seed", type=int, default=7)
+    p.add_argument("--seed", type=int, default=7, help="seed of the simulated noise")
     p.add_argument("--case", choices=("library", "lead"), default="library",
                    help="hidden effect: 'library' (a 10 mm lead, a listed period) or 'lead' (a 12.7 mm lead the "
                         "library does not list: the period search finds it)")

@@ -128,6 +128,11 @@ class Diagnosis:
         """Where σ came from: given, replicates, fit or residuals."""
         return self.noise.source
 
+    def __repr__(self) -> str:
+        best = f"; best {self.live[0].effect} (p = {_p(self.live[0])})" if self.live else ""
+        return (f"Diagnosis({self.verdict}: RMS {self.rms_um:.4g} µm, σ {self.noise_um:.4g} µm ({self.noise_source})"
+                f"{best}; .text() for the report)")
+
     @property
     def live(self) -> list:
         return [c for c in self.candidates if c.status == "live"]

@@ -119,6 +119,11 @@ class FitResult:
         """Where σ came from: given, replicates, fit or residuals."""
         return self.noise.source
 
+    def __repr__(self) -> str:
+        return (f"FitResult({len(self.effects)} effects, rank {self.rank}/{len(self.param_names)}, "
+                f"{self.n_observations} alignments, RMS {self.rms_um:.4g} µm, σ {self.noise_um:.4g} µm "
+                f"({self.noise_source}); .table() for the values)")
+
     def with_noise(self, noise: Noise) -> "FitResult":
         """The same fit with the standard deviations at another σ (they scale with it)."""
         if noise == self.noise:
@@ -150,7 +155,8 @@ class FitResult:
         lines.append(
             f"residual RMS {self.rms_um:.4f} µm per coordinate over {self.n_observations} alignments; "
             f"σ = {self.noise_um:.4f} µm ({self.noise_source}); rank {self.rank}/{len(self.param_names)}; "
-            f"condition {self.condition_number:.3g}; O1 {self.o1:.3g}; O3 {self.o3:.3g}"
+            f"condition {self.condition_number:.3g}; observability O1 {self.o1:.3g} (mean), O3 {self.o3:.3g} (weakest "
+            f"direction; larger is better, Sun & Hollerbach 2008)"
         )
         if self.shared_std:
             lines.append(f"std includes the shared uncertainty of {', '.join(sorted(self.shared_std))} (type B)")

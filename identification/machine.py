@@ -118,6 +118,10 @@ class Machine:
     workpiece_frame: int
     tool_frame: int
 
+    def __repr__(self) -> str:
+        return (f"Machine({self.path!r}: axes {', '.join(a.name for a in self.axes)}; "
+                f"{len(self.error_joints)} error joints)")
+
     def axis(self, name: str) -> Axis:
         for a in self.axes:
             if a.name == name:

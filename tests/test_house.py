@@ -156,3 +156,35 @@ def test_an_unregistered_basis_is_refused_with_the_known_ones():
     m = load_machine(urdf_path("five_axis_bc"))
     with pytest.raises(Exception, match="expected poly<k>.*periodic:<P>.*local:<step>:<from>:<to>"):
         model_effects(m, ["EXX:triangle:12"])
+
+
+def test_every_verb_has_a_description_and_every_option_a_help_text():
+    """`kinid VERB --help` answers the user's question: what the verb does, and what each option is."""
+    import argparse
+
+    from kinid.cli import VERBS, build_parser
+
+    for verb in VERBS:
+        parser = build_parser(verb)
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[verb]
+        assert sub.description, f"kinid {verb} has no description"
+        bare = [a.option_strings[0] if a.option_strings else a.dest for a in sub._actions
+                if a.dest != "help" and not a.help]
+        assert not bare, f"kinid {verb}: options without help text: {bare}"
+
+
+def test_results_print_short():
+    """repr of a machine, a fit and a diagnosis is one line that says what it is (not the whole URDF)."""
+    import numpy as np
+
+    from kinid.identification import default_model, diagnose, fit, load_machine, simulate
+    from kinid.identification.simulate import patent_plan
+    from kinid.urdf import path
+
+    machine = load_machine(path("five_axis_bc"))
+    effects = default_model(machine)
+    obs = simulate(machine, patent_plan(machine), effects, np.zeros(sum(e.n_params for e in effects)), noise_um=1.0,
+                   rng=np.random.default_rng(1))
+    for thing in (machine, fit(machine, obs), diagnose(machine, obs, effects)):
+        text = repr(thing)
+        assert len(text) < 200 and "\n" not in text and "<robot" not in text, text
