@@ -48,7 +48,7 @@ def _floats(text, default):
 def read_urdf(text: str) -> TrueMachine:
     root = ET.fromstring(text)
     joints = {}
-    for j in root.iter("joint"):
+    for j in root.findall("joint"):  # (a transmission also has <joint> elements)
         origin = j.find("origin")
         axis = j.find("axis")
         lim = j.find("limit")

@@ -124,7 +124,8 @@ class _Writer:
 
 
 def _fmt(v):
-    return " ".join(f"{float(x):.9g}" for x in v)
+    # nine digits where they read back as the same number, else every digit (a converted URDF's π)
+    return " ".join(f"{float(x):.9g}" if float(f"{float(x):.9g}") == float(x) else repr(float(x)) for x in v)
 
 
 def _chain(w: _Writer, elements, end_link: str):

@@ -38,6 +38,7 @@ VERBS = {
     "identify": Verb("kinid.identification.commands", "fit the default model plus added effects to alignment observations"),
     "diagnose": Verb("kinid.identification.commands", "compare a fit with data and rank the effects that may be missing"),
     "predict": Verb("kinid.identification.commands", "axis readings at which the fitted machine aligns the tool point with each mark"),
+    "model": Verb("kinid.identification.model_cli", "an existing URDF (a ROS robot, a machine drawn elsewhere) -> a machine kinid can identify"),
     "compensate": Verb("kinid.identification.compensate_cli", "axis error tables, constants, a calibrated URDF and controller files from a fit"),
     "verify": Verb("kinid.identification.verify_cli", "the run after loading the compensation: error before and after, what is left"),
     "sensor": Verb("kinid.identification.sensor_cli", "the laser's offset beside the camera from the hole or sphere set-up measurement"),
