@@ -3,14 +3,20 @@ controller does between points — follows a model within a bound, and the point
 table's end policy explicit (docs/compensation.md, "Where the tables go")."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from kinid.axis_tables import AxisErrorTable, points_for
+from kinid.errors import DataError
 
 __all__ = ["AxisRange", "interpolation_worst", "fewest_points", "table_grid", "with_ends", "extra_points", "rms",
-           "directions", "left_after"]
+           "directions", "left_after", "check_grid_step", "MAX_GRID_POINTS"]
+
+#: Most points a fixed grid step may ask of one table, checked from the step and the range before anything is
+#: allocated (a 1 µm step over 1 m; a controller file then holds at most its own limit of them).
+MAX_GRID_POINTS = 1_000_000
 
 #: Model samples per table interval, and at least over a range, when a grid's interpolation error is measured.
 _FINE = 8
@@ -77,8 +83,46 @@ def fewest_points(values_at, low: float, high: float, bounds, most: int) -> int:
     return good
 
 
-def table_grid(values_at, rng: AxisRange, bounds, most: int, step) -> np.ndarray:
+def check_grid_step(step, low: float, high: float, *, parameter: str | None = None) -> float:
+    """``step`` as a float, refused unless it is a finite number > 0 giving at most :data:`MAX_GRID_POINTS`
+    points from ``low`` to ``high``; checked by arithmetic alone, before any grid is allocated.
+
+    Parameters
+    ----------
+    parameter : str, optional
+        The argument that set the step (``"step_mm"``, ``"step_deg"``), named by the error; without it the
+        message names both.
+
+    Raises
+    ------
+    DataError
+        Naming ``parameter`` (the command line shows ``--step-mm`` / ``--step-deg``) and the limit.
+    """
+    who = "" if parameter is not None else "the grid step (step_mm or step_deg) "
+    try:
+        value = float(step)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise DataError(f"{who}must be a positive number, got {step!r}", parameter=parameter)
+    span = float(high) - float(low)
+    points = span / value + 1 if math.isfinite(span) else math.inf
+    if points > MAX_GRID_POINTS:
+        raise DataError(f"{who}{value:g} would put {points:.3g} points in the table over {float(low):g} .. "
+                        f"{float(high):g}, more than the limit of {MAX_GRID_POINTS:,} points per table; give a step "
+                        f"of at least {span / (MAX_GRID_POINTS - 1):.3g}", parameter=parameter)
+    return value
+
+
+def table_grid(values_at, rng: AxisRange, bounds, most: int, step, *, parameter: str | None = None) -> np.ndarray:
+    """The grid of one table: at the fixed ``step`` (at most ``most`` points) or, without one, the fewest equal
+    steps whose interpolation follows ``values_at`` within ``bounds``. A step giving more than
+    :data:`MAX_GRID_POINTS` points over the range is refused before anything is allocated
+    (:func:`check_grid_step`; ``parameter`` names the argument that set it)."""
     if step is not None:
+        if parameter is None and rng.modulo:  # a one-turn table is a rotary axis's: its step is step_deg
+            parameter = "step_deg"
+        step = check_grid_step(step, rng.low, rng.high, parameter=parameter)
         return points_for(step, rng.low, rng.high, most)
     return np.linspace(rng.low, rng.high, fewest_points(values_at, rng.low, rng.high, bounds, most))
 

@@ -24,11 +24,12 @@ import csv
 import io
 import math
 from dataclasses import dataclass
-from typing import Callable
-
-import numpy as np
+from typing import TYPE_CHECKING, Callable
 
 from .errors import DataError
+
+if TYPE_CHECKING:  # numpy is imported by the functions that compute: the format registry loads without it
+    import numpy as np
 
 __all__ = ["AxisErrorTable", "TableOptions", "ControllerFormat", "CONTROLLER_FORMATS", "register_format",
            "controller_format", "default_formats", "format_text", "write_tables", "neutral_csv_text",
@@ -69,6 +70,8 @@ class AxisErrorTable:
     reverse: np.ndarray | None = None
 
     def __post_init__(self):
+        import numpy as np
+
         pos = np.asarray(self.positions, float)
         fwd = np.asarray(self.forward, float)
         rev = None if self.reverse is None else np.asarray(self.reverse, float)
@@ -202,6 +205,8 @@ def default_formats() -> tuple:
 
 def neutral_csv_text(position_column: str, positions, columns: dict) -> str:
     """A plain CSV table: ``position_column`` then one column per entry of ``columns`` (name -> values)."""
+    import numpy as np
+
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow([position_column, *columns])
@@ -218,6 +223,8 @@ def _num(x: float, digits: int) -> str:
 
 def _to_machine_units(table: AxisErrorTable, values) -> np.ndarray:
     """Errors in mm (linear) or degrees (rotary)."""
+    import numpy as np
+
     values = np.asarray(values, float)
     return values * 1e-3 if not table.rotary else np.degrees(values * 1e-6)
 
@@ -271,6 +278,8 @@ def twincat_text(table: AxisErrorTable, options: TableOptions = TableOptions(), 
     DataError
         If the table has more points than the list may use (``kw_nr_max`` < ``max_points`` = 1500).
     """
+    import numpy as np
+
     if legacy:
         options = TableOptions(axis_number=legacy.get("axis_number"), axis_name=legacy.get("axis_name"))
     _check_points(TWINCAT, table)
@@ -330,6 +339,8 @@ def sinumerik_text(table: AxisErrorTable, options: TableOptions = TableOptions()
     DataError
         If the points are not equally spaced, or there are more than 5000.
     """
+    import numpy as np
+
     _check_points(SINUMERIK, table)
     q = table.positions
     step = (q[-1] - q[0]) / (q.size - 1)
@@ -403,6 +414,8 @@ def write_tables(folder, tables, formats=None, *, axis_numbers=None, modulo=(), 
 
 def points_for(step: float, low: float, high: float, most: int | None = None) -> np.ndarray:
     """Grid from ``low`` to ``high`` (both included) at ``step`` or finer, at most ``most`` points."""
+    import numpy as np
+
     if not (math.isfinite(low) and math.isfinite(high) and high > low):
         raise DataError(f"no finite range {low:g} .. {high:g}", parameter="range")
     n = int(math.ceil((high - low) / step - 1e-9)) + 1

@@ -1,4 +1,5 @@
-"""Files: outputs written whole or not at all, and the one image reader (with a size limit)."""
+"""Files: outputs written whole or not at all, and the readers of CSV and JSON (with size limits); the image
+reader (kinid.images) and the opener of untrusted file names (kinid.untrusted) are re-exported here."""
 from __future__ import annotations
 
 import contextlib
@@ -7,8 +8,12 @@ import os
 import tempfile
 from pathlib import Path
 
+from .images import MAX_IMAGE_BYTES, MAX_IMAGE_PIXELS, image_size, read_image  # noqa: F401 (re-exported)
+from .untrusted import read_untrusted_bytes, shown_path  # noqa: F401 (re-exported)
+
 __all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
-           "image_size", "MAX_IMAGE_PIXELS", "json_text"]
+           "image_size", "MAX_IMAGE_PIXELS", "MAX_IMAGE_BYTES", "json_text", "read_untrusted_bytes",
+           "shown_path", "strict_json", "json_finite"]
 
 
 @contextlib.contextmanager
@@ -108,8 +113,35 @@ def json_text(data, *, indent: int | None = 1, path=None) -> str:
     return text + "\n"
 
 
+def json_finite(data):
+    """``data`` with every NaN or infinity (Python or numpy, at any depth) turned into ``None``, numpy scalars and
+    arrays into Python numbers and lists: what ``--json`` outputs print, so they are strict JSON (``null``)."""
+    import math
+
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_finite(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [json_finite(v) for v in data]
+    if type(data).__module__ == "numpy" and hasattr(data, "tolist"):  # a numpy scalar or array
+        return json_finite(data.tolist())
+    return data
+
+
+def strict_json(data, **kwargs) -> str:
+    """Strict JSON text of ``data`` for a ``--json`` output: a NaN or infinity anywhere is ``null``, never the
+    ``NaN``/``Infinity`` that ``json.dumps`` writes by default and that JSON parsers refuse."""
+    import json
+
+    return json.dumps(json_finite(data), allow_nan=False, **kwargs)
+
+
 def read_limited_text(path, *, what: str, max_bytes: int, error=None) -> str:
     """The UTF-8 text of a file of at most ``max_bytes``; every problem one ``error`` naming the file.
+
+    The file is opened by :func:`read_untrusted_bytes`: a FIFO, a device, a socket, a folder or a name
+    with a control character is refused before anything is read.
 
     Parameters
     ----------
@@ -121,22 +153,11 @@ def read_limited_text(path, *, what: str, max_bytes: int, error=None) -> str:
     from .errors import DataError
 
     error = error or DataError
-    p = Path(path)
-    if p.is_dir():
-        raise error(f"is a folder, not a {what}", path=path)
-    try:
-        with open(p, "rb") as f:
-            raw = f.read(max_bytes + 1)
-    except FileNotFoundError:
-        raise error(f"{what} not found", path=path) from None
-    except OSError as exc:
-        raise error(f"cannot read {what}: {exc.strerror or exc}", path=path) from None
-    if len(raw) > max_bytes:
-        raise error(f"{what} is larger than {max_bytes:,} bytes", path=path)
+    raw = read_untrusted_bytes(path, what=what, max_bytes=max_bytes, error=error)
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise error(f"{what} is not UTF-8 text (byte {exc.start})", path=path,
+        raise error(f"{what} is not UTF-8 text (byte {exc.start})", path=shown_path(path),
                     line=raw[:exc.start].count(b"\n") + 1) from None
 
 
@@ -392,107 +413,3 @@ def _inside(src: Path, folder: Path) -> bool:
     except OSError:  # pragma: no cover
         return False
     return real_src == real_folder or real_src.startswith(real_folder.rstrip(os.sep) + os.sep)
-
-
-#: Largest image kinid decodes, pixels (width × height). A 2048² frame is 4.2 Mpx; a decompression
-#: bomb (a small PNG that decodes to 20000²) is refused from its header before any memory is spent.
-MAX_IMAGE_PIXELS = 64_000_000
-
-
-def image_size(data: bytes):
-    """(width, height) from the header of a PNG, JPEG, BMP or TIFF file's bytes, else None."""
-    import struct
-
-    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24 and data[12:16] == b"IHDR":
-        return struct.unpack(">II", data[16:24])
-    if data[:2] == b"BM" and len(data) >= 26:
-        w, h = struct.unpack("<ii", data[18:26])
-        return abs(w), abs(h)
-    if data[:4] in (b"II*\x00", b"MM\x00*") and len(data) >= 8:
-        return _tiff_size(data)
-    if data[:2] == b"\xff\xd8":
-        return _jpeg_size(data)
-    return None
-
-
-def _tiff_size(data: bytes):
-    import struct
-
-    order = "<" if data[:2] == b"II" else ">"
-    (ifd,) = struct.unpack(order + "I", data[4:8])
-    if ifd + 2 > len(data):
-        return None
-    (n,) = struct.unpack(order + "H", data[ifd:ifd + 2])
-    size = {}
-    for k in range(min(n, 4096)):
-        at = ifd + 2 + 12 * k
-        if at + 12 > len(data):
-            break
-        tag, typ = struct.unpack(order + "HH", data[at:at + 4])
-        if tag in (256, 257):  # ImageWidth, ImageLength: SHORT or LONG
-            fmt = "H" if typ == 3 else "I"
-            (size[tag],) = struct.unpack(order + fmt, data[at + 8:at + 8 + struct.calcsize(fmt)])
-    return (size[256], size[257]) if 256 in size and 257 in size else None
-
-
-def _jpeg_size(data: bytes):
-    import struct
-
-    i = 2
-    while i + 9 < len(data):
-        if data[i] != 0xFF:
-            return None
-        marker = data[i + 1]
-        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:
-            i += 2
-            continue
-        (length,) = struct.unpack(">H", data[i + 2:i + 4])
-        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            h, w = struct.unpack(">HH", data[i + 5:i + 9])
-            return w, h
-        i += 2 + length
-    return None
-
-
-def read_image(path, *, max_pixels: int = MAX_IMAGE_PIXELS):
-    """Read an image file as a 2-D grey array, 8 or 16 bit as stored.
-
-    The size is read from the file's header and refused above ``max_pixels``
-    before anything is decoded. Colour images are converted to grey.
-
-    Raises
-    ------
-    ImageError
-        Naming the file: missing, a folder, empty, too large, or not an image
-        OpenCV can decode (PNG, TIFF, BMP, JPEG, ...).
-    """
-    import numpy as np
-
-    from .errors import ImageError
-
-    p = Path(path)
-    if p.is_dir():
-        raise ImageError("is a folder, not an image file", path=str(path))
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise ImageError("image file does not exist", path=str(path)) from None
-    except OSError as exc:
-        raise ImageError(f"cannot read the image file ({exc.strerror or exc})", path=str(path)) from None
-    if not data:
-        raise ImageError("the image file is empty", path=str(path))
-    size = image_size(data)
-    if size is not None and size[0] * size[1] > max_pixels:
-        raise ImageError(f"image of {size[0]} × {size[1]} pixels is larger than the limit of {max_pixels:,} pixels",
-                         path=str(path))
-    os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(max_pixels))  # OpenCV's own guard, for other formats
-    import cv2
-
-    try:
-        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)
-    except cv2.error as exc:
-        reason = str(exc).strip().splitlines()[-1][:200]
-        raise ImageError(f"cannot decode the image ({reason})", path=str(path)) from None
-    if img is None or img.ndim != 2 or img.size == 0:
-        raise ImageError("cannot decode the file as an image (expected PNG, TIFF, BMP, JPEG, ...)", path=str(path))
-    return img

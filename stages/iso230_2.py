@@ -25,12 +25,13 @@ for m targets and n runs per direction:
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from kinid.errors import DataError
+
+if TYPE_CHECKING:  # numpy is imported by the functions that compute: ``kinid iso230-2 --help`` loads without it
+    import numpy as np
 
 __all__ = ["PositioningResult", "evaluate_runs", "read_runs", "register"]
 
@@ -118,6 +119,8 @@ def evaluate_runs(target_mm, direction, deviation_um) -> PositioningResult:
         A direction other than ±1, a non-finite value, or a target with fewer
         than two runs in a direction.
     """
+    import numpy as np
+
     t = np.asarray(target_mm, dtype=float)
     d = np.asarray(direction, dtype=float)
     x = np.asarray(deviation_um, dtype=float)
@@ -163,6 +166,8 @@ def evaluate_runs(target_mm, direction, deviation_um) -> PositioningResult:
 
 def read_runs(path):
     """(target_mm, direction, deviation_um) arrays from RUNS.csv; DataError naming the line and column."""
+    import numpy as np
+
     from kinid.files import csv_number, read_csv_rows
 
     rows = read_csv_rows(path, what="runs file")
@@ -230,5 +235,7 @@ def _run(args) -> int:
         raise DataError(str(exc), path=args.runs) from None
     if args.plot:
         plot_runs(result, args.plot)
-    print(json.dumps(result.summary()) if args.json else result.text())
+    from kinid.files import strict_json
+
+    print(strict_json(result.summary()) if args.json else result.text())
     return 0

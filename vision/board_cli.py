@@ -42,8 +42,8 @@ def _run(args) -> int:
         raise DataError("the diameters must grow: 0 < --center-d-mm < --ring-inner-d-mm < --ring-outer-d-mm")
     board = make_board(args.rows, args.cols, args.pitch_mm, args.bits, args.center_d_mm, args.ring_inner_d_mm,
                        args.ring_outer_d_mm)
+    lay = board_layout(board)  # a page larger than kinid draws is refused here, before any file is written
     save_board(board, args.out)
-    lay = board_layout(board)
     written = [args.out]
     if args.svg:
         write_text(args.svg, board_svg(board))

@@ -18,12 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BoardLayout", "board_layout", "board_svg", "board_pdf", "ring_runs"]
+__all__ = ["BoardLayout", "board_layout", "board_svg", "board_pdf", "ring_runs", "MAX_PAGE_MM"]
 
 #: White space around the marks, mm.
 MARGIN_MM = 10.0
 #: Height of the strip below the marks that holds the scale bar and the caption, mm.
 FOOTER_MM = 22.0
+#: Largest page kinid draws, mm a side (2 m: a wide-format plotter's roll), checked before anything is drawn.
+MAX_PAGE_MM = 2000.0
 
 
 @dataclass(frozen=True)
@@ -53,12 +55,24 @@ class BoardLayout:
 
 
 def board_layout(board) -> BoardLayout:
-    """The page of ``board``: marks, then a scale bar and a caption below them."""
+    """The page of ``board``: marks, then a scale bar and a caption below them.
+
+    Raises
+    ------
+    DataError
+        Naming ``pitch_mm``, if the page would be larger than :data:`MAX_PAGE_MM` a side.
+    """
     r = board.ring_outer_d_mm / 2.0
     span_x = (board.cols - 1) * board.pitch_mm + 2 * r
     span_y = (board.rows - 1) * board.pitch_mm + 2 * r
     width = max(span_x, 80.0) + 2 * MARGIN_MM
     height = span_y + 2 * MARGIN_MM + FOOTER_MM
+    if not (width <= MAX_PAGE_MM and height <= MAX_PAGE_MM):  # NaN too
+        from kinid.errors import DataError
+
+        raise DataError(f"{board.pitch_mm:g} with {board.rows} x {board.cols} marks makes a page of {width:.4g} x "
+                        f"{height:.4g} mm, larger than kinid draws ({MAX_PAGE_MM:g} mm a side); give a smaller pitch "
+                        f"or fewer rows or columns", parameter="pitch_mm")
     origin = (MARGIN_MM + r + (width - 2 * MARGIN_MM - span_x) / 2.0, MARGIN_MM + r)
     bar = 50.0 if width - 2 * MARGIN_MM >= 50.0 else 10.0 * math.floor((width - 2 * MARGIN_MM) / 10.0)
     caption = (f"kinid ring-coded board: {board.rows} x {board.cols} marks, pitch {board.pitch_mm:g} mm, "

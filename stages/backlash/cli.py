@@ -4,13 +4,19 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
 from kinid.errors import DataError
 from ..outputs import add_output_options
-from .report import plot_result, write_report
 
 __all__ = ["register", "plot_result"]
+
+
+def __getattr__(name: str):
+    """``plot_result`` from :mod:`.report`, imported on first use (``kinid backlash --help`` needs no NumPy)."""
+    if name == "plot_result":
+        from .report import plot_result
+
+        return plot_result
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register(subparsers) -> None:
@@ -55,6 +61,8 @@ def register(subparsers) -> None:
 
 
 def _truth(stage) -> dict:
+    import numpy as np
+
     return {
         "pixel_um_x": stage.true_pixel_mm_along((1.0, 0.0)) * 1e3,
         "pixel_um_y": stage.true_pixel_mm_along((0.0, 1.0)) * 1e3,
@@ -67,6 +75,8 @@ def _truth(stage) -> dict:
 
 
 def _simulated_stage(args):
+    import numpy as np
+
     from .simulate import SimulatedStage
 
     if not args.pixel_um > 0:
@@ -88,9 +98,12 @@ def _simulated_stage(args):
 
 
 def _run(args) -> int:
+    import numpy as np
+
     from kinid.files import write_json, write_text
     from .calibrate import calibrate
     from .recorded import RecordedStage, plan_rows, plan_text
+    from .report import plot_result, write_report
 
     if args.plan_out:
         if not np.all(np.isfinite(args.start)):
@@ -183,6 +196,8 @@ def _result_json(res, source, truth) -> dict:
 def _write_tables(res, folder, travel_mm) -> None:
     """X and Y backlash as bidirectional axis tables: forward −B/2, reverse +B/2 (error = actual − commanded)
     over the measured range, in every controller format of kinid.axis_tables."""
+    import numpy as np
+
     from kinid.axis_tables import AxisErrorTable, neutral_csv_text, write_tables
     from kinid.files import write_text
 

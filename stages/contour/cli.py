@@ -7,7 +7,6 @@ import sys
 
 from kinid.errors import DataError
 from ..outputs import add_output_options
-from .report import report_text, write_report
 
 __all__ = ["register"]
 
@@ -104,6 +103,7 @@ def _simulate(args) -> int:
     from kinid.vision import make_board, save_board, save_camera
     from .measure import measure_contour, track_csv
     from .paths import CirclePath, contour_error
+    from .report import write_report
     from .simulate import circle_motion, render_sequence, simulation_camera
     from .track import FrameSettings
 
@@ -174,6 +174,7 @@ def _run(args) -> int:
 
     from .frames import open_frames
     from .measure import measure_contour, track_csv
+    from .report import report_text, write_report
     from .track import FrameSettings
 
     board = load_board(args.board)

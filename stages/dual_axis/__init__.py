@@ -8,9 +8,13 @@ for a camera-Y move, docs/hardware.md); :func:`fit_smooth` fits a parallelism
 angle plus straightness polynomial instead. :class:`SimulatedGantry` is
 ``urdf/gantry_dual_y.urdf`` with error values set.
 """
-from .calibrate import calibrate, verify
-from .simulate import SimulatedGantry
-from .smooth import SmoothModel, fit_smooth
-from .table import OffsetTable
+from .._lazy import front_door as _front_door
+
+#: Each public name and the module of this package that defines it, imported on first use of the name
+#: (SimulatedGantry needs Pinocchio).
+_SOURCES = {"calibrate": "calibrate", "verify": "calibrate", "SimulatedGantry": "simulate",
+            "SmoothModel": "smooth", "fit_smooth": "smooth", "OffsetTable": "table"}
 
 __all__ = ["calibrate", "verify", "OffsetTable", "fit_smooth", "SmoothModel", "SimulatedGantry"]
+
+__getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -7,16 +7,20 @@ the gantry is simulated, against the truth.
 """
 from __future__ import annotations
 
-import json
-
-import numpy as np
 
 from kinid.errors import DataError
 from ..outputs import add_output_options
-from .demo import run_simulation
-from .report import plot_measured, plot_simulation, simulation_text, write_measured_report
 
 __all__ = ["register", "run_simulation"]
+
+
+def __getattr__(name: str):
+    """``run_simulation`` from :mod:`.demo`, imported on first use (``kinid dual-axis --help`` needs no NumPy)."""
+    if name == "run_simulation":
+        from .demo import run_simulation
+
+        return run_simulation
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register(subparsers) -> None:
@@ -56,8 +60,11 @@ def register(subparsers) -> None:
 
 
 def _measured(args) -> int:
+    import numpy as np
+
     from kinid.files import write_text
     from .measured import read_round, table_from_round
+    from .report import plot_measured, write_measured_report
     from .smooth import fit_smooth
 
     if args.pixel_to_mm is None:
@@ -78,7 +85,9 @@ def _measured(args) -> int:
               "smooth": {"degree": smooth.degree, "parallelism_urad": smooth.parallelism_urad,
                          "scale_um_per_m": smooth.scale_um_per_m, "fit_rms_um": smooth.rms_um.tolist()}}
     if args.json:
-        print(json.dumps(report))
+        from kinid.files import strict_json
+
+        print(strict_json(report))
         return 0
     print(f"dual-axis offset table from {args.data}: {len(y)} vertices, camera Y {y[0]:g} .. {y[-1]:g} mm")
     print(f"{'camera Y (mm)':>14}{'head dx (µm)':>14}{'head dy (µm)':>14}")
@@ -100,6 +109,9 @@ def _run(args) -> int:
         raise DataError(f"output folder {str(Path(args.plot).parent)!r} does not exist", path=args.plot)
     if args.data:
         return _measured(args)
+    from .demo import run_simulation
+    from .report import plot_simulation, simulation_text
+
     result = run_simulation(y_start_mm=args.y_start_mm, step_mm=args.step_mm, n_steps=args.steps,
                             spec_um=args.spec_um, max_rounds=args.max_rounds, degree=args.degree,
                             seed=args.seed, random_errors=args.random_errors, noise_sigma=args.noise,
@@ -112,7 +124,9 @@ def _run(args) -> int:
         write_text(args.out, result["table"].csv_text())
     rep = result["report"]
     if args.json:
-        print(json.dumps(rep))
+        from kinid.files import strict_json
+
+        print(strict_json(rep))
     else:
         print(simulation_text(rep))
         if args.plot:

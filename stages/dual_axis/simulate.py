@@ -17,7 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinid.errors import DataError, StageError
-from kinid.identification import load_machine, tool_in_workpiece_mm
 from kinid.urdf import path as urdf_path
 from kinid.vision import render_pattern
 
@@ -185,6 +184,8 @@ class SimulatedGantry:
     def __init__(self, errors=None, *, pixel_mm: float = 0.005, image_angle_deg: float = 3.0,
                  image_shape=(160, 200), noise_sigma: float = 1.5, repeat_um: float = 0.0,
                  texture=None, machine_path=None, rng=None):
+        from kinid.identification import load_machine  # Pinocchio: imported when a gantry is built
+
         self.rng = np.random.default_rng(0) if rng is None else rng
         self.machine = load_machine(urdf_path("gantry_dual_y") if machine_path is None else machine_path)
         self.errors = tuple(default_error_profiles() if errors is None else errors)
@@ -232,6 +233,8 @@ class SimulatedGantry:
         cam_y_mm, head_x_mm, head_y_mm : float
             Actual axis positions Y, X, V, mm.
         """
+        from kinid.identification import tool_in_workpiece_mm
+
         axes = {"Y": float(cam_y_mm), "X": float(head_x_mm), "V": float(head_y_mm)}
         return tool_in_workpiece_mm(self.machine, axes, self.joint_errors(axes))[:2]
 

@@ -5,9 +5,15 @@ Public API: :class:`UVWGeometry`, :func:`inverse_kinematics`, :func:`forward_kin
 docs/hardware.md), :func:`calibrate_patent` and :func:`patent_compensation_um` (the patent's method),
 :func:`fit_actuator_model`, :func:`select_actuator_model`, :func:`phase_residuals`. See ``docs/uvw.md``.
 """
-from .calibrate import UVWCompensator, calibrate
-from .kinematics import ACTUATORS, UVWGeometry, decompose_move, forward_kinematics, inverse_kinematics
-from .patent import calibrate_patent, patent_compensation_um
-from .simulate import SimulatedUVWStage
+from .._lazy import front_door as _front_door
+
+#: Each public name and the module of this package that defines it, imported on first use of the name.
+_SOURCES = {"calibrate": "calibrate", "UVWCompensator": "calibrate",
+            "ACTUATORS": "kinematics", "UVWGeometry": "kinematics", "decompose_move": "kinematics",
+            "forward_kinematics": "kinematics", "inverse_kinematics": "kinematics",
+            "calibrate_patent": "patent", "patent_compensation_um": "patent",
+            "SimulatedUVWStage": "simulate"}
 
 __all__ = ["UVWGeometry", "inverse_kinematics", "forward_kinematics", "decompose_move", "calibrate", "UVWCompensator", "calibrate_patent", "patent_compensation_um", "SimulatedUVWStage", "ACTUATORS"]
+
+__getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -4,9 +4,7 @@ from __future__ import annotations
 import json
 import math
 
-from .demo import run_demo, plot_demo
 from ..outputs import add_output_options
-from .report import demo_text, plot_measured, quantity, write_measured_report
 
 __all__ = ["register"]
 
@@ -49,6 +47,7 @@ def _measured(args) -> int:
     from kinid.errors import DataError
     from kinid.files import write_json, write_text
     from .measured import actuator_tables, fit_moves, models_json, read_moves
+    from .report import plot_measured, quantity, write_measured_report
 
     if args.noise_um is not None and not (args.noise_um > 0 and math.isfinite(args.noise_um)):
         raise DataError(f"--noise-um must be a positive number, got {args.noise_um!r}")
@@ -95,6 +94,9 @@ def _run(args) -> int:
                         ("--validation-moves", args.moves_n)):
         if value < 1:
             raise DataError(f"{flag} must be a positive integer, got {value!r}")
+    from .demo import plot_demo, run_demo
+    from .report import demo_text
+
     result = run_demo(seed=args.seed, noise_um=noise_um, lead_um=args.lead_um, repeats=args.repeats,
                       patent_repeats=args.patent_repeats, moves=args.moves_n, progress=None)
     if args.plot:

@@ -1,0 +1,126 @@
+"""The one opener of files named by untrusted input (a run log naming images, the command line): regular
+files only, names that print on one line, sizes known before reading."""
+from __future__ import annotations
+
+import os
+
+#: Characters refused in a file name kinid is asked to read: they cannot be shown on one line as they are
+#: (C0/C1 controls, DEL, line and paragraph separators, bidirectional overrides and isolates).
+_BIDI_CONTROLS = frozenset("\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
+
+
+def shown_path(path) -> str:
+    """A file name as messages print it: as it is when every character prints, else its ``repr`` (quoted, with
+    control characters, NUL and other unprintable ones escaped as ``\\x1b``, ``\\x00``, ``\\u202e``).
+
+    Never returns raw escape sequences, so a name from a run log cannot colour, move or clear the terminal.
+    """
+    name = os.fsdecode(os.fspath(path)) if isinstance(path, (str, bytes, os.PathLike)) else str(path)
+    return name if name.isprintable() else repr(name)
+
+
+def _bad_name_character(name: str):
+    """The first character of ``name`` that a file name kinid reads may not hold, or None."""
+    import unicodedata
+
+    for ch in name:
+        if ch in _BIDI_CONTROLS or unicodedata.category(ch) in ("Cc", "Zl", "Zp"):
+            return ch
+    return None
+
+
+_FILE_KINDS = (("S_ISFIFO", "a FIFO (named pipe)"), ("S_ISCHR", "a character device"),
+               ("S_ISBLK", "a block device"), ("S_ISSOCK", "a socket"))
+
+
+def read_untrusted_bytes(path, *, what: str, max_bytes: int, error=None, missing: str | None = None) -> bytes:
+    """The bytes of a file named by untrusted input (the command line, a run log), read only if it is safe to.
+
+    The one opener for such names. Refused, with one ``error`` naming the file (shown by :func:`shown_path`),
+    before anything is read:
+
+    - a name holding a NUL byte or a control character (C0, C1, DEL, a line separator, a bidirectional override);
+    - anything that is not a regular file once links are followed: a folder, a FIFO (whose ``open`` would wait
+      for ever for a writer), a device (``/dev/zero`` never ends), a socket;
+    - a file larger than ``max_bytes`` by its ``os.stat`` size.
+
+    The file is opened with ``O_NONBLOCK`` and checked again with ``fstat``, so a FIFO swapped in after the
+    check cannot block either; at most ``max_bytes`` + 1 bytes are read (a file that grows is refused too).
+
+    Parameters
+    ----------
+    what : str
+        What the file is, for messages ("CSV file", "image file").
+    max_bytes : int
+        Largest file accepted.
+    error : type, optional
+        The KinidError subclass to raise (default DataError).
+    missing : str, optional
+        The message for a file that does not exist (default ``"<what> not found"``).
+    """
+    import stat
+
+    from .errors import DataError
+
+    error = error or DataError
+    try:
+        name = os.fsdecode(os.fspath(path))
+    except TypeError:
+        raise error(f"a {what} name must be a path, got {type(path).__name__}") from None
+    shown = shown_path(name)
+    if "\x00" in name:
+        raise error(f"the {what} name holds a NUL byte; kinid reads no such file", path=shown)
+    bad = _bad_name_character(name)
+    if bad is not None:
+        raise error(f"the {what} name holds the control character {bad!r}; kinid reads no such file "
+                    f"(rename the file)", path=shown)
+
+    def refuse_kind(mode):
+        if stat.S_ISDIR(mode):
+            raise error(f"is a folder, not {_article(what)} {what}", path=shown)
+        if not stat.S_ISREG(mode):
+            kind = next((k for test, k in _FILE_KINDS if getattr(stat, test)(mode)), "not a regular file")
+            raise error(f"is {kind}, not {_article(what)} {what}; kinid reads only regular files", path=shown)
+
+    def too_large(size):
+        return error(f"{what} is larger than {max_bytes:,} bytes ({size:,} bytes)", path=shown)
+
+    try:
+        st = os.stat(name)  # follows links: a link to /dev/zero is the device
+    except (FileNotFoundError, NotADirectoryError):
+        raise error(missing or f"{what} not found", path=shown) from None
+    except (OSError, ValueError) as exc:  # a link loop, a name too long, no permission on a folder
+        raise error(f"cannot read {what}: {getattr(exc, 'strerror', None) or exc}", path=shown) from None
+    refuse_kind(st.st_mode)
+    if st.st_size > max_bytes:
+        raise too_large(st.st_size)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NOCTTY", 0)
+    try:
+        fd = os.open(name, flags)
+    except (FileNotFoundError, NotADirectoryError):
+        raise error(missing or f"{what} not found", path=shown) from None
+    except OSError as exc:
+        raise error(f"cannot read {what}: {exc.strerror or exc}", path=shown) from None
+    try:
+        st = os.fstat(fd)  # what was opened, if the name changed since the check
+        refuse_kind(st.st_mode)
+        if st.st_size > max_bytes:
+            raise too_large(st.st_size)
+        chunks, total = [], 0
+        while total <= max_bytes:
+            chunk = os.read(fd, min(max_bytes + 1 - total, 16 * 1024 * 1024))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+    except OSError as exc:
+        raise error(f"cannot read {what}: {exc.strerror or exc}", path=shown) from None
+    finally:
+        os.close(fd)
+    if total > max_bytes:
+        raise error(f"{what} is larger than {max_bytes:,} bytes", path=shown)
+    return b"".join(chunks)
+
+
+def _article(what: str) -> str:
+    return "an" if what[:1].lower() in "aeiou" else "a"
