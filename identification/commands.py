@@ -31,6 +31,14 @@ def register(sub) -> None:
                         "setting them aside")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
+    p.add_argument("--prior", action="store_true",
+                   help="for few, noisy alignments: a prior on the size of every location error (not the set-up), "
+                        "its scale and σ chosen by the marginal likelihood; the fit is the maximum a posteriori "
+                        "estimate (docs/identification.md)")
+    p.add_argument("--prior-um", type=float, default=None, metavar="S",
+                   help="with --prior: the typical size of a location error along an axis, µm (default 1000)")
+    p.add_argument("--prior-urad", type=float, default=None, metavar="S",
+                   help="with --prior: the typical size of a location error about an axis, µrad (default 1000)")
     p.set_defaults(run=_identify)
 
     p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark",
@@ -135,7 +143,25 @@ def _identify(args) -> int:
     machine = load_machine(args.machine)
     obs = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits))
     effects = model_effects(machine, args.add)
-    if args.auto:
+    if args.prior_um is not None or args.prior_urad is not None:
+        if not args.prior:
+            raise DataError("--prior-um and --prior-urad set the sizes of --prior; add --prior")
+        _positive(args.prior_um, "--prior-um")
+        _positive(args.prior_urad, "--prior-urad")
+    if args.prior:
+        if args.auto:
+            raise DataError("--prior and --auto: choose one (--auto adds effects to data that show them; a prior is "
+                            "for data too few to)")
+        from dataclasses import replace
+
+        from .prior import PRIOR_UM, PRIOR_URAD, choose_prior, prior_std
+
+        sizes = dict(prior_um=args.prior_um or PRIOR_UM, prior_urad=args.prior_urad or PRIOR_URAD)
+        choice = choose_prior(machine, obs, effects, noise_um=args.noise_um, **sizes)
+        result = fit(machine, obs, effects, noise_um=choice.noise_um,
+                     prior_std=prior_std(machine, effects, choice.scale, **sizes))
+        result = replace(result, prior=choice.describe())
+    elif args.auto:
         from .selection import forward_select
         from .report import selection_report
 

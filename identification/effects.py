@@ -15,7 +15,7 @@ from kinid.errors import DataError
 from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse_name
 from .machine import Machine, _joint_kind
 
-__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "candidate_library", "axis_dependent_joints",
+__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
            "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
 
@@ -215,3 +215,16 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
     else:
         q = np.zeros(n)
     return np.asarray(basis.values(effect, q, t, s), float).reshape(n, -1)
+
+
+def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
+    """The default model (or ``base`` effect names) plus the effects named in ``add``."""
+    effects = default_model(machine) if base is None else [parse_effect(n, machine) for n in base]
+    names = {e.name for e in effects}
+    for n in add:
+        e = parse_effect(n, machine, source="added effect")
+        if e.name in names:
+            raise DataError(f"is already in the model: {n!r}", parameter="add")
+        names.add(e.name)
+        effects.append(e)
+    return effects

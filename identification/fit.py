@@ -22,7 +22,7 @@ from kinid.errors import DataError, KinidError
 from kinid.files import read_json, write_json
 from kinid.threads import blas_single_threaded
 
-from .effects import Effect, check_effects, default_model, parse_effect
+from .effects import check_effects, default_model, model_effects, parse_effect  # noqa: F401 (model_effects re-exported)
 from .identifiability import RANK_TOL, Alias, analyse
 from .machine import Machine, check_machine, machine_from_urdf
 from .noise import Noise
@@ -78,6 +78,8 @@ class FitResult:
     axis_ranges : dict axis name -> (low, high)
         The readings the fitted data span, mm / deg (where a compensation table
         may be trusted when the URDF gives an axis no limits).
+    prior : str
+        The prior of a maximum a posteriori fit, in words (empty for least squares).
     shared_std : dict source -> array (P,)
         For each shared (type B) source of the observations' uncertainty
         (``Observations.shifts_mm``): the change of every parameter when the
@@ -108,6 +110,7 @@ class FitResult:
     set_aside: tuple = ()
     axis_ranges: dict = field(default_factory=dict)
     shared_std: dict = field(default_factory=dict)
+    prior: str = ""
 
     @property
     def noise_um(self) -> float:
@@ -158,6 +161,8 @@ class FitResult:
             f"condition {self.condition_number:.3g}; observability O1 {self.o1:.3g} (mean), O3 {self.o3:.3g} (weakest "
             f"direction; larger is better, Sun & Hollerbach 2008)"
         )
+        if self.prior:
+            lines.append(f"maximum a posteriori estimate, std from the posterior — {self.prior}")
         if self.shared_std:
             lines.append(f"std includes the shared uncertainty of {', '.join(sorted(self.shared_std))} (type B)")
         if self.aliases:
@@ -168,6 +173,8 @@ class FitResult:
             lines += [f"  - {a.describe()}" for a in self.set_aside]
         if not self.success:
             lines.append(f"WARNING: {self.message}")
+        elif "; " in self.message:  # converged, with a word more (the identifiable set changed at the solution)
+            lines.append(f"WARNING: {self.message.split('; ', 1)[1]}")
         odd = self.implausible()
         if odd:
             lines.append("WARNING: sizes no machine has (the observations look inconsistent — a sensor offset, a "
@@ -181,19 +188,6 @@ class FitResult:
         from .plausibility import implausible_effects
 
         return implausible_effects(self)
-
-
-def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
-    """The default model (or ``base`` effect names) plus the effects named in ``add``."""
-    effects = default_model(machine) if base is None else [parse_effect(n, machine) for n in base]
-    names = {e.name for e in effects}
-    for n in add:
-        e = parse_effect(n, machine, source="added effect")
-        if e.name in names:
-            raise DataError(f"is already in the model: {n!r}", parameter="add")
-        names.add(e.name)
-        effects.append(e)
-    return effects
 
 
 @functools.lru_cache(maxsize=32)
@@ -224,6 +218,7 @@ def fit(
     max_iter: int = 100,
     xtol: float = 1e-12,
     theta0=None,
+    prior_std=None,
 ) -> FitResult:
     """Fit ``effects`` (default: the default model) to the observations.
 
@@ -245,6 +240,10 @@ def fit(
         Stop when the scaled step is below ``xtol`` × (1 + ‖scaled θ‖).
     theta0 : array (P,), optional
         Starting values (default zero).
+    prior_std : array (P,), optional
+        A prior on each parameter's size: zero mean, this standard deviation in the parameter's unit
+        (inf: none). The fit is then the maximum a posteriori estimate with the noise σ (``noise_um``,
+        required) and its standard deviations the posterior's (:mod:`~kinid.identification.prior`).
 
     Returns
     -------
@@ -260,19 +259,28 @@ def fit(
     names = d.param_names()
     P = d.n_params
     theta = np.zeros(P) if theta0 is None else np.asarray(theta0, float).copy()
+    # the prior as extra residual rows w·θ (µm, like the data's): w = σ / s, 0 where there is none
+    w_prior = np.zeros(P)
+    if prior_std is not None:
+        if noise_um is None:
+            raise DataError("a prior needs the noise σ (noise_um) to weigh it against the data", parameter="noise_um")
+        s = np.asarray(prior_std, float)
+        if s.shape != (P,) or np.any(np.isnan(s)) or np.any(s <= 0):
+            raise DataError(f"must be {P} positive standard deviations (inf for none)", parameter="prior_std")
+        w_prior = noise_um / s
     r, J, _ = residuals(machine, d, obs, theta)
     M = r.size
     sigma0 = noise_um or 1.0
-    ident = analyse(J.reshape(M, P) / sigma0, names, tol=rank_tol)
+    ident = analyse(_with_prior(J.reshape(M, P), w_prior) / sigma0, names, tol=rank_tol)
     free = ident.identifiable
     if np.any(theta[~free] != 0.0):
         # a warm start that gives values to parameters these data cannot identify (another subset of the
         # data held others) is no start for these data: its aliased pairs would lose their sums. From zero.
         theta[:] = 0.0
         r, J, _ = residuals(machine, d, obs, theta)
-        ident = analyse(J.reshape(M, P) / sigma0, names, tol=rank_tol)
+        ident = analyse(_with_prior(J.reshape(M, P), w_prior) / sigma0, names, tol=rank_tol)
         free = ident.identifiable
-    D = np.linalg.norm(J.reshape(M, P)[:, free], axis=0)
+    D = np.linalg.norm(_with_prior(J.reshape(M, P), w_prior)[:, free], axis=0)
     lo = np.full(P, -np.inf)
     hi = np.full(P, np.inf)
     for name, (a, b) in (bounds or {}).items():
@@ -280,21 +288,28 @@ def fit(
             raise DataError(f"bound on unknown parameter {name!r}")
         lo[names.index(name)], hi[names.index(name)] = a, b
 
-    cost = 0.5 * float(np.sum(r**2))
+    wf = w_prior[free]
+    prior_cost = lambda th: 0.5 * float(np.sum((w_prior * th) ** 2))  # noqa: E731
+    cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
     lam = 1e-9
     success, message, it = False, "", 0
     for it in range(1, max_iter + 1):
         Js = J.reshape(M, P)[:, free] / D
         xs = theta[free] * D
-        delta = _lm_step(Js, r.ravel(), lam, lo[free] * D - xs, hi[free] * D - xs)
-        predicted = cost - 0.5 * float(np.sum((r.ravel() + Js @ delta) ** 2))
+        if wf.any():  # the prior's rows: w·(θ + δ/D)
+            Js = np.vstack([Js, np.diag(wf / D)])
+            r_all = np.concatenate([r.ravel(), wf * theta[free]])
+        else:
+            r_all = r.ravel()
+        delta = _lm_step(Js, r_all, lam, lo[free] * D - xs, hi[free] * D - xs)
+        predicted = cost - 0.5 * float(np.sum((r_all + Js @ delta) ** 2))
         if predicted <= 1e-13 * cost:  # the linearised model promises nothing more: converged
             success, message = True, f"converged in {it} iterations"
             break
         trial = theta.copy()
         trial[free] += delta / D
         r_new = residuals(machine, d, obs, trial, jacobian=False)
-        cost_new = 0.5 * float(np.sum(r_new**2))
+        cost_new = 0.5 * float(np.sum(r_new**2)) + prior_cost(trial)
         if cost_new <= cost:
             small = np.linalg.norm(delta) <= xtol * (1 + np.linalg.norm(xs))
             flat = cost - cost_new <= 1e-13 * cost
@@ -320,6 +335,8 @@ def fit(
         noise = Noise(float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan"), "residuals")
     sigma = noise.value_um
     Jf = J.reshape(M, P)[:, free] / sigma
+    if wf.any():  # the posterior: the prior's rows 1/s in whitened units
+        Jf = np.vstack([Jf, np.diag(wf / noise_um)])
     Df = np.linalg.norm(Jf, axis=0)
     _, s, Vt = np.linalg.svd(Jf / Df, full_matrices=False)
     cov_scaled = (Vt.T / s**2) @ Vt
@@ -327,7 +344,7 @@ def fit(
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
     shared = _shared_std(machine, d, obs, theta, J.reshape(M, P)[:, free], free)
     std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
-    final = analyse(J.reshape(M, P) / sigma, names, tol=rank_tol)
+    final = analyse(_with_prior(J.reshape(M, P), w_prior) / sigma, names, tol=rank_tol)
     stats = final  # observability at the solution
     if not np.array_equal(final.identifiable, free):
         message += "; the identifiable set changed at the solution (nonlinear aliasing): check the held parameters"
@@ -341,6 +358,11 @@ def fit(
         iterations=it, success=success, message=message, singular_values=stats.singular_values,
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
     )
+
+
+def _with_prior(J, w_prior):
+    """The Jacobian with the prior's rows (a parameter with a prior is identified by it where the data cannot)."""
+    return np.vstack([J, np.diag(w_prior)[w_prior > 0]]) if np.any(w_prior > 0) else J
 
 
 def _shared_std(machine: Machine, d, obs: Observations, theta, J_free, free) -> dict:
@@ -409,6 +431,7 @@ def fit_to_dict(result: FitResult) -> dict:
                        "sigmas": _finite(a.sigmas)} for a in result.set_aside],
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
+        "prior": result.prior,
         "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit}
                         for a in result.implausible()],
     }
@@ -465,7 +488,8 @@ def load_fit(path) -> FitResult:
             axis_ranges={str(k): (float(v[0]), float(v[1])) for k, v in data.get("axis_ranges", {}).items()
                          if str(k) in machine.axis_names and None not in v},
             shared_std={str(k): np.array([np.nan if x is None else float(x) for x in v])
-                        for k, v in data.get("shared_std", {}).items()})
+                        for k, v in data.get("shared_std", {}).items()},
+            prior=str(data.get("prior", "")))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

@@ -1,0 +1,104 @@
+"""A prior on the errors' sizes for small noisy data (``kinid identify --prior``).
+
+Truth: the ROS-style arm of examples/ur_like.urdf with location errors drawn at random, its marker positions
+computed in plain numpy from the URDF text (benchmarks/proving_truth.py), 20 poses measured with 0.5 mm noise:
+few, noisy poses, where the plain fit of 48 effects follows the noise.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinid.cli import main
+from kinid.identification import default_model, fit
+from kinid.identification.machine import machine_from_urdf
+from kinid.identification.observations import Observations
+from kinid.identification.prior import choose_prior, prior_std
+from kinid.identification.residuals import design, residuals
+from kinid.identification.urdf_import import identification_urdf
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import proving_truth as truth  # noqa: E402
+
+NOISE_MM = 0.5
+
+
+def _arm():
+    text = identification_urdf((ROOT / "examples" / "ur_like.urdf").read_text(), base="world", tool="wrist_3_link",
+                               tool_offset_m=(0.0, 0.0, 0.1))
+    return text, machine_from_urdf(text, "arm.urdf")
+
+
+def _poses(machine, tm, errors, n, rng, noise_mm):
+    q = {a.name: rng.uniform(-120, 120, n) for a in machine.axes}
+    values = {a.joint: q[a.name] for a in machine.axes}
+    p = truth.tool_point_mm(tm, values, {k: np.full(n, v) for k, v in errors.items()}, n)
+    axes = np.column_stack([q[a.name] for a in machine.axes])
+    return Observations(tuple(f"P{i}" for i in range(n)), p + rng.normal(0, noise_mm, (n, 3)), axes, None, {},
+                        tuple(range(2, n + 2)), "<arm>")
+
+
+def _held_out_mm(machine, effects, result, test):
+    r = residuals(machine, design(machine, effects, test), test, result.theta, jacobian=False)
+    return float(np.sqrt(np.mean(np.sum(r**2, axis=1)))) / 1e3
+
+
+def test_the_prior_predicts_unseen_poses_better_than_the_plain_fit_on_few_noisy_ones():
+    text, machine = _arm()
+    tm = truth.read_urdf(text)
+    effects = list(default_model(machine))
+    ratios = []
+    for seed in range(5):
+        rng = np.random.default_rng(40 + seed)
+        errors = {e.code: rng.normal(0, 300.0) for e in machine.error_joints if e.axis not in ("W", "T")}
+        errors.update({f"E{d}0W": rng.normal(0, 2000.0) for d in "XYZABC"})
+        train = _poses(machine, tm, errors, 20, rng, NOISE_MM)
+        test = _poses(machine, tm, errors, 200, rng, 0.0)
+        plain = fit(machine, train, effects)
+        choice = choose_prior(machine, train, effects)
+        mapped = fit(machine, train, effects, noise_um=choice.noise_um, prior_std=prior_std(machine, effects, choice.scale))
+        ratios.append(_held_out_mm(machine, effects, mapped, test) / _held_out_mm(machine, effects, plain, test))
+        assert not mapped.implausible(), mapped.implausible()
+    print(f"held-out error, prior / plain: {np.round(ratios, 3)}")
+    assert sum(r < 1.0 for r in ratios) >= 4 and np.median(ratios) < 0.9
+
+
+def test_a_prior_as_wide_as_nothing_is_the_plain_fit():
+    text, machine = _arm()
+    tm = truth.read_urdf(text)
+    rng = np.random.default_rng(7)
+    obs = _poses(machine, tm, {"EX0J2": 200.0, "EC0J3": -300.0}, 60, rng, 0.05)
+    effects = list(default_model(machine))
+    plain = fit(machine, obs, effects, noise_um=50.0)
+    wide = fit(machine, obs, effects, noise_um=50.0, prior_std=prior_std(machine, effects, 1e9))
+    # the same fit: aliased parameters the plain fit holds are split by the (faint) prior instead, so values
+    # differ where the data cannot tell them apart; the residual and the prediction of unseen poses do not
+    test = _poses(machine, tm, {"EX0J2": 200.0, "EC0J3": -300.0}, 100, rng, 0.0)
+    assert wide.rms_um == pytest.approx(plain.rms_um, rel=5e-3)
+    held = [_held_out_mm(machine, effects, f, test) for f in (plain, wide)]
+    print(f"held-out: plain {held[0] * 1e3:.2f} µm, prior ×1e9 {held[1] * 1e3:.2f} µm")
+    assert held[1] == pytest.approx(held[0], rel=0.1)
+
+
+def test_identify_prior_on_the_command_line(tmp_path, capsys):
+    text, machine = _arm()
+    tm = truth.read_urdf(text)
+    (tmp_path / "arm.urdf").write_text(text)
+    obs = _poses(machine, tm, {"EX0J2": 200.0}, 20, np.random.default_rng(3), NOISE_MM)
+    from kinid.identification.observations import write_observations
+
+    write_observations(tmp_path / "obs.csv", obs, machine)
+    run = ["identify", "--machine", str(tmp_path / "arm.urdf"), "--data", str(tmp_path / "obs.csv")]
+    assert main([*run, "--prior", "--out", str(tmp_path / "fit.json")]) == 0
+    out = capsys.readouterr().out
+    assert "maximum a posteriori estimate" in out and "chosen by the marginal likelihood" in out
+    assert "chosen by the marginal likelihood" in json.loads((tmp_path / "fit.json").read_text())["prior"]
+    assert main([*run, "--prior-um", "200", "--out", str(tmp_path / "g.json")]) == 2
+    assert "add --prior" in capsys.readouterr().err
+    assert main([*run, "--prior", "--auto", "--out", str(tmp_path / "g.json")]) == 2
+    assert not (tmp_path / "g.json").exists()
