@@ -17,9 +17,9 @@ import numpy as np
 __all__ = ["Structure", "structure_left"]
 
 #: Permutations of the null distribution (the smallest p-value is 1 / (PERMUTATIONS + 1)).
-PERMUTATIONS = 999
+PERMUTATIONS = 499
 #: At most this many alignments (drawn at random) enter the test: its cost grows with their square.
-MAX_ROWS = 2000
+MAX_ROWS = 1500
 
 
 @dataclass(frozen=True)
