@@ -234,9 +234,9 @@ def _simulate(args) -> int:
 
 
 def _diagnose(args) -> int:
-    import json
-
     import numpy as np
+
+    from kinid.files import strict_json
 
     from .diagnose import diagnose
     from .fit import load_fit
@@ -262,7 +262,7 @@ def _diagnose(args) -> int:
 
         diagnosis_report(result, obs, args.report, provenance=[("fit", file_provenance(args.fit))])
     if args.json:
-        print(json.dumps(result.summary()))
+        print(strict_json(result.summary()))
     else:
         print(result.text(top=args.top))
         if args.report:

@@ -1,5 +1,7 @@
 """The HTML reports of identify, diagnose and demo: where the model fails, and the error falling as
 effects are added — tables, summary and page (the figures: :mod:`~kinid.identification.report_figures`).
+
+A report folder is written whole or not at all (:func:`kinid.report_html.report_folder`).
 """
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
-from kinid.report_html import Figure, Section, Table, report_page
+from kinid.report_html import Figure, Section, Table, report_folder, report_page
 from .report_figures import (plot_binned_residuals, plot_identified_errors, plot_maps, plot_measured_vs_model,
                              plot_periodogram, plot_residuals_vs_axes, plot_selection, plot_singular_values,
                              plot_time)
@@ -193,8 +195,17 @@ def _summary(diagnosis, obs) -> list:
 
 
 def diagnosis_report(diagnosis, obs, folder, *, provenance=()) -> Path:
-    """Write the plots, ``residuals.csv`` and ``index.html`` of one diagnosis into ``folder``; returns the page's path."""
-    folder = _outdir(folder)
+    """Write the plots, ``residuals.csv`` and ``index.html`` of one diagnosis into ``folder``; returns the page's path.
+
+    The folder is written whole or not at all, and replaces only an empty folder or an earlier report
+    (:func:`kinid.report_html.report_folder`; a DataError otherwise).
+    """
+    with report_folder(folder) as stage:
+        _diagnosis_report(diagnosis, obs, stage, provenance)
+    return Path(folder) / "index.html"
+
+
+def _diagnosis_report(diagnosis, obs, folder: Path, provenance) -> Path:
     f = diagnosis.fit
     machine = f.machine
     figs = _figures("", machine, obs, f, folder, diagnosis)
@@ -227,9 +238,25 @@ def diagnosis_report(diagnosis, obs, folder, *, provenance=()) -> Path:
     return page
 
 
-def selection_report(steps, obs, folder, *, preface: str = "", provenance=()) -> Path:
-    """Write the forward-selection report (falling error, first and last residual plots) into ``folder``."""
-    folder = _outdir(folder)
+def selection_report(steps, obs, folder, *, preface: str = "", provenance=(), whole: bool = True) -> Path:
+    """Write the forward-selection report (falling error, first and last residual plots) into ``folder``;
+    returns the page's path.
+
+    Parameters
+    ----------
+    whole : bool
+        Write the folder whole or not at all, replacing only an empty folder or an earlier report
+        (:func:`kinid.report_html.report_folder`), or (False) write the report's files into ``folder``
+        beside what it holds (the demo, whose page goes into its own output folder beside its data).
+    """
+    if not whole:
+        return _selection_report(steps, obs, _outdir(folder), preface, provenance)
+    with report_folder(folder) as stage:
+        _selection_report(steps, obs, stage, preface, provenance)
+    return Path(folder) / "index.html"
+
+
+def _selection_report(steps, obs, folder: Path, preface: str, provenance) -> Path:
     machine = steps[0].fit.machine
     plot_selection(steps, folder / "rms_steps.png")
     first = steps[0].data if getattr(steps[0], "data", None) is not None else obs  # gross errors set aside

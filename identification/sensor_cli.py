@@ -90,13 +90,12 @@ def laser_offset(machine, table, *, method: str, standoff_mm=None, radius_mm=Non
 
 
 def _sensor(args) -> int:
-    import json
     import math
     from pathlib import Path
 
     from kinid.checks import check_positive
     from kinid.errors import DataError
-    from kinid.files import read_json, write_text
+    from kinid.files import read_json, write_json
     from .axis_columns import read_axis_table
     from .machine import load_machine
 
@@ -122,7 +121,8 @@ def _sensor(args) -> int:
     if any(v is None for v in out["laser_offset_std_mm"]):
         del out["laser_offset_std_mm"]
     out["measured_by"] = f"kinid sensor --{method} {Path(source).name}"
-    write_text(args.out, json.dumps(out, indent=2) + "\n")
+    # a non-finite offset is a failed measurement, not a value: a DataError naming the file, never null
+    write_json(args.out, out, indent=2)
     u = "" if "laser_offset_std_mm" not in out else \
         f" ± ({2 * std[0]:.4f}, {2 * std[1]:.4f}) mm (k = 2)"
     print(f"laser beside the camera ({method}, {result.n_points} readings): ({offset[0]:.4f}, {offset[1]:.4f}) mm in "

@@ -26,7 +26,7 @@ def register(sub) -> None:
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
     p.add_argument("--report", default=None, metavar="DIR", help="write the verification report (HTML, figure) to DIR")
-    p.set_defaults(run=_verify, outputs={"report": "folder"})
+    p.set_defaults(run=_verify, outputs={"report": "replaced folder"})
 
 
 def _fit_of_compensation(folder) -> str:
@@ -53,16 +53,20 @@ def _fit_of_compensation(folder) -> str:
 
 
 def _verify(args) -> int:
-    import json
     from pathlib import Path
 
     from kinid.checks import check_positive
+    from kinid.files import strict_json
     from .fit import load_fit
     from .observations import read_observations
     from .verify import verify
 
     if args.noise_um is not None:
         check_positive("--noise-um", args.noise_um)
+    if args.report:  # a folder it may not replace is refused before the work, not after
+        from kinid.report_html import check_report_folder
+
+        check_report_folder(args.report)
     fit_path = args.fit or _fit_of_compensation(args.compensation)
     result = load_fit(fit_path)
     after = read_observations(args.data, result.machine, check_limits=not args.allow_outside_limits)
@@ -74,7 +78,7 @@ def _verify(args) -> int:
 
         verification_report(out, args.report, fit_path=fit_path, data_path=args.data)
     if args.json:
-        print(json.dumps(out.summary()))
+        print(strict_json(out.summary()))
         return 0
     print(f"verification of the compensation of {Path(fit_path).name} with {Path(args.data).name}")
     print(out.text())

@@ -5,10 +5,9 @@ from pathlib import Path
 
 import numpy as np
 
-from kinid.errors import DataError
 from kinid.figures import new_figure, save_figure
 from kinid.files import write_text
-from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_folder, report_page
 
 __all__ = ["verification_report", "plot_before_after"]
 
@@ -38,12 +37,17 @@ def plot_before_after(v, path) -> None:
 
 
 def verification_report(v, folder, *, fit_path, data_path) -> Path:
-    """Write ``index.html`` and its figure into ``folder``; returns the page's path."""
-    folder = Path(folder)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise DataError(f"cannot create the report folder ({exc.strerror})", path=folder) from None
+    """Write ``index.html`` and its figure into ``folder``; returns the page's path.
+
+    The folder is written whole or not at all, and replaces only an empty folder or an earlier report
+    (:func:`kinid.report_html.report_folder`; a DataError otherwise).
+    """
+    with report_folder(folder) as stage:
+        _verification_report(v, stage, fit_path=fit_path, data_path=data_path)
+    return Path(folder) / "index.html"
+
+
+def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
     plot_before_after(v, folder / "before_after.png")
     rows = tuple((name, *(f"{d[k]:.3f}" for k in ("x", "y", "z", "3d")))
                  for name, d in ((f"before ({v.before_source})", v.before_um),
@@ -71,9 +75,7 @@ def verification_report(v, folder, *, fit_path, data_path) -> Path:
         Section("What remains", paragraphs=(f"Verdict of the diagnosis of the remaining error: "
                                             f"{v.diagnosis.verdict}.",),
                 details=v.diagnosis.text(top=10))]
-    page = folder / "index.html"
-    write_text(page, report_page("Compensation check", "kinid verify: the run after loading the compensation",
+    write_text(folder / "index.html", report_page("Compensation check", "kinid verify: the run after loading the compensation",
                                  [("fit", file_provenance(fit_path)), ("second run", file_provenance(data_path)),
                                   ("alignments", str(v.n_observations)), ("date", now_utc())],
                                  summary, sections))
-    return page

@@ -4,16 +4,22 @@ Plain Python string building with :func:`html.escape`; no template engine. A rep
 title, provenance rows (what was measured, with which files and checksums, when, by which kinid),
 a summary of a few sentences, and sections holding paragraphs, tables and figures (PNG files beside
 the page), with the full text output folded away at the end.
+
+A report folder is written whole or not at all (:func:`report_folder`): a run stopped at any moment leaves
+the earlier report or the new one, never a mix, and replaces only an empty folder or an earlier report —
+a folder whose ``index.html`` kinid wrote and which holds only the files that page lists.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import html
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["Table", "Figure", "Section", "report_page", "file_provenance", "now_utc"]
+__all__ = ["Table", "Figure", "Section", "report_page", "file_provenance", "now_utc", "report_folder",
+           "check_report_folder", "not_earlier_report"]
 
 
 @dataclass(frozen=True)
@@ -125,6 +131,112 @@ def report_page(title: str, subtitle: str, provenance, summary, sections) -> str
         if s.details:
             out.append(f"<details><summary>{html.escape(s.details_title)}</summary><pre>{html.escape(s.details)}</pre>"
                        f"</details>")
-    return (f"<!doctype html><html lang='en'><head><meta charset='utf-8'><meta name='viewport' "
-            f"content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title><style>{_STYLE}</style>"
+    return (f"<!doctype html><html lang='en'><head><meta charset='utf-8'>{_GENERATOR}{html.escape(__version__)}'>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title><style>{_STYLE}</style>"
             f"</head><body>{''.join(out)}</body></html>\n")
+
+
+#: The mark of a page kinid wrote (in its head), and the list of the report folder's files that
+#: :func:`report_folder` adds beside it once every file is written: what :func:`not_earlier_report` reads.
+_GENERATOR = "<meta name='generator' content='kinid "
+_FILES_META = "<meta name='kinid-report-files' content='"
+
+#: A page larger than this is not read to learn whether it is a kinid report (it is not one).
+_MAX_PAGE_BYTES = 64 * 1024 * 1024
+
+
+@contextlib.contextmanager
+def report_folder(path):
+    """Write a report folder whole or not at all: yield a new folder that replaces ``path`` at the end.
+
+    The body writes ``index.html`` (:func:`report_page`) and the report's other files into the yielded
+    folder; when it ends, the page is given the list of the folder's files and the folder takes the place
+    of ``path`` in one step (:func:`kinid.folders.staged_folder`). A run killed or interrupted (Ctrl-C)
+    at any moment leaves at ``path`` the earlier report or the new one, whole. ``path`` is replaced only
+    if it does not exist, is empty or holds an earlier kinid report and nothing else
+    (:func:`not_earlier_report`).
+
+    Raises
+    ------
+    DataError
+        Naming the folder: it holds files that are not an earlier report's, another kinid is writing
+        it, or it cannot be written.
+
+    Examples
+    --------
+    >>> with report_folder("report") as d:   # doctest: +SKIP
+    ...     write_text(d / "index.html", report_page(...))
+    """
+    from .folders import staged_folder
+
+    with staged_folder(path, foreign=not_earlier_report) as stage:
+        yield stage
+        _list_files(stage)
+
+
+def check_report_folder(path) -> None:
+    """Refuse early what :func:`report_folder` would refuse to replace (before a command computes its report)."""
+    from .folders import check_output_folder
+
+    check_output_folder(path, foreign=not_earlier_report)
+
+
+def _list_files(folder) -> None:
+    """Add to the kinid page ``folder/index.html`` the list of the folder's files (the report's own)."""
+    import json
+    import os
+
+    from .files import write_text
+
+    page = Path(folder) / "index.html"
+    if not page.is_file():
+        return
+    text = page.read_text(encoding="utf-8")
+    head_end = text.find("</head>")
+    if head_end < 0 or _GENERATOR not in text[:head_end]:
+        return
+    names = sorted(os.listdir(folder))
+    meta = f"{_FILES_META}{html.escape(json.dumps(names, ensure_ascii=False), quote=True)}'>"
+    write_text(page, text[:head_end] + meta + text[head_end:])
+
+
+def not_earlier_report(folder) -> list:
+    """Names in ``folder`` that are not an earlier kinid report's (the ``foreign=`` of :func:`report_folder`).
+
+    An earlier report holds ``index.html`` written by kinid (:func:`report_page`) and only the files its
+    page lists, each a regular file. A kinid page that lists none (an earlier version's, or one written
+    in place) owns the figures it shows and ``residuals.csv``. Anything else — the user's files, a sub-folder, a link, or
+    no kinid page at all — keeps the folder from being replaced.
+    """
+    import json
+    import os
+    import re
+
+    from .errors import KinidError
+    from .files import read_limited_text
+
+    folder = Path(folder)
+    names = sorted(os.listdir(folder))
+    page = folder / "index.html"
+    if page.is_symlink() or not page.is_file():
+        return names
+    try:
+        text = read_limited_text(page, what="report page", max_bytes=_MAX_PAGE_BYTES)
+    except (KinidError, OSError):
+        return names
+    head = text[:max(text.find("</head>"), 0)]
+    listed = re.search(re.escape(_FILES_META) + r"([^']*)'>", head) if _GENERATOR in head else None
+    if listed:
+        try:
+            own = json.loads(html.unescape(listed.group(1)))
+        except ValueError:
+            return names
+        if not (isinstance(own, list) and all(isinstance(n, str) for n in own)):
+            return names
+        own = set(own) | {"index.html"}
+    elif _GENERATOR in head or "<tr><td>report made by</td><td>kinid " in text:
+        # a kinid page without the list (an earlier version's, or one written in place): its figures, its CSV
+        own = {"index.html", "residuals.csv", *(html.unescape(n) for n in re.findall(r'<img src="([^"]+)"', text))}
+    else:
+        return names
+    return [n for n in names if n not in own or (folder / n).is_symlink() or not (folder / n).is_file()]

@@ -4,10 +4,17 @@
 Each stage command calls :func:`add_output_options` with the help text of the options it has and
 passes the returned mapping on as ``outputs=`` (the roof checks those files and folders against the
 command's inputs before it runs).
+
+``--report DIR`` is written whole or not at all: the command checks the folder before its work
+(:func:`check_report`) and writes the report inside :func:`staged_report`, which hands the report writer
+the command's arguments with ``report`` naming a new folder that replaces ``DIR`` when the writer is done
+(:func:`kinid.report_html.report_folder`).
 """
 from __future__ import annotations
 
-__all__ = ["add_output_options"]
+import contextlib
+
+__all__ = ["add_output_options", "check_report", "staged_report"]
 
 
 def add_output_options(parser, *, out=None, tables=None, plot=None, json=None, report=None) -> dict:
@@ -32,5 +39,32 @@ def add_output_options(parser, *, out=None, tables=None, plot=None, json=None, r
         parser.add_argument("--json", action="store_true", help=json)
     if report is not None:
         parser.add_argument("--report", metavar=report[0], help=report[1])
-        outputs["report"] = "folder"
+        outputs["report"] = "replaced folder"  # written whole (staged_report): no input may lie in it
     return outputs
+
+
+def check_report(args) -> None:
+    """Refuse ``--report DIR`` before the command's work if the report could not replace it (a folder
+    holding files that are not an earlier kinid report's, a file, a read-only folder)."""
+    if getattr(args, "report", None):
+        from kinid.report_html import check_report_folder
+
+        check_report_folder(args.report)
+
+
+@contextlib.contextmanager
+def staged_report(args):
+    """A copy of ``args`` whose ``report`` names a new folder; when the block ends, that folder replaces
+    ``args.report`` whole (an error or Ctrl-C in the block leaves ``args.report`` as it was).
+
+    Examples
+    --------
+    >>> with staged_report(args) as staged:   # doctest: +SKIP
+    ...     write_report(result, staged)
+    """
+    import argparse
+
+    from kinid.report_html import report_folder
+
+    with report_folder(args.report) as stage:
+        yield argparse.Namespace(**{**vars(args), "report": str(stage)})

@@ -22,14 +22,13 @@ Z. Zhang, "A flexible new technique for camera calibration", IEEE TPAMI 22(11), 
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from kinid.files import read_json, write_text
+from kinid.files import read_json, write_json
 from kinid.errors import DataError, ImageError
 
 __all__ = [
@@ -435,9 +434,19 @@ def save_camera(camera, path):
     """Write a camera as JSON (whole or not at all).
 
     The file is ``{"camera_matrix": [[..],[..],[..]], "dist_coeffs": [k1, k2,
-    p1, p2, k3], "image_size": [w, h], "rms_px": x}``.
+    p1, p2, k3], "image_size": [w, h], "rms_px": x}``; ``rms_px`` is null when it is not known (NaN or
+    infinite).
+
+    Raises
+    ------
+    DataError
+        Naming the file, if the camera matrix or the distortion holds a NaN or infinity (a failed
+        calibration: nothing is written).
     """
-    write_text(path, json.dumps(camera.to_dict(), indent=2) + "\n")
+    data = camera.to_dict()
+    if data.get("rms_px") is not None and not math.isfinite(data["rms_px"]):
+        data["rms_px"] = None
+    write_json(path, data, indent=2)
 
 
 def load_camera(path):

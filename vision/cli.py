@@ -1,7 +1,6 @@
 """``kinid markers``: detect and decode ring-coded marks in an image (docs/hardware.md)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from kinid.errors import DataError, ImageError
@@ -52,7 +51,9 @@ def _run(args) -> int:
         with atomic_write(args.draw, "wb") as f:
             f.write(buf.tobytes())
     if args.json:
-        print(json.dumps([{"code": m.code, "x_px": m.x_px, "y_px": m.y_px} for m in markers]))
+        from kinid.files import strict_json
+
+        print(strict_json([{"code": m.code, "x_px": m.x_px, "y_px": m.y_px} for m in markers]))
     else:
         print(f"{len(markers)} mark(s) decoded in {args.image}")
         if markers:

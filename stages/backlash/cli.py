@@ -1,11 +1,10 @@
 """``kinid backlash``: pixel equivalent and backlash from a recorded run, or on a simulated stage (``--simulate``)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from kinid.errors import DataError
-from ..outputs import add_output_options
+from ..outputs import add_output_options, check_report, staged_report
 
 __all__ = ["register", "plot_result"]
 
@@ -100,7 +99,7 @@ def _simulated_stage(args):
 def _run(args) -> int:
     import numpy as np
 
-    from kinid.files import write_json, write_text
+    from kinid.files import strict_json, write_json, write_text
     from .calibrate import calibrate
     from .recorded import RecordedStage, plan_rows, plan_text
     from .report import plot_result, write_report
@@ -114,6 +113,7 @@ def _run(args) -> int:
         print(f"{len(rows)} moves, {sum(r[4] for r in rows)} photos; plan written to {args.plan_out}")
         return 0
     stage = _simulated_stage(args) if args.simulate else RecordedStage(args.log)
+    check_report(args)
     res = calibrate(stage, travel_mm=args.travel_mm, travel_deg=args.travel_deg, repeats=args.repeats,
                     n_targets=args.targets)
     if not args.simulate:
@@ -135,12 +135,13 @@ def _run(args) -> int:
     if args.plot:
         plot_result(res, args.plot, truth=truth, after=after)
     if args.report:
-        write_report(res, args, truth, after, source)
+        with staged_report(args) as staged:
+            write_report(res, staged, truth, after, source)
     if args.json:
         out = {"measured": measured, "source": source}
         if truth is not None:
             out.update(truth=truth, errors={k: measured[k] - truth[k] for k in truth if k in measured})
-        print(json.dumps(out, sort_keys=True))
+        print(strict_json(out, sort_keys=True))
         return 0
     if args.simulate:
         print(f"backlash calibration on a simulated stage: pixel {args.pixel_um:g} µm, camera rotated "

@@ -1,12 +1,11 @@
 """``kinid contour``: planar contour error from an image sequence of a ring-coded board (docs/formats.md, "Board file")."""
 from __future__ import annotations
 
-import json
 import math
 import sys
 
 from kinid.errors import DataError
-from ..outputs import add_output_options
+from ..outputs import add_output_options, check_report, staged_report
 
 __all__ = ["register"]
 
@@ -109,6 +108,7 @@ def _simulate(args) -> int:
 
     if not 8 <= args.sim_frames <= 2000:
         raise DataError(f"--sim-frames must be 8 .. 2000, got {args.sim_frames}")
+    check_report(args)
     board = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
     camera = simulation_camera((512, 512), 0.03, k1=-0.05)
     motion = circle_motion(args.sim_frames, 8.0, fps=80.0, lag_deg=0.03, spike_um=6.0, spike_width_deg=20.0,
@@ -128,7 +128,9 @@ def _simulate(args) -> int:
 
         plot_contour(m, args.plot)
     if args.report:
-        write_report(m, args, frames=frames, board=folder / "board.json", scale=folder / "camera.json", simulated=True)
+        with staged_report(args) as staged:
+            write_report(m, staged, frames=frames, board=folder / "board.json", scale=folder / "camera.json",
+                         simulated=True)
     ok = m.track.located
     track_err = np.sqrt(np.mean(np.sum(((m.track.xy_mm - seq.track_mm) * 1e3)[ok] ** 2, axis=1)))
     truth = contour_error(seq.track_mm, CirclePath())
@@ -136,9 +138,9 @@ def _simulate(args) -> int:
                "contour_rms_um": m.contour.rms_um, "true_contour_rms_um": truth.rms_um,
                "contour_max_um": m.contour.max_um, "true_contour_max_um": truth.max_um}
     if args.json:
-        import json as _json
+        from kinid.files import strict_json
 
-        print(_json.dumps(summary))
+        print(strict_json(summary))
     else:
         print(f"simulated circular run: radius 8 mm, {len(ok)} frames of 512 x 512 px at 30 µm, lens distortion, "
               f"a 0.03° servo lag, 150 ppm X scale error and 6 µm reversal spikes; seed {args.seed}")
@@ -161,7 +163,7 @@ def _simulate(args) -> int:
 def _run(args) -> int:
     from pathlib import Path
 
-    from kinid.files import write_text
+    from kinid.files import strict_json, write_text
     from kinid.progress import Progress
     from kinid.vision import load_board
 
@@ -171,6 +173,7 @@ def _run(args) -> int:
     if missing or (args.pixel_mm is None and args.camera is None):
         need = missing + ([] if args.pixel_mm is not None or args.camera is not None else ["--pixel-mm or --camera"])
         raise DataError(f"measured frames need {', '.join(need)} (or run --simulate to learn the method)")
+    check_report(args)
 
     from .frames import open_frames
     from .measure import measure_contour, track_csv
@@ -224,8 +227,9 @@ def _run(args) -> int:
 
         plot_contour(m, args.plot)
     if args.report:
-        write_report(m, args, frames=args.frames, board=args.board,
-                scale=f"--pixel-mm {args.pixel_mm:g}" if args.pixel_mm else Path(args.camera))
+        with staged_report(args) as staged:
+            write_report(m, staged, frames=args.frames, board=args.board,
+                         scale=f"--pixel-mm {args.pixel_mm:g}" if args.pixel_mm else Path(args.camera))
     tr = m.track
     if tr.not_located:
         shown = ", ".join(str(k) for k in tr.not_located[:20]) + (" ..." if len(tr.not_located) > 20 else "")
@@ -235,7 +239,7 @@ def _run(args) -> int:
     if m.fps is None:
         print("kinid contour: no --fps given and the frames carry no rate; t_s left empty", file=sys.stderr)
     if args.json:
-        print(json.dumps(m.summary))
+        print(strict_json(m.summary))
         return 0
     print(report_text(m, settings))
     return 0

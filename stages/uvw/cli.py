@@ -1,10 +1,9 @@
 """``kinid uvw``: the UVW actuator error models from measured moves, or the whole story on a simulated stage."""
 from __future__ import annotations
 
-import json
 import math
 
-from ..outputs import add_output_options
+from ..outputs import add_output_options, check_report, staged_report
 
 __all__ = ["register"]
 
@@ -45,12 +44,13 @@ def _measured(args) -> int:
 
     from kinid.axis_tables import neutral_csv_text, write_tables
     from kinid.errors import DataError
-    from kinid.files import write_json, write_text
+    from kinid.files import strict_json, write_json, write_text
     from .measured import actuator_tables, fit_moves, models_json, read_moves
     from .report import plot_measured, quantity, write_measured_report
 
     if args.noise_um is not None and not (args.noise_um > 0 and math.isfinite(args.noise_um)):
         raise DataError(f"--noise-um must be a positive number, got {args.noise_um!r}")
+    check_report(args)
     models = fit_moves(read_moves(args.moves), args.lead_um, noise_um=args.noise_um)
     doc = models_json(models, str(args.moves))
     if args.out:
@@ -65,9 +65,10 @@ def _measured(args) -> int:
     if args.plot:
         plot_measured(models, args.plot)
     if args.report:
-        write_measured_report(models, args)
+        with staged_report(args) as staged:
+            write_measured_report(models, staged)
     if args.json:
-        print(json.dumps(doc))
+        print(strict_json(doc))
         return 0
     print(f"UVW actuator models from {args.moves} (lead {args.lead_um:g} µm; terms chosen by BIC): value ± std")
     for a, m in models.items():
@@ -107,7 +108,9 @@ def _run(args) -> int:
 
         write_json(args.out, public)
     if args.json:
-        print(json.dumps(public))
+        from kinid.files import strict_json
+
+        print(strict_json(public))
         return 0
     print(demo_text(public, args.plot))
     return 0
