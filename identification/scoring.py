@@ -281,6 +281,68 @@ def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
     return out
 
 
+#: Warm-up time constants searched per joint (log grid from a minute to three times the run) and the joints
+#: searched: those whose best listed warm-up candidate is strongest.
+TAU_GRID = 24
+TAU_JOINTS = 3
+
+
+def _found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+    """Warm-up candidates at time constants the library does not list: for the joints whose listed warm-up
+    scores best, the χ² drop over a log grid of τ, refined by a bounded search in log τ; the p-value is
+    multiplied by the τ and joints searched. Proposed only where it gains over the listed τ."""
+    from dataclasses import replace
+
+    from scipy.optimize import minimize_scalar
+
+    from kinid.errors import DataError
+
+    from .effects import parse_effect
+
+    if obs.t_s is None or not np.ptp(obs.t_s) > 0:
+        return []
+    listed = {}
+    for c in scored:
+        if c.status == "live" and ":warmup:" in c.effect:
+            code = c.effect.split(":")[0]
+            if code not in listed or c.statistic > listed[code].statistic:
+                listed[code] = c
+    codes = sorted(listed, key=lambda k: -listed[k].statistic)[:TAU_JOINTS]
+    span = float(np.max(obs.t_s))
+    if not codes or not span > 60.0:
+        return []
+    grid = np.geomspace(60.0, 3.0 * span, TAU_GRID)
+    have = {c.effect for c in scored}
+
+    def score(code, taus):
+        try:
+            effects = [parse_effect(f"{code}:warmup:{t:.5g}", machine) for t in taus]
+        except DataError:
+            return []
+        return score_candidates(machine, obs, result, effects, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
+
+    out = []
+    for code in codes:
+        on_grid = score(code, grid)
+        if not on_grid:
+            continue
+        k = int(np.argmax([c.statistic if c.status == "live" else -np.inf for c in on_grid]))
+        lo, hi = np.log(grid[max(k - 1, 0)]), np.log(grid[min(k + 1, len(grid) - 1)])
+        best = minimize_scalar(lambda u: -(score(code, [np.exp(u)]) or [on_grid[k]])[0].statistic,
+                               bounds=(lo, hi), method="bounded", options={"xatol": 0.01, "maxiter": 20})
+        c = score(code, [np.exp(best.x)])[0]
+        if c.status != "live" or c.statistic < on_grid[k].statistic:
+            c = on_grid[k]
+        if c.status != "live" or c.effect in have or c.statistic - listed[code].statistic < PERIOD_GAIN_MIN:
+            continue
+        trials = float(TAU_GRID * len(codes))
+        log10_p = min(0.0, c.log10_p + math.log10(trials))
+        tau = c.effect.rpartition(":")[2]
+        note = f"time constant found by search: τ = {tau} s (p-value × {trials:.0f}: {TAU_GRID} τ of {len(codes)} joints)"
+        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
+    return out
+
+
 def _axis_unit(machine, axis: str) -> str:
     return "mm" if machine.axis(axis).kind == "prismatic" else "deg"
 
@@ -430,5 +492,6 @@ def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: flo
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
     scored += _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
+    scored += _found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0)
     scored += _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0)
     return scored
