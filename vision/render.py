@@ -317,3 +317,7 @@ def render_disk(image_shape, centre_px, radius_px, *, low=30, high=220, blur_px=
     """
     return render_pattern(disk_coverage(centre_px, radius_px), image_shape, lambda xy: xy, low=low, high=high,
                           supersample=supersample, blur_px=blur_px, noise_sigma=noise_sigma, rng=rng)
+
+
+# ---------------------------------------------------------------------------
+# photographs of boards (perspective, uneven light, blur, JPEG): benchmarks and tests of the detector

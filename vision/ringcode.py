@@ -3,13 +3,16 @@
 A mark is a centre circle (not coded) surrounded by a ring of ``n`` equal
 angular elements, each printed (1) or not (0). The code is the smallest value
 over all cyclic rotations of the ``n`` bits read clockwise as seen in the image
-(x right, y down), first bit most significant.
+(x right, y down), first bit most significant (``clockwise=False`` reads them
+the other way round, as some other systems do).
 
 Detection (:func:`detect_markers`):
 
-1. threshold a downsampled copy midway between the background (histogram
-   median) and the ink level, and keep blobs whose shape matches their moment
-   ellipse (candidate centre circles);
+1. on a scale pyramid (2 x 2 box averages), search each level for the centre
+   circles it resolves (6.5-14 level pixels across; the finest level also
+   smaller, the coarsest also larger ones): threshold it midway between the
+   local background (tile median) and the local ink level, and keep blobs whose
+   shape matches their moment ellipse (candidate centre circles);
 2. affine-normalise each candidate with its ellipse and sample the full-
    resolution image on a polar grid (so perspective and anisotropic scale are
    undone): locate the ring band radially, read the angular profile (per
@@ -26,260 +29,46 @@ counts and the angles between segment centroids.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from .circles import as_gray, fit_disk_model, noise_sigma, weighted_centroid
+from .circles import as_gray, noise_sigma
+from .ring_read import Marker, _RHO_MAX, _decode_one, canonical_code, decode_from_segments, read_ring  # noqa: F401 (re-exported)
 
 __all__ = ["Marker", "canonical_code", "decode_from_segments", "detect_markers", "read_ring"]
 
 
-@dataclass(frozen=True)
-class Marker:
-    """A decoded ring-coded mark.
+def _blobs(mask, scale, min_area, d_range=(0.0, np.inf), fill_holes=True, offset=(0, 0)):
+    """Round blobs of a binary mask: list of (x, y, M, area) in full-resolution pixels.
 
-    Attributes
-    ----------
-    code : int
-        Canonical code (smallest cyclic rotation).
-    x_px, y_px : float
-        Centre of the centre circle, pixels.
-    radius_px : float
-        Radius of the centre circle (geometric mean of its semi-axes), pixels.
-    bits : str
-        The bits of ``code`` as a string of length n, MSB first.
-    """
-
-    code: int
-    x_px: float
-    y_px: float
-    radius_px: float
-    bits: str
-
-
-def canonical_code(bits_value: int, n=12) -> int:
-    """Smallest value over the ``n`` cyclic rotations of an ``n``-bit value.
-
-    Examples
-    --------
-    >>> canonical_code(0b110001110000)
-    199
-    """
-    n = int(n)
-    v = int(bits_value)
-    if not 0 <= v < (1 << n):
-        raise ValueError(f"bits_value must be in 0..{(1 << n) - 1} for n={n}, got {bits_value}")
-    mask = (1 << n) - 1
-    best = v
-    for _ in range(n - 1):
-        v = ((v << 1) | (v >> (n - 1))) & mask
-        best = min(best, v)
-    return best
-
-
-def decode_from_segments(segment_elements, gap_angles_deg, n=12) -> int:
-    """Decode a mark from its printed segments, as in the monocular contour method (formulas 4-5).
-
-    Parameters
-    ----------
-    segment_elements : sequence of int
-        ``M_i``: elements in each printed ring segment, in clockwise order
-        (``m_i = round(A_i / a)`` from segment area ``A_i`` and element area ``a``).
-    gap_angles_deg : sequence of float
-        ``theta_i``: angle, seen from the centre circle's centroid, from the
-        centroid of segment i clockwise to that of segment i+1 (the last one
-        back to the first), degrees.
-    n : int
-        Number of ring elements.
-
-    Returns
-    -------
-    int
-        The canonical code. The blank elements between segments i and i+1 are
-        ``q_i = round(theta_i n / 360 - (M_i + M_{i+1}) / 2)``.
-
-    Examples
-    --------
-    The patent's worked example: segments of 3 and 2 elements at 195 and 165
-    degrees give gaps of 4 and 3 and the code 000011000111:
-
-    >>> decode_from_segments([3, 2], [195, 165])
-    199
-    """
-    m = [int(v) for v in segment_elements]
-    th = [float(v) for v in gap_angles_deg]
-    n = int(n)
-    if len(m) != len(th) or not m:
-        raise ValueError(f"need one gap angle per segment, got {len(m)} segments and {len(th)} angles")
-    if any(v < 1 for v in m):
-        raise ValueError(f"segment element counts must be >= 1, got {m}")
-    bits = []
-    for i, mi in enumerate(m):
-        mj = m[(i + 1) % len(m)]
-        q = int(round(th[i] * n / 360.0 - (mi + mj) / 2.0))
-        if q < 1 and len(m) > 1:
-            raise ValueError(f"gap {i} has {q} elements (angle {th[i]} deg); segments must be separated")
-        bits += [1] * mi + [0] * max(q, 0)
-    if len(bits) != n:
-        raise ValueError(f"segments and gaps add up to {len(bits)} elements, expected {n}")
-    value = int("".join(map(str, bits)), 2)
-    return canonical_code(value, n)
-
-
-# ---------------------------------------------------------------------------
-# detection
-
-#: Ring geometry relative to the centre-circle radius (patent: Ø5 centre, Ø9-Ø13 ring).
-_RHO_MIN, _RHO_MAX = 1.2, 3.2
-
-
-def _sqrt_inv(M):
-    """Symmetric M^(-1/2) of a 2x2 symmetric positive definite matrix."""
-    w, V = np.linalg.eigh(M)
-    return (V / np.sqrt(w)) @ V.T
-
-
-def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
-    """Read the bits of the ring around a centre circle ``q^T M q <= 1`` at (x, y).
-
-    Parameters
-    ----------
-    img : numpy.ndarray
-        Float grey image, full resolution.
-    x, y : float
-        Centre-circle centre, pixels.
-    M : array_like, shape (2, 2)
-        Centre-circle ellipse matrix.
-    bg, ink : float
-        Background and ink grey levels.
-    n : int
-        Ring elements.
-    n_angles : int or None
-        Angular samples; default ``max(360, 30 n)``.
-    band : tuple of float or None
-        Known (inner, outer) ring radii in centre radii (from an earlier read): only the band is
-        sampled, the radial search and the gap check are skipped.
-
-    Returns
-    -------
-    tuple
-        ``(value, "", (inner, outer))``: the n-bit value read clockwise from the
-        element phase origin (MSB first) and the ring band in centre radii, or
-        ``(None, reason, None)`` when the ring cannot be read with confidence.
+    ``mask`` is an image ``scale`` times smaller than the full-resolution one. A blob is kept when
+    its equivalent diameter (mask pixels) lies in ``d_range``, it does not touch the border, and
+    its shape matches its own moment ellipse (holes in it filled first with ``fill_holes``). ``offset``:
+    the position of the mask's top-left pixel in the level.
     """
     import cv2
 
-    if n_angles is None:
-        n_angles = max(360, 30 * n)
-    A = _sqrt_inv(np.asarray(M, float))  # unit circle -> centre ellipse
-    R = np.linalg.det(A) ** 0.5
-    if band is None:
-        step = max(0.5 / R, 0.04)  # half-pixel radial steps, at most 50 rows
-        rho = np.arange(_RHO_MIN, _RHO_MAX, step)
-    else:
-        rho = np.linspace(band[0], band[1], min(16, max(5, int(np.ceil((band[1] - band[0]) * R)) + 1)))
-    th = (np.arange(n_angles) + 0.5) * (2 * np.pi / n_angles)
-    u = np.stack([np.cos(th), np.sin(th)])  # (2, n_angles)
-    d = A @ u  # (2, n_angles)
-    mx = (x + rho[:, None] * d[0][None, :]).astype(np.float32)
-    my = (y + rho[:, None] * d[1][None, :]).astype(np.float32)
-    P = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
-    h, w = img.shape
-    outside = ~((mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1))
-    P[outside] = np.nan
-    W = (P - bg) / (ink - bg)  # ink fraction, (n_rho, n_angles)
-    valid = ~np.isnan(W)
-    if band is not None:
-        if not valid.all():
-            return None, "ring cut by the image border", None
-        return (*_read_profile(_band_profile(W), n, n_angles), tuple(band))
-    f = (np.nan_to_num(W, nan=0.0) > 0.5).sum(axis=1) / np.maximum(valid.sum(axis=1), 1)
-    fmax = f.max()
-    if fmax < 0.5 / n:
-        return None, "no ring around the centre circle", None
-    # the band: the run of radii around the most inked one (ink further out, e.g. a neighbour's
-    # ring on a tight board, is not part of it)
-    strong = f > 0.5 * fmax
-    i0 = i1 = int(np.argmax(f))
-    while i0 > 0 and strong[i0 - 1]:
-        i0 -= 1
-    while i1 < len(f) - 1 and strong[i1 + 1]:
-        i1 += 1
-    r_in, r_out = rho[i0], rho[i1]
-    if not (1.4 < r_in < 2.3 and 2.1 < r_out < 3.2 and r_out - r_in > 0.35):
-        return None, f"ring band {r_in:.2f}-{r_out:.2f} (centre radii) is not where a ring belongs", None
-    if not valid[rho <= r_out + 2.0 / R].all():
-        return None, "ring cut by the image border", None
-    # the gap between centre circle and ring must be empty
-    # (away from both blurred edges; at least one clean circle must separate them)
-    margin = max(0.1, 1.5 / R)
-    inside = (rho > 1.0 + margin) & (rho < r_in - margin)
-    if np.any(inside) and W[inside].mean(axis=1).min() > 0.15:
-        return None, "ink between the centre circle and the ring", None
-    in_band = (rho >= r_in) & (rho <= r_out)
-    value, reason = _read_profile(_band_profile(W[in_band]), n, n_angles)
-    return value, reason, ((float(r_in), float(r_out)) if value is not None else None)
-
-
-def _band_profile(Wb):
-    """Angular ink profile of a ring band: per angle, the largest ink of a 3-row running mean.
-
-    The maximum over the band (rather than the mean of its core) keeps a printed element at
-    full ink where perspective shifts the ring radially against the centre circle's ellipse.
-    """
-    if Wb.shape[0] >= 3:
-        Wb = (Wb[:-2] + Wb[1:-1] + Wb[2:]) / 3.0
-    return Wb.max(axis=0)
-
-
-def _read_profile(prof, n, n_angles):
-    """Bits from an angular ink profile (clockwise as seen in the image): ``(value, "")`` or ``(None, reason)``."""
-    # element phase from the edges of the profile
-    b = prof > 0.5
-    edges = np.flatnonzero(b != np.roll(b, 1))
-    if edges.size == 0:
-        return None, "ring has no element boundaries"
-    # sub-sample edge position: linear interpolation of the 0.5 crossing
-    p0, p1 = np.roll(prof, 1)[edges], prof[edges]
-    frac = np.clip((0.5 - p0) / np.where(p1 != p0, p1 - p0, 1.0), 0.0, 1.0)
-    t_edge = (edges - 1 + frac + 0.5) * (2 * np.pi / n_angles)  # angle of the crossing
-    z = np.exp(1j * n * t_edge)
-    if abs(z.mean()) < 0.9:
-        return None, "ring edges do not fall on an element grid"
-    phase = np.angle(z.mean()) / n  # element boundaries at phase + k 2pi/n
-    per = n_angles / n
-    a0 = phase + (np.arange(n) + 0.2) * (2 * np.pi / n)  # the central 60 % of each element
-    idx = (np.floor(a0 / (2 * np.pi) * n_angles)[:, None].astype(int) + np.arange(int(0.6 * per))) % n_angles
-    v = prof[idx].mean(axis=1)
-    unclear = np.flatnonzero((v > 0.25) & (v < 0.75))
-    if unclear.size:
-        k = int(unclear[0])
-        return None, f"element {k} is neither printed nor blank (ink {v[k]:.2f})"
-    bits = [1 if x >= 0.75 else 0 for x in v]
-    value = int("".join(map(str, bits)), 2)
-    if value == 0 or value == (1 << n) - 1:
-        return None, "ring is uniform"
-    return value, ""
-
-
-def _candidates(small, sign, thr, scale, min_area):
-    """Round blobs in the downsampled image: list of (x, y, M, area) in full-resolution pixels."""
-    import cv2
-
-    mask = ((small < thr) if sign < 0 else (small > thr)).astype(np.uint8)
-    nlab, labels, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    h, w = small.shape
+    nlab, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if nlab <= 1:
+        return []
+    h, w = mask.shape
+    st = stats[1:].astype(np.int64)
+    x, y, bw, bh, area = st.T
+    d = np.sqrt(4.0 * area / np.pi)
+    # the cheap tests on all components at once (noise and texture of a photo give many)
+    ok = ((area >= min_area) & (d >= d_range[0]) & (d < d_range[1])
+          & (x > 0) & (y > 0) & (x + bw < w) & (y + bh < h)
+          & (np.maximum(bw, bh) <= 3 * np.minimum(bw, bh)) & (area >= 0.5 * bw * bh)
+          & (area <= 0.95 * bw * bh))  # a filled rectangle (e.g. a cut-off corner of something): not a circle
     out = []
-    for k in range(1, nlab):
+    for k in np.flatnonzero(ok) + 1:
         x, y, bw, bh, area = (int(v) for v in stats[k])
-        if area < min_area or x == 0 or y == 0 or x + bw == w or y + bh == h:
-            continue
-        if max(bw, bh) > 3 * min(bw, bh) or area < 0.5 * bw * bh:
-            continue
-        if area > 0.95 * bw * bh:  # a filled rectangle (e.g. a cut-off corner of something): not a circle
-            continue
         sub = (labels[y:y + bh, x:x + bw] == k).astype(np.uint8)
+        if fill_holes:
+            # a hole (a dot printed in the centre circle, a reflection) does not make it less round
+            outside = cv2.copyMakeBorder(1 - sub, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=1)
+            cv2.floodFill(outside, None, (0, 0), 2)
+            sub = (outside[1:-1, 1:-1] != 2).astype(np.uint8)
+            area = int(np.count_nonzero(sub))
         mo = cv2.moments(sub, binaryImage=True)
         cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]  # relative to the bbox corner
         cov = np.array([[mo["mu20"], mo["mu11"]], [mo["mu11"], mo["mu02"]]]) / mo["m00"] + np.eye(2) / 12.0
@@ -289,24 +78,261 @@ def _candidates(small, sign, thr, scale, min_area):
         M = np.linalg.inv(4 * cov)
         # overlap of the blob with its moment ellipse (a disk: ~1; a bar or an arc: clearly less),
         # on a grid of at most ~48 x 48 points
-        st = max(1, max(bw, bh) // 48)
-        gy, gx = np.mgrid[0:bh:st, 0:bw:st]
+        stp = max(1, max(bw, bh) // 48)
+        gy, gx = np.mgrid[0:bh:stp, 0:bw:stp]
         qx = gx - cx
         qy = gy - cy
         ell = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.0
-        inb = sub[::st, ::st].astype(bool)
-        inter = np.count_nonzero(ell & inb) * st * st
+        inb = sub[::stp, ::stp].astype(bool)
+        inter = np.count_nonzero(ell & inb) * stp * stp
         ell_area = np.pi / np.sqrt(np.linalg.det(M))  # the ellipse may extend past the bbox
         union = area + ell_area - inter
         if inter / union < 0.85:
             continue
-        X = (cx + x + 0.5) * scale - 0.5
-        Y = (cy + y + 0.5) * scale - 0.5
+        X = (cx + x + offset[0] + 0.5) * scale - 0.5
+        Y = (cy + y + offset[1] + 0.5) * scale - 0.5
         out.append((X, Y, M / (scale * scale), area * scale * scale))
     return out
 
 
-def detect_markers(image, bits=12, *, polarity="auto", refine="fit") -> list:
+def _candidates(small, sign, thr, scale, min_area):
+    """Round blobs of ``small`` beyond the global threshold ``thr``: list of (x, y, M, area), full-resolution pixels."""
+    mask = ((small < thr) if sign < 0 else (small > thr)).astype(np.uint8)
+    return _blobs(mask, scale, min_area, fill_holes=False)
+
+
+def _global_options(small, polarity):
+    """Global thresholds ``[(sign, threshold), ...]``, the polarity of stronger contrast first.
+
+    Background = the histogram's median (marks cover well under half of any view), ink = the extreme
+    reached by at least k pixels (a single small mark in a large image still counts); a polarity whose
+    contrast is under ``max(10, 6 noise)`` is left out.
+    """
+    import cv2
+
+    hist = cv2.calcHist([small], [0], None, [256], [0, 256]).ravel()
+    cum = np.cumsum(hist)
+    total = cum[-1]
+    k_min = max(12.0, 2e-5 * total)
+    bg = int(np.searchsorted(cum, total / 2))
+    lo = int(np.searchsorted(cum, k_min))
+    hi = int(np.searchsorted(cum, total - k_min))
+    need = max(10.0, 6.0 * noise_sigma(small.astype(np.float32)))
+    options = []
+    if bg - lo >= need:
+        options.append((bg - lo, -1, 0.5 * (bg + lo)))
+    if hi - bg >= need:
+        options.append((hi - bg, 1, 0.5 * (bg + hi)))
+    options.sort(reverse=True)  # the stronger contrast first
+    wanted = {"dark": -1, "light": 1}.get(polarity)
+    return [(sg, t) for _, sg, t in options if wanted is None or sg == wanted]
+
+
+def _as_u8(img):
+    """``img`` (grey levels 0..255) as a contiguous uint8 array."""
+    if img.dtype != np.uint8:
+        img = np.clip(np.rint(img), 0, 255).astype(np.uint8)  # as_gray put it on 0..255
+    return np.ascontiguousarray(img)
+
+
+# -- the candidate search on a scale pyramid ---------------------------------------------------
+
+#: Level k of the pyramid is the image box-averaged by ``2**k`` times the finest factor. Every level
+#: but the finest and the coarsest searches centre circles of equivalent diameter in this range
+#: (level pixels): large enough to be separated from the ring by the threshold, small enough that
+#: the next level resolves the larger ones (the ranges of two levels overlap a little).
+_LEVEL_D = (6.5, 14.0)
+
+#: The finest level, when it is the image itself (under 2048 px), also takes centre circles down to
+#: this equivalent diameter (pixels).
+_FINEST_D = 3.5
+
+#: Side of the tiles of the local levels (level pixels); a mark of the level's range spans at most
+#: 3.2 * 14 = 45 of them.
+_TILE_PX = 64
+
+#: The pyramid stops before a level's shorter side would fall under this (pixels).
+_MIN_LEVEL_PX = 64
+
+
+def _halve(a):
+    """2 x 2 box average of ``a`` (an odd last row or column dropped), uint8."""
+    import cv2
+
+    h, w = a.shape
+    return cv2.resize(a[: h // 2 * 2, : w // 2 * 2], (w // 2, h // 2), interpolation=cv2.INTER_AREA)
+
+
+def _pyramid(img8):
+    """``[(factor, level image)]`` from fine to coarse: factor 1 for images under 2048 px, else 2
+    (a centre circle of 13 px diameter is then 6.5 level pixels), then doubling."""
+    h, w = img8.shape
+    s = 1 if max(h, w) < 2048 else 2
+    cur = img8 if s == 1 else _halve(img8)
+    levels = [(s, cur)]
+    while min(cur.shape) // 2 >= _MIN_LEVEL_PX:
+        cur = _halve(cur)
+        s *= 2
+        levels.append((s, cur))
+    return levels
+
+
+def _local_masks(level, coarse, polarity):
+    """Binary masks ``[(sign, mask, (x0, y0))]`` of ``level`` thresholded midway between the local background and
+    ink; each mask covers the box of the level from (x0, y0) that holds tiles with contrast.
+
+    The levels are those of :func:`_global_options`, but per tile of ``_TILE_PX`` level pixels (taken
+    from ``coarse``, the next level, 2 x 2 box-averaged: less noise, a quarter of the work):
+    background = the median of the tile or of one of its 8 neighbours (the one farthest from ink), ink =
+    the 0.5 % extreme over the tile and its neighbours (a mark across a tile border counts in both).
+    Thresholds are interpolated between tile centres; a tile whose contrast is under
+    ``max(10, 6 noise)`` gives no candidates. This follows lighting that changes across the image
+    and marks printed on patches of another grey.
+    """
+    import cv2
+
+    h, w = level.shape
+    t = _TILE_PX // 2
+    ch, cw = coarse.shape
+    ny, nx = -(-ch // t), -(-cw // t)
+    pad = cv2.copyMakeBorder(coarse, 0, ny * t - ch, 0, nx * t - cw, cv2.BORDER_REFLECT_101)
+    blocks = pad.reshape(ny, t, nx, t).transpose(0, 2, 1, 3).reshape(ny, nx, t * t)
+    n = t * t
+    k = max(4, n // 200)
+    part = np.partition(blocks, (k, n // 2, n - 1 - k), axis=2)
+    lo_t, bg_t, hi_t = part[..., k], part[..., n // 2], part[..., n - 1 - k]
+    kernel = np.ones((3, 3), np.uint8)
+
+    def spread(a, sign):  # the darkest (sign -1) or lightest (+1) over the tile and its neighbours
+        op = cv2.erode if sign < 0 else cv2.dilate
+        return op(a, kernel, borderType=cv2.BORDER_REPLICATE).astype(np.float32)
+
+    need = max(10.0, 6.0 * noise_sigma(level[:: max(1, h // 64)].astype(np.float32)))  # from ~64 rows
+    wanted = {"dark": (-1,), "light": (1,)}.get(polarity, (-1, 1))
+    out = []
+    for sign in wanted:
+        # ink: the extreme near the tile; background: the neighbouring tile median farthest from ink
+        # (a tile mostly covered by something dark, e.g. the frame of a screen, or by a large mark
+        # does not pull the background of dark marks next to it down)
+        ink = spread(lo_t if sign < 0 else hi_t, sign)
+        bg = spread(bg_t, -sign)
+        valid = np.abs(bg - ink) >= need
+        if not valid.any():
+            continue
+        # uint8 maps (fast to resize and compare); a tile without contrast gets the threshold
+        # nothing passes (0 for dark marks, 255 for light ones)
+        thr = cv2.resize(np.clip(np.rint(0.5 * (bg + ink)), 1, 254).astype(np.uint8), (w, h),
+                         interpolation=cv2.INTER_LINEAR)
+        vmap = cv2.resize(valid.astype(np.uint8) * 255, (w, h), interpolation=cv2.INTER_NEAREST)
+        # only the box around the tiles with contrast is searched (with a blank border, so that a blob
+        # cut by the box is one cut by the tiles without contrast, not by the image border)
+        ty, tx = np.nonzero(valid)
+        ya, yb = int(ty.min() * h // ny), int(min(h, -(-(ty.max() + 1) * h // ny)))
+        xa, xb = int(tx.min() * w // nx), int(min(w, -(-(tx.max() + 1) * w // nx)))
+        ya, xa = max(0, ya - 1), max(0, xa - 1)
+        yb, xb = min(h, yb + 1), min(w, xb + 1)
+        sub = (slice(ya, yb), slice(xa, xb))
+        if sign < 0:
+            mask = cv2.compare(level[sub], cv2.min(thr[sub], vmap[sub]), cv2.CMP_LT)
+        else:
+            mask = cv2.compare(level[sub], cv2.max(thr[sub], 255 - vmap[sub]), cv2.CMP_GT)
+        out.append((sign, mask, (xa, ya)))
+    return out
+
+
+def _level_candidates(levels, i, polarity):
+    """Candidate centre circles of level ``i`` of ``levels``: ``[(x, y, M, sign)]``, full-resolution pixels.
+
+    The level searches the sizes it resolves (``_LEVEL_D``; the finest also smaller, the coarsest all
+    larger ones) with local thresholds (:func:`_local_masks`; the coarsest level, the whole image at
+    once, with the global ones).
+    """
+    s, lv = levels[i]
+    last = i == len(levels) - 1
+    d_lo = _FINEST_D if (i == 0 and s == 1) else _LEVEL_D[0]
+    d_hi = np.inf if last else _LEVEL_D[1]
+    if last:
+        masks = [(sign, ((lv < thr) if sign < 0 else (lv > thr)).astype(np.uint8), (0, 0))
+                 for sign, thr in _global_options(lv, polarity)]
+    else:
+        masks = _local_masks(lv, levels[i + 1][1], polarity)
+    out = []
+    for sign, mask, off in masks:
+        out.extend((X, Y, M, sign) for X, Y, M, _area in
+                   _blobs(mask, s, min_area=12, d_range=(d_lo, d_hi), offset=off))
+    return out
+
+
+def _detect_pyramid(img, img8, n, polarity, refine, clockwise):
+    """Search the levels from coarse to fine and read every candidate; returns the decoded Markers.
+
+    A candidate inside the ring of a mark already read (a ring element of a large mark, found on a
+    finer level) or at the place and size of one already tried on a coarser level is not read again:
+    :func:`_keep_outermost` would drop the first, the second gives nothing new.
+    """
+    levels = _pyramid(img8)
+    markers = []
+    mk = np.empty((0, 3))  # decoded: x, y, radius
+    tried = np.empty((0, 3))  # candidates of coarser levels: x, y, radius
+    for i in range(len(levels) - 1, -1, -1):
+        s = levels[i][0]
+        cands = [(X, Y, M, sign, float(np.linalg.det(M) ** -0.25)) for X, Y, M, sign in
+                 _level_candidates(levels, i, polarity)]
+        cands.sort(key=lambda c: -c[4])
+        this = []
+        for X, Y, M, sign, r in cands:
+            this.append((X, Y, r))
+            if len(mk) and np.any(np.hypot(mk[:, 0] - X, mk[:, 1] - Y) <= _RHO_MAX * mk[:, 2]):
+                continue
+            if len(tried):
+                ratio = tried[:, 2] / r
+                if np.any((np.hypot(tried[:, 0] - X, tried[:, 1] - Y) < 0.5 * np.minimum(tried[:, 2], r))
+                          & (ratio > 0.67) & (ratio < 1.5)):
+                    continue
+            m = _decode_one(img, X, Y, M, sign, n, refine, s, clockwise=clockwise)
+            if m is not None:
+                markers.append(m)
+                mk = np.vstack([mk, [m.x_px, m.y_px, m.radius_px]])
+        if this:
+            tried = np.vstack([tried, np.array(this)])
+    return markers
+
+
+def _keep_outermost(markers):
+    """A ring element mistaken for a centre circle lies inside a real mark's ring: keep the larger mark."""
+    markers = sorted(markers, key=lambda m: -m.radius_px)
+    kx, ky, kr = [], [], []
+    kept = []
+    for m in markers:
+        if kx:
+            d = np.hypot(np.asarray(kx) - m.x_px, np.asarray(ky) - m.y_px)
+            if np.any(d <= _RHO_MAX * np.asarray(kr)):
+                continue
+        kept.append(m)
+        kx.append(m.x_px)
+        ky.append(m.y_px)
+        kr.append(m.radius_px)
+    kept.sort(key=lambda m: (m.y_px, m.x_px))
+    return kept
+
+
+def _check_args(image, bits, polarity, refine, clockwise):
+    from kinid.checks import check_choice, check_image, check_int
+
+    n = check_int("bits", bits, minimum=3, maximum=30)
+    check_image("image", image)
+    check_choice("polarity", polarity, ("auto", "dark", "light"))
+    check_choice("refine", refine, ("fit", "centroid"))
+    if not isinstance(clockwise, (bool, np.bool_)):
+        from kinid.errors import DataError
+
+        raise DataError(f"must be True or False, got {clockwise!r}", parameter="clockwise")
+    arr = np.asarray(image)
+    img = arr if (arr.ndim == 2 and arr.dtype == np.uint8) else as_gray(arr)
+    return n, img
+
+
+def detect_markers(image, bits=12, *, polarity="auto", refine="fit", clockwise=True) -> list:
     """Detect and decode ring-coded marks.
 
     Parameters
@@ -316,193 +342,55 @@ def detect_markers(image, bits=12, *, polarity="auto", refine="fit") -> list:
     bits : int
         Ring elements per mark.
     polarity : {"auto", "dark", "light"}
-        Dark marks on a light background, light on dark, or ``auto`` (tries the
-        polarity suggested by the image first, then the other one).
+        Dark marks on a light background, light on dark, or ``auto`` (both; each part of the
+        image is searched in the polarities its local contrast allows).
     refine : {"fit", "centroid"}
         Centre refinement: blurred-ellipse model fit (most accurate) or
         background-subtracted weighted centroid (faster).
+    clockwise : bool
+        Direction in which the ring's bits are read, as seen in the image (x right, y down):
+        clockwise (default, this project's convention and its boards) or counter-clockwise (other
+        systems' convention, e.g. CCTDecode). The two readings of one mark are each other's bit
+        mirror image; a mirror-symmetric code reads the same both ways.
 
     Returns
     -------
     list of Marker
         Sorted by y then x. Marks whose ring leaves the image, or whose ring
         cannot be read with confidence, are left out.
+
+    Notes
+    -----
+    Candidates come from a scale pyramid (factor 1, or 2 for images of 2048 px and more, then
+    doubling): each level searches the centre-circle sizes it resolves (6.5-14 level pixels), with
+    thresholds from the local background and ink levels; every candidate is then read at full
+    resolution. Centre circles down to 7 px diameter (images under 2048 px) or 13 px (larger
+    images) are searched.
+    """
+    n, img = _check_args(image, bits, polarity, refine, clockwise)
+    markers = _detect_pyramid(img, _as_u8(img), n, polarity, refine, bool(clockwise))
+    return _keep_outermost(markers)
+
+
+def _detect_single_scale(image, bits=12, *, polarity="auto", refine="fit", clockwise=True) -> list:
+    """The earlier candidate search: one global threshold on a copy shrunk to about 1024 px.
+
+    Kept as the reference that ``benchmarks/bench_photo_markers.py`` runs on overlapping tiles
+    (the peer of :func:`detect_markers`); the reading of each candidate is the same.
     """
     import cv2
 
-    from kinid.checks import check_choice, check_image, check_int
-
-    n = check_int("bits", bits, minimum=3, maximum=30)
-    check_image("image", image)
-    check_choice("polarity", polarity, ("auto", "dark", "light"))
-    check_choice("refine", refine, ("fit", "centroid"))
-    arr = np.asarray(image)
-    img = arr if (arr.ndim == 2 and arr.dtype == np.uint8) else as_gray(arr)
+    n, img = _check_args(image, bits, polarity, refine, clockwise)
     h, w = img.shape
     scale = max(1, int(max(h, w) // 1024))
     small = cv2.resize(img, (w // scale, h // scale), interpolation=cv2.INTER_AREA) if scale > 1 else img
-    small = np.ascontiguousarray(small)
-    if small.dtype != np.uint8:
-        small = np.clip(np.rint(small), 0, 255).astype(np.uint8)  # as_gray put it on 0..255
-    # levels from the histogram: background = median (marks cover well under half of any view), ink =
-    # the extreme reached by at least k pixels (a single small mark in a large image still counts)
-    hist = cv2.calcHist([small], [0], None, [256], [0, 256]).ravel()
-    cum = np.cumsum(hist)
-    total = cum[-1]
-    k_min = max(12.0, 2e-5 * total)
-    bg = int(np.searchsorted(cum, total / 2))
-    lo = int(np.searchsorted(cum, k_min))
-    hi = int(np.searchsorted(cum, total - k_min))
-    noise = noise_sigma(small.astype(np.float32))
-    need = max(10.0, 6.0 * noise)
-    options = []
-    if bg - lo >= need:
-        options.append((bg - lo, -1, 0.5 * (bg + lo)))
-    if hi - bg >= need:
-        options.append((hi - bg, 1, 0.5 * (bg + hi)))
-    options.sort(reverse=True)  # the stronger contrast first
-    wanted = {"dark": -1, "light": 1}.get(polarity)
-    signs = [(sg, t) for _, sg, t in options if wanted is None or sg == wanted]
+    small = _as_u8(small)
     markers = []
-    for sign, thr in signs:
-        for X, Y, M, area in _candidates(small, sign, thr, scale, min_area=12):
-            m = _decode_one(img, X, Y, M, sign, n, refine, scale)
+    for sign, thr in _global_options(small, polarity):
+        for X, Y, M, _area in _candidates(small, sign, thr, scale, min_area=12):
+            m = _decode_one(img, X, Y, M, sign, n, refine, scale, clockwise=bool(clockwise))
             if m is not None:
                 markers.append(m)
         if markers:
             break
-    # a ring element mistaken for a centre circle lies inside a real mark's ring: keep the larger mark
-    markers.sort(key=lambda m: -m.radius_px)
-    kept = []
-    for m in markers:
-        if all(np.hypot(m.x_px - k.x_px, m.y_px - k.y_px) > _RHO_MAX * k.radius_px for k in kept):
-            kept.append(m)
-    kept.sort(key=lambda m: (m.y_px, m.x_px))
-    return kept
-
-
-def _refine_moments(img, X, Y, M, bg, ink, iterations=2):
-    """Centre and ellipse of the centre circle from grey-level moments (ink fraction clipped to [0, 1]).
-
-    Uses the pixels within 1.4 radii of the current ellipse (the ring starts at 1.8), so the
-    result is far better than the moments of a thresholded, downsampled blob. Returns
-    ``(x, y, M)`` or None when the window leaves the image or holds no ink.
-    """
-    h, w = img.shape
-    for _ in range(iterations):
-        Minv = np.linalg.inv(M)
-        ex, ey = 1.4 * np.sqrt(Minv[0, 0]) + 1, 1.4 * np.sqrt(Minv[1, 1]) + 1
-        xa, xb = int(np.floor(X - ex)), int(np.ceil(X + ex)) + 1
-        ya, yb = int(np.floor(Y - ey)), int(np.ceil(Y + ey)) + 1
-        if xa < 0 or ya < 0 or xb > w or yb > h:
-            return None
-        ys, xs = np.mgrid[ya:yb, xa:xb]
-        qx, qy = xs - X, ys - Y
-        inwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.96
-        wgt = np.clip((img[ya:yb, xa:xb] - bg) / (ink - bg), 0.0, 1.0) * inwin
-        tot = wgt.sum()
-        if not tot > 3:
-            return None
-        X = float((wgt * xs).sum() / tot)
-        Y = float((wgt * ys).sum() / tot)
-        dx, dy = xs - X, ys - Y
-        cov = np.array([[(wgt * dx * dx).sum(), (wgt * dx * dy).sum()],
-                        [(wgt * dx * dy).sum(), (wgt * dy * dy).sum()]]) / tot
-        if not np.linalg.det(cov) > 0:
-            return None
-        M = np.linalg.inv(4 * cov)
-    return X, Y, M
-
-
-def _local_levels(img, X, Y, M, sign):
-    """Background and ink grey levels around one candidate (robust medians)."""
-    A = _sqrt_inv(M)
-    R = np.sqrt(np.linalg.det(A))
-    h, w = img.shape
-    th = np.linspace(0, 2 * np.pi, 64, endpoint=False)
-    u = np.stack([np.cos(th), np.sin(th)])
-    d = A @ u
-    inner = [(X + r * d[0], Y + r * d[1]) for r in (0.0, 0.3, 0.5)]
-    outer = [(X + r * d[0], Y + r * d[1]) for r in (1.4, 1.5)]
-
-    def sample(pts):
-        xs = np.concatenate([p[0] for p in pts])
-        ys = np.concatenate([p[1] for p in pts])
-        xi = np.clip(np.rint(xs).astype(int), 0, w - 1)
-        yi = np.clip(np.rint(ys).astype(int), 0, h - 1)
-        return img[yi, xi]
-
-    ink = float(np.median(sample(inner)))
-    bg = float(np.median(sample(outer)))
-    if R < 1 or (ink - bg) * sign <= 0:
-        return None
-    return bg, ink
-
-
-#: Marks are decoded and refined on a box-filtered copy in which the centre radius is about this (px).
-_WORK_RADIUS_PX = 30.0
-
-#: Outer half-width of the edge band used by the centre refinement, work pixels.
-_WINDOW_PX = 6.0
-
-
-def _decode_one(img, X, Y, M, sign, n, refine, scale=1):
-    """Decode and refine one candidate (full-resolution guess X, Y, M); returns a Marker or None."""
-    import cv2
-
-    R_full = np.linalg.det(M) ** -0.25
-    f = max(1, int(R_full // _WORK_RADIUS_PX))
-    # crop around the mark, aligned to the box size f; box filtering keeps the centre unbiased
-    ext = _RHO_MAX * np.sqrt(np.linalg.inv(M).diagonal()) + 2 * f
-    h, w = img.shape
-    x0, y0 = max(0, int(X - ext[0])), max(0, int(Y - ext[1]))
-    x1, y1 = min(w, int(np.ceil(X + ext[0])) + 1), min(h, int(np.ceil(Y + ext[1])) + 1)
-    x1 -= (x1 - x0) % f
-    y1 -= (y1 - y0) % f
-    if x1 - x0 < 3 * f or y1 - y0 < 3 * f:
-        return None
-    crop = img[y0:y1, x0:x1].astype(np.float32)
-    work = cv2.resize(crop, ((x1 - x0) // f, (y1 - y0) // f), interpolation=cv2.INTER_AREA) if f > 1 else crop
-    Xw, Yw, Mw = (X - x0 + 0.5) / f - 0.5, (Y - y0 + 0.5) / f - 0.5, M * (f * f)
-    # a crop clipped by the image border must still look like the border to read_ring: it does,
-    # because the crop only ever stops short of the ring where the image itself ends.
-    lv = _local_levels(work, Xw, Yw, Mw, sign)
-    if lv is None:
-        return None
-    bg, ink = lv
-    if abs(ink - bg) < 10:
-        return None
-    if R_full / scale < 15:  # a small thresholded blob gives a poor ellipse: use grey-level moments
-        rough = _refine_moments(work, Xw, Yw, Mw, bg, ink)
-        if rough is None:
-            return None
-        Xw, Yw, Mw = rough
-    first = read_ring(work, Xw, Yw, Mw, bg, ink, n)
-    if first[0] is None:
-        return None
-    value, band = first[0], first[2]
-    R0 = np.linalg.det(Mw) ** -0.25
-    # the ring's inner edge is at ~1.8 R: keep the window clear of it
-    win = max(2.0, min(0.45 * R0, _WINDOW_PX))
-    if refine == "fit":
-        r = fit_disk_model(work, Xw, Yw, Mw, window_px=win)
-        if not r["ok"]:
-            return None
-        x, y, Mf = r["x"], r["y"], r["M"]
-        if abs(r["amp"]) < 0.5 * abs(ink - bg) or np.hypot(x - Xw, y - Yw) > 0.5 * R0:
-            return None
-        # re-read the ring with the refined ellipse: must agree
-        k = R0 / r["radius"]  # the band was measured in radii of the rough (threshold) ellipse
-        value2 = read_ring(work, x, y, Mf, r["bg"], r["bg"] + r["amp"], n, band=(band[0] * k, band[1] * k))[0]
-        if value2 is None or canonical_code(value2, n) != canonical_code(value, n):
-            return None
-        radius = r["radius"]
-    else:
-        xy = weighted_centroid(work, Xw, Yw, Mw, bg, ink, window_px=win)
-        if xy is None:
-            return None
-        x, y = xy
-        radius = float(R0)
-    code = canonical_code(value, n)
-    return Marker(int(code), float((x + 0.5) * f - 0.5 + x0), float((y + 0.5) * f - 0.5 + y0), float(radius * f),
-                  format(code, f"0{n}b"))
+    return _keep_outermost(markers)

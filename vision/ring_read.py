@@ -1,0 +1,376 @@
+"""Reading one ring-coded mark: its code from the ring around a centre circle, and its centre refined.
+
+The candidate search that finds centre circles in an image is :mod:`vision.ringcode`; this module reads
+what it found (docs/vision_markers.md).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .circles import fit_disk_model, weighted_centroid
+
+__all__ = ["Marker", "canonical_code", "decode_from_segments", "read_ring"]
+
+
+@dataclass(frozen=True)
+class Marker:
+    """A decoded ring-coded mark.
+
+    Attributes
+    ----------
+    code : int
+        Canonical code (smallest cyclic rotation).
+    x_px, y_px : float
+        Centre of the centre circle, pixels.
+    radius_px : float
+        Radius of the centre circle (geometric mean of its semi-axes), pixels.
+    bits : str
+        The bits of ``code`` as a string of length n, MSB first.
+    """
+
+    code: int
+    x_px: float
+    y_px: float
+    radius_px: float
+    bits: str
+
+
+def canonical_code(bits_value: int, n=12) -> int:
+    """Smallest value over the ``n`` cyclic rotations of an ``n``-bit value.
+
+    Examples
+    --------
+    >>> canonical_code(0b110001110000)
+    199
+    """
+    n = int(n)
+    v = int(bits_value)
+    if not 0 <= v < (1 << n):
+        raise ValueError(f"bits_value must be in 0..{(1 << n) - 1} for n={n}, got {bits_value}")
+    mask = (1 << n) - 1
+    best = v
+    for _ in range(n - 1):
+        v = ((v << 1) | (v >> (n - 1))) & mask
+        best = min(best, v)
+    return best
+
+
+def decode_from_segments(segment_elements, gap_angles_deg, n=12) -> int:
+    """Decode a mark from its printed segments, as in the monocular contour method (formulas 4-5).
+
+    Parameters
+    ----------
+    segment_elements : sequence of int
+        ``M_i``: elements in each printed ring segment, in clockwise order
+        (``m_i = round(A_i / a)`` from segment area ``A_i`` and element area ``a``).
+    gap_angles_deg : sequence of float
+        ``theta_i``: angle, seen from the centre circle's centroid, from the
+        centroid of segment i clockwise to that of segment i+1 (the last one
+        back to the first), degrees.
+    n : int
+        Number of ring elements.
+
+    Returns
+    -------
+    int
+        The canonical code. The blank elements between segments i and i+1 are
+        ``q_i = round(theta_i n / 360 - (M_i + M_{i+1}) / 2)``.
+
+    Examples
+    --------
+    The patent's worked example: segments of 3 and 2 elements at 195 and 165
+    degrees give gaps of 4 and 3 and the code 000011000111:
+
+    >>> decode_from_segments([3, 2], [195, 165])
+    199
+    """
+    m = [int(v) for v in segment_elements]
+    th = [float(v) for v in gap_angles_deg]
+    n = int(n)
+    if len(m) != len(th) or not m:
+        raise ValueError(f"need one gap angle per segment, got {len(m)} segments and {len(th)} angles")
+    if any(v < 1 for v in m):
+        raise ValueError(f"segment element counts must be >= 1, got {m}")
+    bits = []
+    for i, mi in enumerate(m):
+        mj = m[(i + 1) % len(m)]
+        q = int(round(th[i] * n / 360.0 - (mi + mj) / 2.0))
+        if q < 1 and len(m) > 1:
+            raise ValueError(f"gap {i} has {q} elements (angle {th[i]} deg); segments must be separated")
+        bits += [1] * mi + [0] * max(q, 0)
+    if len(bits) != n:
+        raise ValueError(f"segments and gaps add up to {len(bits)} elements, expected {n}")
+    value = int("".join(map(str, bits)), 2)
+    return canonical_code(value, n)
+
+
+# ---------------------------------------------------------------------------
+# detection
+
+#: Ring geometry relative to the centre-circle radius (patent: Ø5 centre, Ø9-Ø13 ring).
+_RHO_MIN, _RHO_MAX = 1.2, 3.2
+
+
+def _sqrt_inv(M):
+    """Symmetric M^(-1/2) of a 2x2 symmetric positive definite matrix."""
+    w, V = np.linalg.eigh(M)
+    return (V / np.sqrt(w)) @ V.T
+
+
+def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
+    """Read the bits of the ring around a centre circle ``q^T M q <= 1`` at (x, y).
+
+    Parameters
+    ----------
+    img : numpy.ndarray
+        Float grey image, full resolution.
+    x, y : float
+        Centre-circle centre, pixels.
+    M : array_like, shape (2, 2)
+        Centre-circle ellipse matrix.
+    bg, ink : float
+        Background and ink grey levels.
+    n : int
+        Ring elements.
+    n_angles : int or None
+        Angular samples; default ``max(360, 30 n)``.
+    band : tuple of float or None
+        Known (inner, outer) ring radii in centre radii (from an earlier read): only the band is
+        sampled, the radial search and the gap check are skipped.
+
+    Returns
+    -------
+    tuple
+        ``(value, "", (inner, outer))``: the n-bit value read clockwise from the
+        element phase origin (MSB first) and the ring band in centre radii, or
+        ``(None, reason, None)`` when the ring cannot be read with confidence.
+    """
+    import cv2
+
+    if n_angles is None:
+        n_angles = max(360, 30 * n)
+    A = _sqrt_inv(np.asarray(M, float))  # unit circle -> centre ellipse
+    R = np.linalg.det(A) ** 0.5
+    if band is None:
+        step = max(0.5 / R, 0.04)  # half-pixel radial steps, at most 50 rows
+        rho = np.arange(_RHO_MIN, _RHO_MAX, step)
+    else:
+        rho = np.linspace(band[0], band[1], min(16, max(5, int(np.ceil((band[1] - band[0]) * R)) + 1)))
+    th = (np.arange(n_angles) + 0.5) * (2 * np.pi / n_angles)
+    u = np.stack([np.cos(th), np.sin(th)])  # (2, n_angles)
+    d = A @ u  # (2, n_angles)
+    mx = (x + rho[:, None] * d[0][None, :]).astype(np.float32)
+    my = (y + rho[:, None] * d[1][None, :]).astype(np.float32)
+    P = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
+    h, w = img.shape
+    outside = ~((mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1))
+    P[outside] = np.nan
+    W = (P - bg) / (ink - bg)  # ink fraction, (n_rho, n_angles)
+    valid = ~np.isnan(W)
+    if band is not None:
+        if not valid.all():
+            return None, "ring cut by the image border", None
+        return (*_read_profile(_band_profile(W), n, n_angles), tuple(band))
+    f = (np.nan_to_num(W, nan=0.0) > 0.5).sum(axis=1) / np.maximum(valid.sum(axis=1), 1)
+    fmax = f.max()
+    if fmax < 0.5 / n:
+        return None, "no ring around the centre circle", None
+    # the band: the run of radii around the most inked one (ink further out, e.g. a neighbour's
+    # ring on a tight board, is not part of it)
+    strong = f > 0.5 * fmax
+    i0 = i1 = int(np.argmax(f))
+    while i0 > 0 and strong[i0 - 1]:
+        i0 -= 1
+    while i1 < len(f) - 1 and strong[i1 + 1]:
+        i1 += 1
+    r_in, r_out = rho[i0], rho[i1]
+    if not (1.4 < r_in < 2.3 and 2.1 < r_out < 3.2 and r_out - r_in > 0.35):
+        return None, f"ring band {r_in:.2f}-{r_out:.2f} (centre radii) is not where a ring belongs", None
+    if not valid[rho <= r_out + 2.0 / R].all():
+        return None, "ring cut by the image border", None
+    # the gap between centre circle and ring must be empty
+    # (away from both blurred edges; at least one clean circle must separate them)
+    margin = max(0.1, 1.5 / R)
+    inside = (rho > 1.0 + margin) & (rho < r_in - margin)
+    if np.any(inside) and W[inside].mean(axis=1).min() > 0.15:
+        return None, "ink between the centre circle and the ring", None
+    in_band = (rho >= r_in) & (rho <= r_out)
+    value, reason = _read_profile(_band_profile(W[in_band]), n, n_angles)
+    return value, reason, ((float(r_in), float(r_out)) if value is not None else None)
+
+
+def _band_profile(Wb):
+    """Angular ink profile of a ring band: per angle, the largest ink of a 3-row running mean.
+
+    The maximum over the band (rather than the mean of its core) keeps a printed element at
+    full ink where perspective shifts the ring radially against the centre circle's ellipse.
+    """
+    if Wb.shape[0] >= 3:
+        Wb = (Wb[:-2] + Wb[1:-1] + Wb[2:]) / 3.0
+    return Wb.max(axis=0)
+
+
+def _read_profile(prof, n, n_angles):
+    """Bits from an angular ink profile (clockwise as seen in the image): ``(value, "")`` or ``(None, reason)``."""
+    # element phase from the edges of the profile
+    b = prof > 0.5
+    edges = np.flatnonzero(b != np.roll(b, 1))
+    if edges.size == 0:
+        return None, "ring has no element boundaries"
+    # sub-sample edge position: linear interpolation of the 0.5 crossing
+    p0, p1 = np.roll(prof, 1)[edges], prof[edges]
+    frac = np.clip((0.5 - p0) / np.where(p1 != p0, p1 - p0, 1.0), 0.0, 1.0)
+    t_edge = (edges - 1 + frac + 0.5) * (2 * np.pi / n_angles)  # angle of the crossing
+    z = np.exp(1j * n * t_edge)
+    if abs(z.mean()) < 0.9:
+        return None, "ring edges do not fall on an element grid"
+    phase = np.angle(z.mean()) / n  # element boundaries at phase + k 2pi/n
+    per = n_angles / n
+    a0 = phase + (np.arange(n) + 0.2) * (2 * np.pi / n)  # the central 60 % of each element
+    idx = (np.floor(a0 / (2 * np.pi) * n_angles)[:, None].astype(int) + np.arange(int(0.6 * per))) % n_angles
+    v = prof[idx].mean(axis=1)
+    unclear = np.flatnonzero((v > 0.25) & (v < 0.75))
+    if unclear.size:
+        k = int(unclear[0])
+        return None, f"element {k} is neither printed nor blank (ink {v[k]:.2f})"
+    bits = [1 if x >= 0.75 else 0 for x in v]
+    value = int("".join(map(str, bits)), 2)
+    if value == 0 or value == (1 << n) - 1:
+        return None, "ring is uniform"
+    return value, ""
+
+
+def _refine_moments(img, X, Y, M, bg, ink, iterations=2):
+    """Centre and ellipse of the centre circle from grey-level moments (ink fraction clipped to [0, 1]).
+
+    Uses the pixels within 1.4 radii of the current ellipse (the ring starts at 1.8), so the
+    result is far better than the moments of a thresholded, downsampled blob. Returns
+    ``(x, y, M)`` or None when the window leaves the image or holds no ink.
+    """
+    h, w = img.shape
+    for _ in range(iterations):
+        Minv = np.linalg.inv(M)
+        ex, ey = 1.4 * np.sqrt(Minv[0, 0]) + 1, 1.4 * np.sqrt(Minv[1, 1]) + 1
+        xa, xb = int(np.floor(X - ex)), int(np.ceil(X + ex)) + 1
+        ya, yb = int(np.floor(Y - ey)), int(np.ceil(Y + ey)) + 1
+        if xa < 0 or ya < 0 or xb > w or yb > h:
+            return None
+        ys, xs = np.mgrid[ya:yb, xa:xb]
+        qx, qy = xs - X, ys - Y
+        inwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.96
+        wgt = np.clip((img[ya:yb, xa:xb] - bg) / (ink - bg), 0.0, 1.0) * inwin
+        tot = wgt.sum()
+        if not tot > 3:
+            return None
+        X = float((wgt * xs).sum() / tot)
+        Y = float((wgt * ys).sum() / tot)
+        dx, dy = xs - X, ys - Y
+        cov = np.array([[(wgt * dx * dx).sum(), (wgt * dx * dy).sum()],
+                        [(wgt * dx * dy).sum(), (wgt * dy * dy).sum()]]) / tot
+        if not np.linalg.det(cov) > 0:
+            return None
+        M = np.linalg.inv(4 * cov)
+    return X, Y, M
+
+
+def _local_levels(img, X, Y, M, sign):
+    """Background and ink grey levels around one candidate (robust medians)."""
+    A = _sqrt_inv(M)
+    R = np.sqrt(np.linalg.det(A))
+    h, w = img.shape
+    th = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    u = np.stack([np.cos(th), np.sin(th)])
+    d = A @ u
+    inner = [(X + r * d[0], Y + r * d[1]) for r in (0.0, 0.3, 0.5)]
+    outer = [(X + r * d[0], Y + r * d[1]) for r in (1.4, 1.5)]
+
+    def sample(pts):
+        xs = np.concatenate([p[0] for p in pts])
+        ys = np.concatenate([p[1] for p in pts])
+        xi = np.clip(np.rint(xs).astype(int), 0, w - 1)
+        yi = np.clip(np.rint(ys).astype(int), 0, h - 1)
+        return img[yi, xi]
+
+    ink = float(np.median(sample(inner)))
+    bg = float(np.median(sample(outer)))
+    if R < 1 or (ink - bg) * sign <= 0:
+        return None
+    return bg, ink
+
+
+#: Marks are decoded and refined on a box-filtered copy in which the centre radius is about this (px).
+_WORK_RADIUS_PX = 30.0
+
+#: Outer half-width of the edge band used by the centre refinement, work pixels.
+_WINDOW_PX = 6.0
+
+
+def _decode_one(img, X, Y, M, sign, n, refine, scale=1, clockwise=True):
+    """Decode and refine one candidate (full-resolution guess X, Y, M); returns a Marker or None.
+
+    ``scale`` is the factor of the level the candidate comes from; ``clockwise=False`` reports the
+    bits read counter-clockwise (the bit mirror image of the clockwise reading).
+    """
+    import cv2
+
+    R_full = np.linalg.det(M) ** -0.25
+    f = max(1, int(R_full // _WORK_RADIUS_PX))
+    # crop around the mark, aligned to the box size f; box filtering keeps the centre unbiased. The
+    # margin allows for a candidate ellipse up to 20 % small (a blob thresholded on a coarse level).
+    ext = 1.2 * _RHO_MAX * np.sqrt(np.linalg.inv(M).diagonal()) + 2 * f + 2
+    h, w = img.shape
+    x0, y0 = max(0, int(X - ext[0])), max(0, int(Y - ext[1]))
+    x1, y1 = min(w, int(np.ceil(X + ext[0])) + 1), min(h, int(np.ceil(Y + ext[1])) + 1)
+    x1 -= (x1 - x0) % f
+    y1 -= (y1 - y0) % f
+    if x1 - x0 < 3 * f or y1 - y0 < 3 * f:
+        return None
+    crop = img[y0:y1, x0:x1].astype(np.float32)
+    work = cv2.resize(crop, ((x1 - x0) // f, (y1 - y0) // f), interpolation=cv2.INTER_AREA) if f > 1 else crop
+    Xw, Yw, Mw = (X - x0 + 0.5) / f - 0.5, (Y - y0 + 0.5) / f - 0.5, M * (f * f)
+    # a crop clipped by the image border must still look like the border to read_ring: it does,
+    # because the crop only ever stops short of the ring where the image itself ends.
+    lv = _local_levels(work, Xw, Yw, Mw, sign)
+    if lv is None:
+        return None
+    bg, ink = lv
+    if abs(ink - bg) < 10:
+        return None
+    if R_full / scale < 15:  # a small thresholded blob gives a poor ellipse: use grey-level moments
+        rough = _refine_moments(work, Xw, Yw, Mw, bg, ink)
+        if rough is None:
+            return None
+        Xw, Yw, Mw = rough
+    first = read_ring(work, Xw, Yw, Mw, bg, ink, n)
+    if first[0] is None:
+        return None
+    value, band = first[0], first[2]
+    R0 = np.linalg.det(Mw) ** -0.25
+    # the ring's inner edge is at ~1.8 R: keep the window clear of it
+    win = max(2.0, min(0.45 * R0, _WINDOW_PX))
+    if refine == "fit":
+        r = fit_disk_model(work, Xw, Yw, Mw, window_px=win)
+        if not r["ok"]:
+            return None
+        x, y, Mf = r["x"], r["y"], r["M"]
+        if abs(r["amp"]) < 0.5 * abs(ink - bg) or np.hypot(x - Xw, y - Yw) > 0.5 * R0:
+            return None
+        # re-read the ring with the refined ellipse: must agree
+        k = R0 / r["radius"]  # the band was measured in radii of the rough (threshold) ellipse
+        value2 = read_ring(work, x, y, Mf, r["bg"], r["bg"] + r["amp"], n, band=(band[0] * k, band[1] * k))[0]
+        if value2 is None or canonical_code(value2, n) != canonical_code(value, n):
+            return None
+        radius = r["radius"]
+    else:
+        xy = weighted_centroid(work, Xw, Yw, Mw, bg, ink, window_px=win)
+        if xy is None:
+            return None
+        x, y = xy
+        radius = float(R0)
+    if not clockwise:
+        value = int(format(value, f"0{n}b")[::-1], 2)
+    code = canonical_code(value, n)
+    return Marker(int(code), float((x + 0.5) * f - 0.5 + x0), float((y + 0.5) * f - 0.5 + y0), float(radius * f),
+                  format(code, f"0{n}b"))
