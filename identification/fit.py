@@ -11,10 +11,8 @@ Units: parameters in the effects' units (µm, µrad, µm/mm ...), residuals µm.
 """
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field, replace
 
-import casadi as ca
 import numpy as np
 
 from kinid.checks import check_positive
@@ -24,6 +22,7 @@ from kinid.threads import blas_single_threaded
 
 from .effects import check_effects, default_model, model_effects, parse_effect  # noqa: F401 (model_effects re-exported)
 from .identifiability import RANK_TOL, Alias, analyse
+from .lm_step import lm_step as _lm_step
 from .machine import Machine, check_machine, machine_from_urdf
 from .noise import Noise
 from .observations import Observations, SetAside, check_observations
@@ -80,6 +79,8 @@ class FitResult:
         may be trusted when the URDF gives an axis no limits).
     prior : str
         The prior of a maximum a posteriori fit, in words (empty for least squares).
+    prior_std : array (P,) or None
+        Its standard deviation per parameter (inf where none); None for least squares.
     shared_std : dict source -> array (P,)
         For each shared (type B) source of the observations' uncertainty
         (``Observations.shifts_mm``): the change of every parameter when the
@@ -111,6 +112,7 @@ class FitResult:
     axis_ranges: dict = field(default_factory=dict)
     shared_std: dict = field(default_factory=dict)
     prior: str = ""
+    prior_std: np.ndarray | None = None
 
     @property
     def noise_um(self) -> float:
@@ -188,22 +190,6 @@ class FitResult:
         from .plausibility import implausible_effects
 
         return implausible_effects(self)
-
-
-@functools.lru_cache(maxsize=32)
-def _step_solver(n: int):
-    """CasADi QP for one Levenberg–Marquardt step in ``n`` scaled parameters."""
-    opts = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
-    return ca.conic("lm_step", "qrqp", {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity(0, n)}, opts)
-
-
-def _lm_step(Js, r, lam, lbx, ubx):
-    """δ minimising ½‖Js δ + r‖² + ½ λ‖δ‖² within [lbx, ubx] (scaled units)."""
-    n = Js.shape[1]
-    H = Js.T @ Js + lam * np.eye(n)
-    g = Js.T @ r
-    sol = _step_solver(n)(h=ca.DM(H), g=ca.DM(g), lbx=ca.DM(lbx), ubx=ca.DM(ubx), a=ca.DM(0, n), lba=ca.DM(0, 1), uba=ca.DM(0, 1))
-    return np.asarray(sol["x"]).ravel()
 
 
 @blas_single_threaded
@@ -357,6 +343,7 @@ def fit(
         o1=stats.o1, o3=stats.o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
         iterations=it, success=success, message=message, singular_values=stats.singular_values,
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
+        prior_std=None if prior_std is None else np.asarray(prior_std, float),
     )
 
 
@@ -432,6 +419,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
         "prior": result.prior,
+        "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
         "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit}
                         for a in result.implausible()],
     }
@@ -489,7 +477,9 @@ def load_fit(path) -> FitResult:
                          if str(k) in machine.axis_names and None not in v},
             shared_std={str(k): np.array([np.nan if x is None else float(x) for x in v])
                         for k, v in data.get("shared_std", {}).items()},
-            prior=str(data.get("prior", "")))
+            prior=str(data.get("prior", "")),
+            prior_std=None if data.get("prior_std") is None else np.array(
+                [np.inf if v is None else float(v) for v in data["prior_std"]]))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

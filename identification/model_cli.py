@@ -19,6 +19,9 @@ def register(sub) -> None:
                    help="the link the measurement frame is fixed to (a machine's table; default: --base)")
     p.add_argument("--tool-offset-mm", type=float, nargs=3, default=(0.0, 0.0, 0.0), metavar=("X", "Y", "Z"),
                    help="the measured point (a marker) in the tool link's frame, mm")
+    p.add_argument("--position-errors", action="store_true",
+                   help="also the six position-dependent error joints after every motion joint (straightness, "
+                        "positioning, angular errors of a machine tool's axes)")
     p.add_argument("--out", required=True, metavar="URDF", help="the identification machine to write")
     p.set_defaults(run=_model, outputs={"out": "file"})
 
@@ -38,12 +41,14 @@ def _model(args) -> int:
                         parameter="tool_offset_mm")
     text = read_limited_text(args.urdf, what="URDF", max_bytes=50_000_000)
     out = identification_urdf(text, tool=args.tool, base=args.base, workpiece=args.workpiece,
-                              tool_offset_m=tuple(v / 1e3 for v in args.tool_offset_mm), path=args.urdf)
+                              tool_offset_m=tuple(v / 1e3 for v in args.tool_offset_mm),
+                              position_errors=args.position_errors, path=args.urdf)
     machine = machine_from_urdf(out, args.out)  # kinid's own loader accepts it, or nothing is written
     write_text(args.out, out)
     axes = ", ".join(a.name if a.joint == a.name else f"{a.name} ({a.joint})" for a in machine.axes)
     print(f"{len(machine.axes)} motion axes: {axes}; {len(machine.error_joints)} error joints "
-          f"(location errors before every axis, set-up W and T); written to {Path(args.out).name}")
+          f"(location errors before every axis{', position-dependent after it' if args.position_errors else ''}, "
+          f"set-up W and T); written to {Path(args.out).name}")
     print(f"next: kinid simulate or kinid identify --machine {args.out} --data <observations.csv> "
           f"(columns {', '.join(a.column for a in machine.axes)})")
     return 0

@@ -8,6 +8,8 @@ and the effect it names is not there. The set-up of the board and the sensor may
 
 The size of an effect is its largest value over the data: the value of a constant, the largest
 |value| of a position-dependent effect over the fitted range of its axis, a drift over an hour.
+A maximum a posteriori fit (``identify --prior``) also flags a constant beyond ``PRIOR_MULTIPLE`` times
+its prior's standard deviation: the prior said such a size is all but impossible.
 """
 from __future__ import annotations
 
@@ -18,10 +20,12 @@ import numpy as np
 from .bases import basis_of
 from .effects import basis_values
 
-__all__ = ["Implausible", "implausible_effects", "LIMITS"]
+__all__ = ["Implausible", "implausible_effects", "LIMITS", "PRIOR_MULTIPLE"]
 
 #: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
 LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
+#: A constant beyond this many of its prior's standard deviations is flagged.
+PRIOR_MULTIPLE = 5.0
 #: Drift sizes are judged over this time, s.
 DRIFT_HORIZON_S = 3600.0
 
@@ -65,6 +69,9 @@ def implausible_effects(result, names=None) -> tuple:
             continue
         setup = machine.error_joint(e.code).axis in ("W", "T")
         limit = LIMITS[("setup_" if setup else "") + e.unit]
+        prior = getattr(result, "prior_std", None)
+        if prior is not None and e.n_params == 1 and np.isfinite(prior[k - 1]):
+            limit = min(limit, PRIOR_MULTIPLE * float(prior[k - 1]))
         size = _size(e, th, machine, result.axis_ranges)
         if size > limit:
             out.append(Implausible(e.name, size, limit, "µm" if e.unit == "um" else "µrad"))

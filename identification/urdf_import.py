@@ -107,7 +107,8 @@ def _root(text: str) -> str:
 
 
 def identification_urdf(text: str, *, tool: str, base: str | None = None, workpiece: str | None = None,
-                        tool_offset_m=(0.0, 0.0, 0.0), name: str | None = None, path="<urdf>") -> str:
+                        tool_offset_m=(0.0, 0.0, 0.0), position_errors: bool = False, name: str | None = None,
+                        path="<urdf>") -> str:
     """The identification machine of the URDF ``text`` (see the module docstring).
 
     Parameters
@@ -121,6 +122,10 @@ def identification_urdf(text: str, *, tool: str, base: str | None = None, workpi
         measured by a tracker standing by it).
     tool_offset_m : (3,)
         The measured point in the ``tool`` link's frame, metres (a marker on the flange).
+    position_errors : bool
+        Also the six position-dependent error joints ``E?<axis>`` after every motion joint (a machine
+        tool's straightness, positioning and angular errors; not needed for an arm's gear errors, which
+        the location joint about the same line takes).
     """
     from .urdf_builder import Axis, Fixed, machine_urdf, setup
 
@@ -155,8 +160,8 @@ def identification_urdf(text: str, *, tool: str, base: str | None = None, workpi
             norm = math.sqrt(sum(v * v for v in j.axis))
             if not norm > 0:
                 raise DataError(f"joint {j.name!r} has a zero axis", path=path)
-            out.append(Axis(short, kind, tuple(v / norm for v in j.axis), location_errors=LOCATION_ERRORS, pdge=False,
-                            limit=limit))
+            out.append(Axis(short, kind, tuple(v / norm for v in j.axis), location_errors=LOCATION_ERRORS,
+                            pdge=position_errors, limit=limit))
         return out
 
     work = elements(work_chain[shared:]) + [setup("W", "set-up of the measurement frame")]

@@ -102,3 +102,23 @@ def test_identify_prior_on_the_command_line(tmp_path, capsys):
     assert "add --prior" in capsys.readouterr().err
     assert main([*run, "--prior", "--auto", "--out", str(tmp_path / "g.json")]) == 2
     assert not (tmp_path / "g.json").exists()
+
+
+def test_a_value_far_beyond_its_prior_is_flagged_and_the_prior_is_saved(tmp_path):
+    """A location error of 0.8 mm under a prior of 0.1 mm: inside the 1 mm a machine may have, but beyond
+    PRIOR_MULTIPLE (5) prior standard deviations — flagged; FIT.json keeps the prior and the flag."""
+    from kinid.identification.fit import load_fit, save_fit
+
+    text, machine = _arm()
+    tm = truth.read_urdf(text)
+    obs = _poses(machine, tm, {"EX0J2": 800.0}, 60, np.random.default_rng(9), 0.05)
+    effects = list(default_model(machine))
+    result = fit(machine, obs, effects, noise_um=50.0, prior_std=prior_std(machine, effects, 0.1))
+    flagged = {a.effect: a for a in result.implausible()}
+    assert "EX0J2" in flagged and flagged["EX0J2"].limit == pytest.approx(500.0), flagged
+    assert 500.0 < flagged["EX0J2"].size < 1000.0
+    assert not fit(machine, obs, effects, noise_um=50.0).implausible()  # least squares: within a machine's 1 mm
+    save_fit(result, tmp_path / "fit.json")
+    again = load_fit(tmp_path / "fit.json")
+    assert np.array_equal(np.isfinite(again.prior_std), np.isfinite(result.prior_std))
+    assert {a.effect for a in again.implausible()} == set(flagged)

@@ -80,3 +80,14 @@ def test_kinid_model_writes_a_machine_plain_pinocchio_loads(tmp_path, capsys):
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
         assert not bad.exists()
+
+
+def test_position_dependent_joints_on_request_keep_the_kinematics():
+    text = ARM.read_text()
+    machine = machine_from_urdf(identification_urdf(text, base="world", tool="wrist_3_link", position_errors=True), "arm")
+    codes = {e.code for e in machine.error_joints}
+    assert {f"E{d}J3" for d in "XYZABC"} <= codes and {f"E{d}0J3" for d in "XYZABC"} <= codes
+    rng = np.random.default_rng(2)
+    q = {a.joint: rng.uniform(-170, 170, 20) for a in machine.axes}
+    diff = _converted_point_mm(machine, q, 20) - _source_point_mm(text, q, "wrist_3_link", "world", (0, 0, 0), 20)
+    assert np.abs(diff).max() < 1e-9
