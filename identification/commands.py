@@ -202,9 +202,34 @@ def _predict(args) -> int:
     solve_names = solve or [a.name for a in machine.axes if a.kind == "prismatic"]
     poses = read_observations(args.poses, machine, optional_axes=solve_names, check_limits=not args.allow_outside_limits)
     out = solve_axes(machine, loaded.effects, loaded.theta, poses, solve_names)
+    _warn_outside_travel(machine, out, solve_names, args.poses)
     write_observations(args.out, out, machine)
     print(f"{len(out)} poses solved for {', '.join(solve_names)}; written to {args.out}")
     return 0
+
+
+def _warn_outside_travel(machine, obs, names, source) -> None:
+    """One warning per solved axis whose readings leave the URDF travel: the machine cannot reach those poses."""
+    import warnings
+
+    import numpy as np
+
+    from .machine import axis_limits
+
+    limits = axis_limits(machine)
+    for name in names:
+        j = machine.axis_names.index(name)
+        lo, hi = limits[j]
+        q = obs.axes[:, j]
+        out = np.flatnonzero((q < lo) | (q > hi))
+        if out.size:
+            a = machine.axes[j]
+            unit = "mm" if a.kind == "prismatic" else "deg"
+            beyond = float(np.max(np.maximum(lo - q[out], q[out] - hi)))
+            lines = ", ".join(str(obs.lines[i]) if obs.lines else str(i + 1) for i in out[:8]) + (" …" if out.size > 8 else "")
+            warnings.warn(f"{source}: {out.size} solved reading(s) of {a.column} outside the URDF travel ({lo:g} .. "
+                          f"{hi:g} {unit}) by up to {beyond:.4g} {unit} (lines {lines}): the machine cannot reach "
+                          f"those poses", stacklevel=2)
 
 
 def _simulate(args) -> int:

@@ -196,3 +196,16 @@ def test_a_reading_just_past_the_travel_is_used_with_a_warning(workdir, tmp_path
     assert main(["identify", "--machine", BC, "--data", str(tmp_path / "obs.csv"), "--out", str(tmp_path / "g.json")]) == 2
     assert "obs.csv:4, column 'b_deg': 95 deg is outside the travel of axis B" in capsys.readouterr().err
     assert not (tmp_path / "g.json").exists()
+
+
+def test_predict_warns_for_poses_the_machine_cannot_reach(workdir, tmp_path, capsys):
+    """A pose whose solved X lies past the URDF's ±600 mm travel is written, with one warning naming its line."""
+    assert main(["identify", "--machine", BC, "--data", str(workdir / "obs.csv"), "--noise-um", "1",
+                 "--out", str(tmp_path / "fit.json")]) == 0
+    (tmp_path / "poses.csv").write_text("mark,wx_mm,wy_mm,wz_mm,b_deg,c_deg\nM1,40,40,0,0,0\nM2,700,0,0,0,0\n")
+    capsys.readouterr()
+    assert main(["predict", "--fit", str(tmp_path / "fit.json"), "--poses", str(tmp_path / "poses.csv"),
+                 "--out", str(tmp_path / "pred.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "warning:" in err and "1 solved reading(s) of x_mm outside the URDF travel" in err and "(lines 3)" in err
+    assert len((tmp_path / "pred.csv").read_text().splitlines()) == 3
