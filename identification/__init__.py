@@ -19,10 +19,7 @@ Example
 >>> machine = load_machine("urdf/five_axis_bc.urdf")                         # doctest: +SKIP
 >>> result = fit(machine, read_observations("obs.csv", machine), noise_um=1.0)  # doctest: +SKIP
 """
-import importlib as _importlib
-import importlib.util as _importlib_util
-import sys as _sys
-import types as _types
+from kinid.lazy import front_door as _front_door
 
 #: Each public name and the module of this package that defines it. The module is imported on first
 #: use of the name (PEP 562), so that importing the package (for instance to build the ``kinid``
@@ -41,33 +38,5 @@ __all__ = ["load_machine", "read_observations", "write_observations", "parse_eff
            "tool_in_workpiece_mm", "urdf_builder"]
 
 
-def __getattr__(name: str):
-    if name in _SOURCES:
-        value = getattr(_importlib.import_module(f"{__name__}.{_SOURCES[name]}"), name)
-    elif not name.startswith("__") and _importlib_util.find_spec(f"{__name__}.{name}") is not None:
-        value = _importlib.import_module(f"{__name__}.{name}")  # a module of the package, e.g. urdf_builder
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
-
-
-class _FrontDoor(_types.ModuleType):
-    """The package, whose functions ``fit``, ``diagnose`` and ``simulate`` keep their names.
-
-    Importing the module ``kinid.identification.fit`` sets the package's attribute ``fit`` to that
-    module; the front door gives the function of the same name instead (as the eager imports did).
-    """
-
-    def __setattr__(self, name, value):
-        if (_SOURCES.get(name) == name and isinstance(value, _types.ModuleType)
-                and value.__name__ == f"{self.__name__}.{name}"):
-            return
-        super().__setattr__(name, value)
-
-
-_sys.modules[__name__].__class__ = _FrontDoor
+#: ``fit``, ``diagnose`` and ``simulate`` stay the functions after their modules of the same name load.
+__getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -13,8 +13,7 @@ module                 what it does
 ``laser_offsets``      camera / laser displacement sensor offsets (hole, sphere, edges, axial)
 =====================  =========================================================
 """
-import importlib as _importlib
-import importlib.util as _importlib_util
+from kinid.lazy import front_door as _front_door
 
 #: Each public name and the module of this package that defines it. The module is imported on first
 #: use of the name (PEP 562): importing the package (for instance to build the ``kinid`` command
@@ -37,16 +36,4 @@ _SOURCES = {
 __all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "circle_centre_bias", "CameraModel", "load_camera", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]
 
 
-def __getattr__(name: str):
-    if name in _SOURCES:
-        value = getattr(_importlib.import_module(f"{__name__}.{_SOURCES[name]}"), name)
-    elif not name.startswith("__") and _importlib_util.find_spec(f"{__name__}.{name}") is not None:
-        value = _importlib.import_module(f"{__name__}.{name}")  # a module of the package, e.g. board
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -3,7 +3,7 @@
 Public API: :class:`SimulatedStage`, :func:`calibrate`, :class:`BacklashResult`,
 :func:`plan_moves`, :func:`locate_fiducial`. See ``docs/backlash.md``.
 """
-from .._lazy import front_door as _front_door
+from kinid.lazy import front_door as _front_door
 
 #: Each public name and the module of this package that defines it, imported on first use of the name.
 _SOURCES = {"calibrate": "calibrate", "BacklashResult": "calibrate", "locate_fiducial": "locate",

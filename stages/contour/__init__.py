@@ -4,7 +4,7 @@
 from all frames, then the reference mark's track) -> ``contour_error`` /
 ``circular_test`` (ISO 230-4 G, F, H). ``kinid contour`` is the command line.
 """
-from .._lazy import front_door as _front_door
+from kinid.lazy import front_door as _front_door
 
 #: Each public name and the module of this package that defines it, imported on first use of the name.
 _SOURCES = {"open_frames": "frames", "ContourMeasurement": "measure", "measure_contour": "measure",

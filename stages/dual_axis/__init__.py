@@ -8,7 +8,7 @@ for a camera-Y move, docs/hardware.md); :func:`fit_smooth` fits a parallelism
 angle plus straightness polynomial instead. :class:`SimulatedGantry` is
 ``urdf/gantry_dual_y.urdf`` with error values set.
 """
-from .._lazy import front_door as _front_door
+from kinid.lazy import front_door as _front_door
 
 #: Each public name and the module of this package that defines it, imported on first use of the name
 #: (SimulatedGantry needs Pinocchio).

@@ -5,7 +5,7 @@ Public API: :class:`UVWGeometry`, :func:`inverse_kinematics`, :func:`forward_kin
 docs/hardware.md), :func:`calibrate_patent` and :func:`patent_compensation_um` (the patent's method),
 :func:`fit_actuator_model`, :func:`select_actuator_model`, :func:`phase_residuals`. See ``docs/uvw.md``.
 """
-from .._lazy import front_door as _front_door
+from kinid.lazy import front_door as _front_door
 
 #: Each public name and the module of this package that defines it, imported on first use of the name.
 _SOURCES = {"calibrate": "calibrate", "UVWCompensator": "calibrate",

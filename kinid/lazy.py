@@ -1,9 +1,9 @@
-"""Front doors of the stage packages that import their modules on first use of a name (PEP 562).
+"""Front doors of kinid's packages that import their modules on first use of a name (PEP 562).
 
-A stage package lists each public name with the module of the package that defines it and calls
-:func:`front_door`; importing the package (for instance to build ``kinid VERB --help``) then imports
-neither NumPy nor the stage's simulators, and ``from kinid.stages.uvw import calibrate`` imports
-:mod:`kinid.stages.uvw.calibrate` when it runs. Where a module and the public name it defines share a
+A package (``kinid.identification``, ``kinid.vision``, the stage packages) lists each public name with
+the module of the package that defines it and calls :func:`front_door`; importing the package (for
+instance to build ``kinid VERB --help``) then imports neither NumPy nor Pinocchio, and
+``from kinid.stages.uvw import calibrate`` imports :mod:`kinid.stages.uvw.calibrate` when it runs. Where a module and the public name it defines share a
 name (``calibrate``), the package's attribute stays the function after the module loads, as it was
 when the package imported its modules eagerly.
 """
