@@ -187,6 +187,13 @@ def _identify(args) -> int:
             diagnosis_report(diagnose(machine, obs, effects, noise_um=args.noise_um, result=result), obs, args.report)
     save_fit(result, args.out)
     print(result.table())
+    if result.aliases:
+        from .plan_advice import data_advice
+
+        advice = data_advice(machine, result, obs)
+        if advice:
+            print("pose advice (kinid plan):")
+            print("\n".join(f"  - {line}" for line in advice))
     print(f"fit written to {args.out}")
     return 0
 

@@ -169,6 +169,8 @@ def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: 
     rng = np.random.default_rng() if rng is None else rng
     names = machine.axis_names
     solve = tuple(a.name for a in machine.axes if a.kind == "prismatic") if solve is None else tuple(solve)
+    if not solve or (len(solve) != 3 and not any(a.kind == "prismatic" for a in machine.axes)):
+        return _measured_points(machine, plan, effects, theta, noise_um, rng)
     obs = plan
     if directions and not plan.directions:
         # directions depend on the solved readings: solve, derive, solve again
@@ -186,6 +188,21 @@ def simulate(machine: Machine, plan: Observations, effects, theta, *, noise_um: 
         noisy[:, cols] += rng.normal(0.0, noise_um, size=(len(out), len(cols))) * 1e-3
         out = replace(out, axes=noisy)
     return replace(out, source="<simulated>")
+
+
+def _measured_points(machine: Machine, plan: Observations, effects, theta, noise_um, rng) -> Observations:
+    """A machine without three axes to align with (a robot arm): every axis is set as the plan says and the mark
+    columns are where an external measurement sees the tool point, with the noise on each coordinate."""
+    if np.isnan(plan.axes).any():
+        i, j = np.argwhere(np.isnan(plan.axes))[0]
+        raise DataError(f"reading of axis {machine.axes[j].name} is needed (this machine has no three axes to align the "
+                        f"tool point with a mark: every axis is set, the point is measured)", path=plan.source,
+                        line=plan.lines[i] if plan.lines else None, column=machine.axes[j].column)
+    values = joint_values(machine, design(machine, effects, plan), np.asarray(theta, float))
+    p = evaluate(machine, plan.axes, values, jacobian=False, offsets_mm=plan.offsets_mm)
+    if noise_um:
+        p = p + rng.normal(0.0, noise_um, size=p.shape) * 1e-3
+    return replace(plan, w_mm=p, source="<simulated>")
 
 
 def mark_offsets_mm(machine: Machine, effects, theta, obs: Observations) -> np.ndarray:

@@ -34,6 +34,7 @@ class Verb:
 #: Every verb of ``kinid``, in the order ``kinid --help`` lists them.
 VERBS = {
     "demo": Verb("kinid.identification.commands", "the whole five-axis story on the built-in machine with a hidden effect"),
+    "plan": Verb("kinid.identification.plan_cli", "the fewest alignments, ordered for machine time, that reach a stated accuracy"),
     "simulate": Verb("kinid.identification.commands", "alignment readings of a machine with a known error set"),
     "identify": Verb("kinid.identification.commands", "fit the default model plus added effects to alignment observations"),
     "diagnose": Verb("kinid.identification.commands", "compare a fit with data and rank the effects that may be missing"),
