@@ -181,11 +181,9 @@ def _plan(args) -> int:
         blocks=args.blocks, reference=not args.no_reference, advice_pool=wide)
     write_observations(args.out, plan.obs, machine)
     if args.json:
-        import json
-
         from kinid.files import strict_json
 
-        print(json.dumps(strict_json(plan_summary(plan, machine)), indent=1))
+        print(strict_json(plan_summary(plan, machine), indent=1))
     else:
         print(plan_text(plan, machine, presets, sampled=not solve))
         print(f"plan written to {args.out}")

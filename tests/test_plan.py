@@ -203,6 +203,12 @@ def test_the_plan_file_is_what_simulate_and_identify_read(tmp_path):
     r = _kinid("plan", "--machine", urdf, "--target-um", "0.8", "--out", "plan.csv", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "plan written to plan.csv" in r.stdout and "machine time" in r.stdout
+    r = _kinid("plan", "--machine", urdf, "--target-um", "0.8", "--json", "--out", "plan2.csv", cwd=tmp_path)
+    import json
+
+    summary = json.loads(r.stdout)
+    assert summary["tool_point_U_k2_um"] <= 0.8 and summary["alignments"] == len(
+        (tmp_path / "plan2.csv").read_text().splitlines()) - 1
     (tmp_path / "errors.json").write_text('{"EX0C": 12.0, "EA0B": -25.0, "EC0Y": 8.0, "EX0W": 1.5}')
     r = _kinid("simulate", "--machine", urdf, "--errors", "errors.json", "--plan", "plan.csv", "--noise-um", "1",
                "--out", "obs.csv", cwd=tmp_path)
