@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PRIOR_UM", "PRIOR_URAD", "SCALES", "PriorChoice", "prior_std", "choose_prior"]
+__all__ = ["PRIOR_UM", "PRIOR_URAD", "SCALES", "PriorChoice", "prior_std", "choose_prior", "HeldOutCheck", "held_out_check"]
 
 #: Default size of a location error along an axis (µm) and about one (µrad): a machine or robot built to drawing.
 PRIOR_UM = 1000.0
@@ -130,3 +130,51 @@ def choose_prior(machine, obs, effects, *, noise_um=None, scales=SCALES, prior_u
     best = min(held, key=held.get)
     how = "leave-one-out" if folds == n else f"{folds}-fold cross-validation"
     return PriorChoice(best, prior_um, prior_urad, held, float(noise_um), how)
+
+
+#: The held-out check of ``identify --prior``: leave-one-out up to this many alignments, else CHECK_FOLDS blocks.
+CHECK_LOO_MAX = 30
+CHECK_FOLDS = 10
+
+
+@dataclass(frozen=True)
+class HeldOutCheck:
+    """Held-out 3-D RMS (µm) of the prior's fit — its scale and σ chosen on the training alignments alone — and of
+    the plain least-squares fit, over the same folds."""
+
+    method: str
+    prior_um: float
+    plain_um: float
+
+    def describe(self) -> str:
+        better = "better" if self.prior_um < self.plain_um else "not better"
+        mm = max(self.prior_um, self.plain_um) >= 1000.0
+        size = (lambda v: f"{v / 1e3:.4g} mm") if mm else (lambda v: f"{v:.4g} µm")
+        return (f"held-out check ({self.method}, the prior's scale and σ chosen without the left-out alignments): "
+                f"3-D RMS {size(self.prior_um)} with the prior, {size(self.plain_um)} plain least squares — the "
+                f"prior predicts {better}")
+
+
+def held_out_check(machine, obs, effects, *, noise_um=None, prior_um=PRIOR_UM, prior_urad=PRIOR_URAD) -> HeldOutCheck:
+    """Nested cross-validation of the prior against the plain fit (leave-one-out up to ``CHECK_LOO_MAX``
+    alignments, else ``CHECK_FOLDS`` interleaved blocks)."""
+    from .fit import fit
+    from .residuals import design, residuals
+
+    n = len(obs)
+    folds = n if n <= CHECK_LOO_MAX else CHECK_FOLDS
+    ss = np.zeros(2)
+    for k in range(folds):
+        test = np.arange(k, n, folds)
+        train = np.setdiff1d(np.arange(n), test)
+        tr, te = obs.subset(train), obs.subset(test)
+        choice = choose_prior(machine, tr, effects, noise_um=noise_um, prior_um=prior_um, prior_urad=prior_urad)
+        fits = (fit(machine, tr, effects, noise_um=choice.noise_um,
+                    prior_std=prior_std(machine, effects, choice.scale, prior_um, prior_urad)),
+                fit(machine, tr, effects, noise_um=noise_um))
+        for m, result in enumerate(fits):
+            r = residuals(machine, design(machine, effects, te), te, result.theta, jacobian=False)
+            ss[m] += float(np.sum(r**2))
+    rms = np.sqrt(ss / n)
+    method = "leave-one-out" if folds == n else f"{folds}-fold, interleaved"
+    return HeldOutCheck(method, float(rms[0]), float(rms[1]))

@@ -17,7 +17,7 @@ from kinid.cli import main
 from kinid.identification import default_model, fit
 from kinid.identification.machine import machine_from_urdf
 from kinid.identification.observations import Observations
-from kinid.identification.prior import choose_prior, prior_std
+from kinid.identification.prior import choose_prior, held_out_check, prior_std
 from kinid.identification.residuals import design, residuals
 from kinid.identification.urdf_import import identification_urdf
 
@@ -68,6 +68,28 @@ def test_the_prior_predicts_unseen_poses_better_than_the_plain_fit_on_few_noisy_
     assert sum(r < 1.0 for r in ratios) >= 4 and np.median(ratios) < 0.9
 
 
+def test_the_held_out_check_tells_what_fresh_poses_tell():
+    """The nested check identify --prior prints (leave-one-out on the 20 poses, the scale chosen without the pose
+    left out) against 200 fresh poses of the same arm: both say the prior predicts better, and the check's error,
+    less the noise of the pose left out, is the fresh poses' error within the spread of 20 poses."""
+    text, machine = _arm()
+    tm = truth.read_urdf(text)
+    effects = list(default_model(machine))
+    rng = np.random.default_rng(41)
+    errors = {e.code: rng.normal(0, 300.0) for e in machine.error_joints if e.axis not in ("W", "T")}
+    errors.update({f"E{d}0W": rng.normal(0, 2000.0) for d in "XYZABC"})
+    train = _poses(machine, tm, errors, 20, rng, NOISE_MM)
+    test = _poses(machine, tm, errors, 200, rng, 0.0)
+    check = held_out_check(machine, train, effects)
+    choice = choose_prior(machine, train, effects)
+    mapped = fit(machine, train, effects, noise_um=choice.noise_um, prior_std=prior_std(machine, effects, choice.scale))
+    fresh = [_held_out_mm(machine, effects, f, test) for f in (mapped, fit(machine, train, effects))]
+    print(check.describe(), f"fresh poses: prior {fresh[0]:.3f} mm, plain {fresh[1]:.3f} mm")
+    assert check.prior_um < check.plain_um and fresh[0] < fresh[1]
+    without_noise = np.sqrt(max((check.prior_um / 1e3) ** 2 - 3 * NOISE_MM**2, 0.0))
+    assert 0.5 * fresh[0] < without_noise < 2.0 * fresh[0]
+
+
 def test_a_prior_as_wide_as_nothing_is_the_plain_fit():
     text, machine = _arm()
     tm = truth.read_urdf(text)
@@ -97,6 +119,8 @@ def test_identify_prior_on_the_command_line(tmp_path, capsys):
     assert main([*run, "--prior", "--out", str(tmp_path / "fit.json")]) == 0
     out = capsys.readouterr().out
     assert "maximum a posteriori estimate" in out and "chosen by the marginal likelihood" in out
+    assert "held-out check (leave-one-out" in out and "plain least squares" in out
+    assert "held-out check" in json.loads((tmp_path / "fit.json").read_text())["prior"]
     assert "chosen by the marginal likelihood" in json.loads((tmp_path / "fit.json").read_text())["prior"]
     assert main([*run, "--prior-um", "200", "--out", str(tmp_path / "g.json")]) == 2
     assert "add --prior" in capsys.readouterr().err
