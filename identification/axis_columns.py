@@ -18,7 +18,7 @@ from kinid.errors import DataError
 from kinid.files import csv_number, read_csv_table
 from .machine import Machine, axis_limits
 
-__all__ = ["AxisTable", "read_axis_table", "check_travel", "TRAVEL_MARGIN", "TRAVEL_TOLERANCE"]
+__all__ = ["AxisTable", "read_axis_table", "check_travel", "warn_if_metres", "TRAVEL_MARGIN", "TRAVEL_TOLERANCE"]
 
 #: Readings beyond the URDF travel by less than this share of the limit (or 1e-9 mm / deg) are on it.
 TRAVEL_MARGIN = 1e-9
@@ -144,7 +144,29 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
     lines = tuple(line for line, _ in rows)
     if check_limits:
         check_travel(machine, axes, lines, path)
+    warn_if_metres(machine, axes, path)
     return AxisTable(path, header_line, header, rows, axes, dirs, t_s, lines)
+
+
+#: A linear axis whose readings all lie within this share of its travel's larger end looks like metres in mm.
+METRES_SHARE = 0.002
+
+
+def warn_if_metres(machine: Machine, axes: np.ndarray, path) -> None:
+    """A warning when every reading of a linear axis with a travel of 100 mm or more lies within ±0.2 % of it
+    (±1.2 mm of ±600 mm) and yet they vary: metres written in a ``_mm`` column."""
+    import warnings
+
+    limits = axis_limits(machine)
+    for j, a in enumerate(machine.axes):
+        lo, hi = limits[j]
+        v = axes[:, j][np.isfinite(axes[:, j])]
+        reach = max(abs(lo), abs(hi)) if np.isfinite(hi - lo) else np.inf
+        if a.kind != "prismatic" or v.size < 3 or not np.isfinite(reach) or hi - lo < 100.0:
+            continue
+        if np.abs(v).max() <= METRES_SHARE * reach and np.ptp(v) > 0:
+            warnings.warn(f"{path}: every reading of {a.column} is within ±{np.abs(v).max():.3g} mm of a travel of "
+                          f"{lo:g} .. {hi:g} mm; if they are metres, multiply by 1000", stacklevel=3)
 
 
 def check_travel(machine: Machine, axes: np.ndarray, lines, path) -> None:

@@ -1,6 +1,7 @@
 """The image reader: size from the header before decoding, through the untrusted-file opener."""
 from __future__ import annotations
 
+import contextlib
 import os
 
 from .untrusted import read_untrusted_bytes, shown_path
@@ -68,6 +69,31 @@ def _jpeg_size(data: bytes):
     return None
 
 
+@contextlib.contextmanager
+def _native_stderr_quiet():
+    """The decoders' own messages (``libpng error: …``, OpenCV's ``[ WARN …]``) kept off the terminal while an
+    image is decoded: kinid says what is wrong with the file in one line of its own. They write to file
+    descriptor 2 from C, so it is pointed at the null device for the call (and restored whatever happens)."""
+    import cv2
+
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to keep quiet
+        yield
+        return
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 2)
+        finally:
+            os.close(null)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 def read_image(path, *, max_pixels: int = MAX_IMAGE_PIXELS):
     """Read an image file as a 2-D grey array, 8 or 16 bit as stored.
 
@@ -96,7 +122,8 @@ def read_image(path, *, max_pixels: int = MAX_IMAGE_PIXELS):
     import cv2
 
     try:
-        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)
+        with _native_stderr_quiet():
+            img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE | cv2.IMREAD_ANYDEPTH)
     except cv2.error as exc:
         reason = str(exc).strip().splitlines()[-1][:200]
         raise ImageError(f"cannot decode the image ({reason})", path=shown_path(path)) from None

@@ -180,16 +180,41 @@ def read_runs(path):
             raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
     idx = [header.index(c) for c in _COLUMNS]
     out = []
+    seen = {}
     for lineno, cells in rows[1:]:
         values = [csv_number(cells, i, path=path, line=lineno, column=col) for col, i in zip(_COLUMNS, idx)]
         if values[2] not in (1.0, -1.0):
             raise DataError(f"direction must be +1 or -1, found {cells[idx[2]].strip()!r}", path=path, line=lineno,
                             column="direction")
+        key = tuple(values[:3])
+        if key in seen:
+            raise DataError(f"target {values[0]:g} mm, run {values[1]:g}, direction {values[2]:+g} is measured twice, "
+                            f"on lines {seen[key]} and {lineno}: keep one (a repeated run needs its own run number)",
+                            path=path, line=lineno)
+        seen[key] = lineno
         out.append(values)
     if not out:
         raise DataError("no measurements after the header", path=path, line=header_line)
     a = np.array(out)
+    _warn_if_mm(path, a[:, 3])
     return a[:, 0], a[:, 2], a[:, 3]
+
+
+#: Deviations all below this (µm) while they vary look like millimetres written under ``deviation_um``.
+LOOKS_LIKE_MM_UM = 0.05
+
+
+def _warn_if_mm(path, deviation_um) -> None:
+    """A warning when every deviation is a few hundredths of a µm yet they scatter: millimetres in a µm column
+    (a real axis deviates by tenths of a µm and more; a laser interferometer's noise alone is ~0.01 µm)."""
+    import warnings
+
+    import numpy as np
+
+    d = np.abs(deviation_um)
+    if d.max() < LOOKS_LIKE_MM_UM and np.ptp(deviation_um) > 0:
+        warnings.warn(f"{path}: every deviation_um is below {LOOKS_LIKE_MM_UM} µm (largest {d.max():.3g}); if they "
+                      f"are millimetres, multiply by 1000", stacklevel=3)
 
 
 def plot_runs(result: PositioningResult, path) -> None:

@@ -209,3 +209,24 @@ def test_predict_warns_for_poses_the_machine_cannot_reach(workdir, tmp_path, cap
     err = capsys.readouterr().err
     assert "warning:" in err and "1 solved reading(s) of x_mm outside the URDF travel" in err and "(lines 3)" in err
     assert len((tmp_path / "pred.csv").read_text().splitlines()) == 3
+
+
+def test_metres_in_millimetre_columns_are_warned_of(workdir, tmp_path, capsys):
+    """Readings of X, Y, Z divided by 1000 (metres under x_mm): within the travel, so accepted, but every reading
+    lies within 0.2 % of a ±600 mm travel: a warning per column says what looks wrong; the readings in mm give none."""
+    rows = (workdir / "obs.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    cols = [header.index(c) for c in ("x_mm", "y_mm", "z_mm")]
+    out = [rows[0]]
+    for line in rows[1:]:
+        cells = line.split(",")
+        for j in cols:
+            cells[j] = f"{float(cells[j]) / 1000:.9f}"
+        out.append(",".join(cells))
+    (tmp_path / "metres.csv").write_text("\n".join(out) + "\n")
+    main(["identify", "--machine", BC, "--data", str(tmp_path / "metres.csv"), "--out", str(tmp_path / "f.json")])
+    err = capsys.readouterr().err
+    for c in ("x_mm", "y_mm", "z_mm"):
+        assert f"every reading of {c} is within" in err and "if they are metres, multiply by 1000" in err, err
+    assert main(["identify", "--machine", BC, "--data", str(workdir / "obs.csv"), "--out", str(tmp_path / "g.json")]) == 0
+    assert "metres" not in capsys.readouterr().err

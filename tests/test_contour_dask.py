@@ -52,3 +52,42 @@ def test_unreachable_scheduler_is_one_line(frames, tmp_path, capsys):
                    "--pixel-mm", str(PIXEL_MM), "--out", str(tmp_path / "a.csv"), "--scheduler", "tcp://127.0.0.1:9"])
     err = capsys.readouterr().err
     assert status == 2 and "cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'" in err and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize("kind", ["tls", "silent", "no workers"])
+def test_a_scheduler_that_cannot_serve_is_one_line_within_the_time_out(frames, tmp_path, capsys, monkeypatch, kind):
+    """A tls:// address without TLS settings, an address that accepts the connection and never answers (any TCP
+    server), and a scheduler without a worker: each one line naming --scheduler, exit 2, within the time-out."""
+    import socket
+    import time
+
+    import kinid.stages.contour.frames as frames_module
+
+    monkeypatch.setattr(frames_module, "SCHEDULER_TIMEOUT_S", 2.0)
+    cleanup = []
+    if kind == "tls":
+        address = "tls://127.0.0.1:9"
+    elif kind == "silent":
+        server = socket.socket()
+        server.bind(("127.0.0.1", 0))
+        server.listen(8)
+        cleanup.append(server.close)
+        address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    else:
+        from dask.distributed import LocalCluster
+
+        cluster = LocalCluster(n_workers=0, processes=False, dashboard_address=None)
+        cleanup.append(cluster.close)
+        address = cluster.scheduler_address
+    try:
+        started = time.monotonic()
+        status = main(["contour", "--frames", str(frames / "frames"), "--board", str(frames / "board.json"),
+                       "--pixel-mm", str(PIXEL_MM), "--out", str(tmp_path / "a.csv"), "--scheduler", address])
+        seconds = time.monotonic() - started
+    finally:
+        for close in cleanup:
+            close()
+    err = capsys.readouterr().err
+    assert status == 2 and "--scheduler" in err and "cannot reach the Dask scheduler" in err, err
+    assert len([line for line in err.splitlines() if line.strip()]) == 1, err
+    assert seconds < 30 and not (tmp_path / "a.csv").exists()

@@ -56,6 +56,7 @@ def test_command_line_json_text_and_plot(tmp_path, capsys):
     ("target_mm,run,direction,deviation_um\n0,1,2,1\n", "bad.csv:2, column 'direction': direction must be"),
     ("target_mm,run,deviation_um\n0,1,1\n", "missing column 'direction'"),
     ("target_mm,run,direction,deviation_um\n0,1,1,abc\n", "'abc' is not a number"),
+    ("target_mm,run,direction,deviation_um\n0,1,1,1\n0,2,1,2\n0,1,1,1.5\n", "measured twice, on lines 2 and 4"),
 ])
 def test_bad_runs_files(tmp_path, capsys, rows, message):
     f = tmp_path / "bad.csv"
@@ -69,3 +70,17 @@ def test_bad_runs_files(tmp_path, capsys, rows, message):
 def test_api_names_the_problem():
     with pytest.raises(DataError, match="direction must be"):
         evaluate_runs([0, 0], [1, 0], [1, 2])
+
+
+def test_millimetres_in_the_micrometre_column_are_warned_of(tmp_path, capsys):
+    f = tmp_path / "mm.csv"
+    rows = [(t, r, d, (0.001 * r + 0.002 * t / 100) * (1 if d > 0 else 1.5)) for t in (0, 100, 200)
+            for r in (1, 2, 3) for d in (1, -1)]
+    f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
+    assert main(["iso230-2", str(f)]) == 0
+    err = capsys.readouterr().err
+    assert "if they are millimetres, multiply by 1000" in err and err.count("\n") == 1
+    f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, (t, r, d, v * 1000)))
+                                                                       for t, r, d, v in rows) + "\n")
+    assert main(["iso230-2", str(f)]) == 0
+    assert "millimetres" not in capsys.readouterr().err

@@ -79,3 +79,22 @@ def test_any_bytes_give_an_image_or_an_image_error(tmp_path_factory, data):
     except KinidError:
         return
     assert img.ndim == 2
+
+
+def test_a_truncated_png_gives_kinid_s_line_only(tmp_path):
+    """The decoder's own complaint (libpng's ``PNG input buffer is incomplete``, OpenCV's ``[ WARN ...]``) does not
+    reach the terminal: stderr is kinid's one line naming the file."""
+    import subprocess
+    import sys
+
+    import cv2
+    import numpy as np
+
+    cv2.imwrite(str(tmp_path / "full.png"), (np.random.default_rng(0).random((120, 120)) * 255).astype(np.uint8))
+    data = (tmp_path / "full.png").read_bytes()
+    (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
+    r = subprocess.run([sys.executable, "-m", "kinid", "markers", "cut.png"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 2
+    assert r.stderr.splitlines() == ["kinid markers: cut.png: cannot decode the file as an image (expected PNG, TIFF, "
+                                     "BMP, JPEG, ...)"], r.stderr

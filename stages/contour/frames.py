@@ -217,6 +217,42 @@ def _work_batch_on(items, board, settings):
     return [_work(item, board, settings) for item in items]
 
 
+#: Seconds to wait for a remote scheduler's answer, and for its first worker.
+SCHEDULER_TIMEOUT_S = 20.0
+
+
+def _remote_client(Client, scheduler):
+    """A client of the scheduler at ``scheduler`` that has a worker, or TimeoutError within SCHEDULER_TIMEOUT_S each.
+
+    Dask's own time-out covers the connection but not an address that accepts it and never answers (any TCP
+    server), so the client is made in a daemon thread watched here; a scheduler without workers would take
+    the frames and never return them."""
+    import threading
+
+    box = {}
+
+    def connect():
+        try:
+            box["client"] = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+        except BaseException as exc:  # handed to the caller's thread
+            box["error"] = exc
+
+    thread = threading.Thread(target=connect, name="kinid-dask-connect", daemon=True)
+    thread.start()
+    thread.join(SCHEDULER_TIMEOUT_S + 5.0)
+    if "error" in box:
+        raise box["error"]
+    if "client" not in box:
+        raise TimeoutError(f"no answer in {SCHEDULER_TIMEOUT_S + 5.0:g} s: is it a Dask scheduler?")
+    client = box["client"]
+    try:
+        client.wait_for_workers(1, timeout=SCHEDULER_TIMEOUT_S)
+    except TimeoutError:
+        client.close()
+        raise TimeoutError(f"the scheduler has no worker after {SCHEDULER_TIMEOUT_S:g} s") from None
+    return client
+
+
 def map_frames_dask(source, board, settings, scheduler, *, workers=2, batch=4, progress=None):
     """:func:`map_frames` on a Dask cluster: ``scheduler`` is its address, or ``"local"`` for a local cluster.
 
@@ -244,11 +280,13 @@ def map_frames_dask(source, board, settings, scheduler, *, workers=2, batch=4, p
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
             client = Client(cluster)
         else:
-            client = Client(scheduler, timeout="10s")
-    except (OSError, TimeoutError, ValueError) as exc:
+            client = _remote_client(Client, scheduler)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
         if cluster is not None:
             cluster.close()
-        raise DataError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc})", column="--scheduler") from None
+        hint = "; a tls:// scheduler needs Dask's TLS settings (distributed.comm.tls in a Dask config file)" if (
+            isinstance(exc, TypeError)) else ""
+        raise DataError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc}){hint}", parameter="scheduler") from None
     try:
         b, s = client.scatter([board, settings], broadcast=True)
         in_flight = max(4 * workers, 4 * len(client.scheduler_info().get("workers", {})))

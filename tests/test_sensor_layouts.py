@@ -1,0 +1,96 @@
+"""The image chain with the sensor as the five-axis method mounts it, on the other shipped five-axis layouts: the A/C
+double turntable (urdf/five_axis_ac.urdf) and the B head over a C table (urdf/five_axis_bhead_c.urdf).
+
+As tests/test_sensor_models.py does on the B/C machine: the laser 18 mm beside a telecentric camera, and beside a
+calibrated pinhole camera 120 mm above the tool point (with lens distortion), against the laser on the axis of a
+telecentric camera. Truth: tests/layout_camera_sim.py (the machine from benchmarks/proving_truth.py, plain numpy on
+the URDF text, with hidden errors; bc_camera_sim's board, lenses and ray tracer). Each run is observed and fitted
+with ``--auto`` through the command line; the fitted model's tool point is then compared with the true machine's at
+held-out poses (random rotary angles within the plan's, random board points).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import time
+
+import numpy as np
+import pytest
+
+import layout_camera_sim as sim
+from kinid.cli import main
+from kinid.urdf import path as urdf_path
+
+LASER_MM = (18.0, -2.5)
+REFERENCE = "laser on the axis of a telecentric camera"
+
+
+def _observe(folder, machine, sensor_extra=None, out="obs.csv"):
+    sensor = {**json.loads((folder / "sensor.json").read_text()), **(sensor_extra or {})}
+    (folder / "sensor_used.json").write_text(json.dumps(sensor))
+    assert main(["observe", "--machine", machine, "--board", str(folder / "board.json"), "--sensor",
+                 str(folder / "sensor_used.json"), "--log", str(folder / "log.csv"), "--out", str(folder / out)]) == 0
+    return folder / out
+
+
+def _offset_rms_um(lay, csv_path, truth_rows):
+    """RMS (x, y, z) of the observed offsets against the true ones, µm."""
+    rows = list(csv.DictReader(open(csv_path)))
+    assert len(rows) == len(truth_rows)
+    got = np.array([[float(r[k]) for k in ("mark_dx_mm", "mark_dy_mm", "mark_dz_mm")] for r in rows])
+    readings = {a: np.array([t[0][a] for t in truth_rows]) for a in lay.axes}
+    want = sim.seen_offset(lay, readings, np.array([t[3] for t in truth_rows]))
+    return np.sqrt(np.mean(((got - want) * 1e3) ** 2, axis=0))
+
+
+def _held_out_um(fit_path, lay, readings):
+    """3-D RMS (µm) of the fitted model's tool point against the true machine's at ``readings``, and of the nominal
+    model's (the uncompensated machine)."""
+    from kinid.identification.fit import load_fit
+    from kinid.identification.observations import Observations
+    from kinid.identification.residuals import design, residuals
+
+    fit = load_fit(fit_path)
+    machine = fit.machine
+    n = len(next(iter(readings.values())))
+    w = sim.true_tool_point_mm(lay, readings)
+    axes = np.column_stack([readings[a] for a in machine.axis_names])
+    obs = Observations(tuple(f"held-out {k}" for k in range(n)), w, axes, None, {}, (), "<held-out>")
+    d = design(machine, fit.effects, obs)
+    fitted = residuals(machine, d, obs, fit.theta, jacobian=False)
+    nominal = residuals(machine, d, obs, np.zeros_like(fit.theta), jacobian=False)
+    rms = lambda r: float(np.sqrt(np.mean(np.sum(r**2, axis=1))))  # noqa: E731
+    return rms(fitted), rms(nominal)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["five_axis_ac", "five_axis_bhead_c"])
+def test_sensor_as_mounted_holds_the_coaxial_telecentric_accuracy_on_other_layouts(name, tmp_path_factory):
+    t0 = time.perf_counter()
+    lay = sim.layout(name)
+    machine = str(urdf_path(name))
+    measured = list(sim.laser_offset_as_measured(lay, LASER_MM))
+    cases = {REFERENCE: ({}, {}),
+             "laser 18 mm beside a telecentric camera": ({"laser_offset_mm": LASER_MM}, {"laser_offset_mm": measured}),
+             "laser 18 mm beside a pinhole camera at 120 mm": ({"laser_offset_mm": LASER_MM, "camera": sim.PINHOLE},
+                                                               {"laser_offset_mm": measured})}
+    poses = sim.plan()
+    readings = sim.held_out_poses(lay, 40, np.random.default_rng(77))
+    held_out, before = {}, None
+    for case, (render, sensor) in cases.items():
+        folder = tmp_path_factory.mktemp(f"{name}_run")
+        truth_rows = sim.write_run(folder, lay, poses, rng=np.random.default_rng(21), **render)
+        obs = _observe(folder, machine, sensor)
+        offsets = _offset_rms_um(lay, obs, truth_rows)
+        assert main(["identify", "--machine", machine, "--data", str(obs), "--auto", "--out", str(folder / "fit.json")]) == 0
+        fit = json.loads((folder / "fit.json").read_text())
+        assert not fit["implausible"], (case, fit["implausible"])
+        held_out[case], before = _held_out_um(folder / "fit.json", lay, readings)
+        print(f"{name}, {case}: offsets vs truth RMS (x, y, z) {offsets.round(2)} µm; held-out 3-D error "
+              f"{held_out[case]:.3f} µm; effects {fit['effects']}")
+    print(f"{name}, uncompensated: held-out {before:.2f} µm; {len(poses)} images per run, "
+          f"{time.perf_counter() - t0:.0f} s")
+    reference = held_out[REFERENCE]
+    for case, err in held_out.items():
+        assert err <= 1.5 * reference, (name, case)
+        assert err < before / 10, (name, case)
