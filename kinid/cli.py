@@ -186,6 +186,12 @@ def _run(argv) -> int:
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of kinid
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as exc:  # the file system said no where no writer of kinid's caught it (a folder made)
+        from .untrusted import shown_path
+
+        where = f"{shown_path(exc.filename)}: " if exc.filename else ""
+        print(f"kinid {verb}: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     return 0 if status is None else int(status)
 
 

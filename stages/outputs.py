@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import contextlib
 
-__all__ = ["add_output_options", "check_report", "staged_report"]
+__all__ = ["add_output_options", "check_report", "refuse_unused", "staged_report"]
 
 
 def add_output_options(parser, *, out=None, tables=None, plot=None, json=None, report=None) -> dict:
@@ -41,6 +41,17 @@ def add_output_options(parser, *, out=None, tables=None, plot=None, json=None, r
         parser.add_argument("--report", metavar=report[0], help=report[1])
         outputs["report"] = "replaced folder"  # written whole (staged_report): no input may lie in it
     return outputs
+
+
+def refuse_unused(args, options, mode: str, instead: str) -> None:
+    """One line, before any work, when an output option the chosen mode does not write is given (it would
+    otherwise be silently ignored): ``options`` are destinations (``"report"``, ``"tables"``)."""
+    from kinid.errors import DataError
+
+    given = [o for o in options if getattr(args, o, None)]
+    if given:
+        names = " and ".join(f"--{o}" for o in given)
+        raise DataError(f"{names} {'is' if len(given) == 1 else 'are'} not written with {mode}; {instead}")
 
 
 def check_report(args) -> None:

@@ -36,6 +36,7 @@ def test_readable_report_and_plot(tmp_path, capsys):
     (["--spec-um", "0"], "--spec-um must be a positive number"),
     (["--noise", "-1"], "--noise must be a non-negative number"),
     (["--steps", "60", "--step-mm", "10"], "outside its travel"),
+    (["--report", "rep"], "--report is not written with --simulate"),
 ])
 def test_bad_input_one_line_exit_2(argv, match, capsys):
     assert main(["dual-axis", "--simulate", *argv]) == 2

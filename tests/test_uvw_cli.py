@@ -39,9 +39,21 @@ def test_text_report_and_plot(tmp_path, capsys):
     (["--noise-um", "-1"], "noise-um must be >= 0"),
     (["--repeats", "0"], "repeats must be a positive integer"),
     (["--plot", "/nonexistent/dir/out.png", "--validation-moves", "5"], "output folder"),
+    (["--report", "rep", "--tables", "tab"], "--tables and --report are not written with --simulate"),
 ])
 def test_bad_arguments_exit_2_with_one_line(argv, message, capsys):
     assert main(["uvw", "--simulate", *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("kinid uvw: ")
     assert message in err
+
+
+def test_a_folder_that_cannot_be_made_is_one_line(tmp_path, capsys):
+    """The file system's refusal where kinid makes a folder (here: under a file) is one line naming it, exit 2."""
+    from pathlib import Path
+
+    moves = Path(__file__).resolve().parent.parent / "examples" / "stages" / "uvw_moves.csv"
+    (tmp_path / "afile").write_text("")
+    assert main(["uvw", "--moves", str(moves), "--tables", str(tmp_path / "afile" / "tables")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "afile/tables: Not a directory" in err, err

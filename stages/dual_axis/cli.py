@@ -109,6 +109,10 @@ def _run(args) -> int:
         raise DataError(f"output folder {str(Path(args.plot).parent)!r} does not exist", path=args.plot)
     if args.data:
         return _measured(args)
+    from ..outputs import refuse_unused
+
+    refuse_unused(args, ("report",), "--simulate",
+                  "it is of a measured run (--data); the simulated method writes --plot, --out and --json")
     from .demo import run_simulation
     from .report import plot_simulation, simulation_text
 

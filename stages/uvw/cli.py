@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from ..outputs import add_output_options, check_report, staged_report
+from ..outputs import add_output_options, check_report, refuse_unused, staged_report
 
 __all__ = ["register"]
 
@@ -88,6 +88,8 @@ def _run(args) -> int:
         raise DataError(f"--lead-um must be a positive number (screw lead, µm), got {args.lead_um!r}")
     if args.moves:
         return _measured(args)
+    refuse_unused(args, ("tables", "report"), "--simulate",
+                  "they are of measured moves (--moves); the simulated story writes --plot, --out and --json")
     noise_um = 0.1 if args.noise_um is None else args.noise_um
     if not (noise_um >= 0 and math.isfinite(noise_um)):
         raise DataError(f"--noise-um must be >= 0, got {noise_um!r}")
