@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from .machine import Machine, axis_limits
 from .observations import Observations
@@ -20,6 +21,8 @@ __all__ = ["Advice", "pose_advice", "advice_pool", "advice_lines", "data_advice"
 
 #: Poses advised per held parameter, at most.
 MAX_ADVISED_POSES = 6
+#: Alignments of the data turned into Jacobian rows at a time (memory: a chunk's rows, not the data's).
+ADVICE_CHUNK = 20_000
 #: A pose moves along a held direction when its residual changes by more than this share of its typical change.
 SEPARATES = 1e-6
 
@@ -102,18 +105,23 @@ def pose_advice(machine: Machine, effects, obs: Observations, pool: Observations
         d = design(machine, effects, o)
         return residuals(machine, d, o, np.zeros(d.n_params))[1] / noise_um
 
-    Jd, Jp = jac(obs), jac(pool)
+    Jp = jac(pool)
     scale = np.sqrt(np.einsum("nip,nip->p", Jp, Jp) / len(Jp)) + 1e-300
-    Jd, Jp = Jd / scale, Jp / scale
+    Jp = Jp / scale
+    # the data's rows compressed to R of their QR (P × P: the same identifiability), a chunk at a time
+    R0 = np.zeros((0, len(names)))
+    for first in range(0, len(obs), ADVICE_CHUNK):
+        rows = (jac(obs.subset(np.arange(first, min(first + ADVICE_CHUNK, len(obs))))) / scale).reshape(-1, len(names))
+        R0 = scipy.linalg.qr(np.vstack([R0, rows]), mode="r")[0][: len(names)]
     linear, wraps = axis_motion(machine)
     out = []
     for alias in held:
         j = names.index(alias.name)
-        rows = Jd.reshape(-1, len(names))
+        R = R0
         added = []
         for _ in range(MAX_ADVISED_POSES):
-            _, s, Vt = np.linalg.svd(rows, full_matrices=True)
-            rank = int(np.sum(s > s[0] * 1e-8)) if s.size else 0
+            _, sv, Vt = np.linalg.svd(np.vstack([R, np.zeros((max(len(names) - len(R), 0), len(names)))]))
+            rank = int(np.sum(sv > sv[0] * 1e-8)) if sv.size and sv[0] > 0 else 0
             N = Vt[rank:].T
             v = N @ (N.T @ np.eye(len(names))[j])
             if np.linalg.norm(v) < 1e-9:
@@ -125,10 +133,10 @@ def pose_advice(machine: Machine, effects, obs: Observations, pool: Observations
             if score[c] < SEPARATES:
                 break
             added.append(c)
-            rows = np.vstack([rows, Jp[c]])
-            if analyse(rows, names).identifiable[j]:
+            R = scipy.linalg.qr(np.vstack([R, Jp[c]]), mode="r")[0][: len(names)]
+            if analyse(R, names).identifiable[j]:
                 break
-        if added and analyse(rows, names).identifiable[j]:
+        if added and analyse(R, names).identifiable[j]:
             poses = pool.subset(np.array(added))
             path = np.vstack([obs.axes[-1:], poses.axes])
             seconds = float(move_times_s(path[:-1], path[1:], linear, wraps, travel).sum() + len(added) * travel.align_s)

@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import proving_truth as pt  # noqa: E402
 
 __all__ = ["LAYOUTS", "TRUTHS", "PINHOLE", "PIXEL_MM", "IMAGE_PX", "Layout", "layout", "frames", "align",
-           "seen_offset", "true_tool_point_mm", "render", "laser_offset_as_measured", "plan", "write_run",
+           "seen_offset", "true_tool_point_mm", "render", "laser_offset_as_measured", "plan", "x_positions", "write_run",
            "pinhole_sensor", "held_out_poses"]
 
 #: Layout -> (tilting axis, table axis), as the URDF names the joints.
@@ -196,9 +196,24 @@ def laser_offset_as_measured(lay, offset_mm, truth=None):
 
 
 def plan(tilts=(-40.0, 0.0, 40.0), turns=(0.0, 60.0, 120.0, 180.0, 240.0, 300.0),
-         marks=((40.0, 40.0), (-40.0, 40.0), (-40.0, -40.0), (40.0, -40.0))):
-    """Presets (tilt deg, table deg, mark (x, y, 0) mm in the workpiece frame), tilt-major as bc_camera_sim.plan."""
-    return bc.plan(tilts, turns, marks)
+         marks=((40.0, 40.0), (-40.0, 40.0), (-40.0, -40.0), (40.0, -40.0)), stagger_deg=0.0):
+    """Presets (tilt deg, table deg, mark (x, y, 0) mm in the workpiece frame), tilt-major as bc_camera_sim.plan
+    (the same list when ``stagger_deg`` is 0); the k-th tilt's table angles turned by k × ``stagger_deg``.
+
+    Why stagger: on the A/C table A turns about x, so the X reading of a mark depends on C and the mark only; with
+    the same six table angles at every tilt X visits 6 positions (±14.6, ±40.0, ±54.6 mm), where a 10 mm lead
+    cannot be told from a 2 or 20 mm one. Staggered by 20° per tilt it visits 18."""
+    out = bc.plan(tilts, turns, marks)
+    if stagger_deg:
+        index = {t: k for k, t in enumerate(tilts)}
+        out = [(t, c + index[t] * stagger_deg, m) for t, c, m in out]
+    return out
+
+
+def x_positions(lay, poses) -> np.ndarray:
+    """The distinct nominal X readings (to 1 µm) of the plan's alignments, mm."""
+    r = align(lay, [p[0] for p in poses], [p[1] for p in poses], [p[2] for p in poses])
+    return np.unique(np.round(r["X"], 3))
 
 
 def held_out_poses(lay, n, rng, tilt_range=(-40.0, 40.0), table_range=(0.0, 360.0), half_mm=None, stop_mm=0.1):
