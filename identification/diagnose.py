@@ -100,6 +100,9 @@ class Diagnosis:
     time_follows : tuple of (axis, correlation)
         Axes whose readings the plan's order makes follow time (|correlation| ≥
         :data:`TIME_CONFOUND`): a drift and an error of that axis look alike in these data.
+    undetermined : str
+        When the best candidate is periodic and the positions measured do not determine its period
+        (:mod:`~kinid.identification.ambiguity`): which periods fit as well, and what to measure.
     """
 
     fit: FitResult
@@ -117,6 +120,7 @@ class Diagnosis:
     note: str = ""
     structure: object = None
     time_follows: tuple = ()
+    undetermined: str = ""
 
     @property
     def noise_um(self) -> float:
@@ -157,6 +161,7 @@ class Diagnosis:
             "rms_um": float(self.rms_um),
             "noise_um": float(self.noise_um),
             "note": self.note,
+            **({"undetermined": self.undetermined} if self.undetermined else {}),
             "candidates": [{"effect": c.effect, "rms_after_um": float(c.rms_after_um), "p_value": float(c.p_value)} for c in self.live],
             "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": float(a.residual_um), "sigmas": float(a.sigmas)}
                           for a in self.fit.set_aside],
@@ -186,7 +191,9 @@ class Diagnosis:
             lines.append("verdict: noise — no candidate effect is significant and the residual is consistent with the noise")
         else:
             best = self.live[0] if self.live else None
-            if best is not None and best.p_value < self.threshold:
+            if best is not None and best.p_value < self.threshold and self.undetermined:
+                lines.append(f"verdict: missing-effect — {self.undetermined}")
+            elif best is not None and best.p_value < self.threshold:
                 lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {_p(best)} < {self.threshold:.3g})")
                 lines.append(f"  add it:  kinid identify ... --add {best.effect}")
             elif self.note:
@@ -346,6 +353,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
             note = (f"the residual looks like noise of about {np.sqrt(rss / dof) * sigma:.2g} µm, not "
                     f"{sigma:.2g} µm as given: no candidate explains more than white noise would, and "
                     f"neighbouring alignments do not agree more than noise would")
+    undetermined = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0) if significant else ""
     stud, lev = studentized(result, q0, sigma)
     bound = chi2_isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
@@ -354,4 +362,24 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), structure=structure,
-                     time_follows=time_follows(obs, machine))
+                     time_follows=time_follows(obs, machine), undetermined=undetermined)
+
+
+def _undetermined(machine, obs, result, best, sigma, d_errors, q0) -> str:
+    """Why the best candidate's period is not determined by the positions measured, or ""."""
+    from .ambiguity import period_twins
+
+    parts = best.effect.split(":")
+    if len(parts) < 3 or parts[1] != "periodic":
+        return ""
+    twins = period_twins(machine, obs, result, best.effect, sigma, d_errors=d_errors, q0=q0)
+    if not twins:
+        return ""
+    axis = machine.error_joint(parts[0]).axis
+    q = obs.axes[:, machine.axis_names.index(axis)]
+    positions = np.unique(np.round(q / max(1e-3 * np.ptp(q), 1e-3))).size
+    unit = "°" if machine.axis(axis).kind != "prismatic" else " mm"
+    shown = ", ".join(f"{p:.3g}" for p in sorted(twins)[:6]) + (" …" if len(twins) > 6 else "")
+    return (f"{best.effect} is significant (p = {best.p_value:.2g}) but its period is not determined: periods "
+            f"{shown}{unit} explain the data about as well on the {positions} positions of {axis} measured, and "
+            f"differ between them — measure {axis} at more positions (kinid plan --detect {best.effect}=SIZE)")

@@ -89,6 +89,7 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     steps = []
     theta0 = None
     carried = None
+    undetermined = {}  # error joint -> why its periodic candidates are not added
     for _ in range(max_steps + 1):
         dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0)
         if theta0 is not None and (not dg.fit.success or dg.fit.iterations > WARM_START_ITERATIONS):
@@ -108,10 +109,13 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
         steps.append(SelectionStep(added, dg.fit, dg, data=obs))
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
-        best = dg.live[0] if dg.live else None
+        best = _first_determined(dg, undetermined)
         stop = ""
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
+        elif best is None and undetermined:
+            stop = "; ".join(undetermined.values())
+            undetermined = {}
         elif best is None:
             stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
                     "from the model: see the aliased candidates")
@@ -130,6 +134,8 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
             if not cv.improves:
                 stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
                         f"data better: {cv}")
+        if stop and undetermined:
+            stop += "; also: " + "; ".join(undetermined.values())
         if stop:
             if robust:  # a misread may stand out only once the model is complete
                 kept, more = _set_aside(machine, obs, effects, noise_um, progress, aside)
@@ -148,3 +154,19 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
         added = best.effect
         carried = dg.noise if dg.noise.known else None
     return steps
+
+
+def _first_determined(dg, undetermined: dict):
+    """The best live candidate; when the diagnosis found it periodic with a period the positions measured do not
+    determine (:mod:`.ambiguity`), the best significant candidate of the same error joint that is not periodic (a
+    smooth description those positions do determine), else None — and why, in ``undetermined``."""
+    best = dg.live[0] if dg.live else None
+    if best is None or not dg.undetermined:
+        return best
+    code = best.effect.split(":")[0]
+    undetermined[code] = dg.undetermined.replace(" — measure", "; no period added — measure")
+    for c in dg.live:
+        parts = c.effect.split(":")
+        if parts[0] == code and (len(parts) < 2 or parts[1] != "periodic") and c.p_value < dg.threshold:
+            return c
+    return None

@@ -290,3 +290,43 @@ def test_map_effect_grammar_basis_and_round_trip(bc, tmp_path):
     save_fit(result, tmp_path / "fit.json")
     loaded = load_fit(tmp_path / "fit.json")
     assert loaded.effects == result.effects
+
+
+def _ac_plan(machine, stagger_deg):
+    """3 tilts × 6 table angles × 4 marks on the A/C table; the k-th tilt's table angles turned by k × stagger."""
+    from kinid.identification.observations import Observations
+
+    names, rows, w = machine.axis_names, [], []
+    for k, a in enumerate((-40.0, 0.0, 40.0)):
+        for c in np.arange(0.0, 360.0, 60.0) + k * stagger_deg:
+            for mark in ((40.0, 40.0, 0.0), (-40.0, 40.0, 0.0), (-40.0, -40.0, 0.0), (40.0, -40.0, 0.0)):
+                r = np.full(len(names), np.nan)
+                r[names.index("A")], r[names.index("C")] = a, c
+                rows.append(r)
+                w.append(mark)
+    n = len(rows)
+    return Observations(tuple("M" for _ in range(n)), np.array(w), np.array(rows), np.arange(n) * 15.0, {},
+                        tuple(range(2, n + 2)), "<A/C plan>")
+
+
+def test_a_period_the_positions_cannot_determine_is_named_not_added():
+    """On an A/C table a plan repeating the same six table angles at every tilt visits X at six positions: a 10 mm
+    lead of X is significant, but 2, 5, 10 and 20 mm fit alike there and differ between them. The diagnosis says
+    so and --auto adds no period; with the table angles turned by 20° per tilt (18 positions of X) the lead is
+    found within 1 %."""
+    ac = load_machine(path("five_axis_ac"))
+    effects, theta = errors_from_mapping({"EX0C": 12.0, "EY0C": -8.0, "EXX:periodic:10": [1.5, -0.8]}, ac)
+    rng = np.random.default_rng(7)
+    six = simulate(ac, _ac_plan(ac, 0.0), effects, theta, noise_um=0.5, rng=rng)
+    dg = diagnose(ac, six, default_model(ac), noise_um=0.5)
+    assert dg.verdict == "missing-effect" and "period is not determined" in dg.undetermined, dg.text()
+    assert "6 positions of X" in dg.undetermined
+    steps = forward_select(ac, six, default_model(ac), noise_um=0.5)
+    assert not any(":periodic:" in (s.added or "") for s in steps), [s.added for s in steps]
+    assert "period is not determined" in steps[-1].stopped
+    eighteen = simulate(ac, _ac_plan(ac, 20.0), effects, theta, noise_um=0.5, rng=rng)
+    dg = diagnose(ac, eighteen, default_model(ac), noise_um=0.5)
+    assert not dg.undetermined
+    steps = forward_select(ac, eighteen, default_model(ac), noise_um=0.5)
+    leads = [float(s.added.split(":")[2]) for s in steps[1:] if s.added.startswith("EXX:periodic:")]
+    assert leads and abs(leads[0] - 10.0) <= 0.1, [s.added for s in steps]
