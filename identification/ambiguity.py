@@ -7,8 +7,9 @@ those positions. The continuous period search guards itself (it searches no peri
 positions' spacing); a period of the candidate library has no such guard. Before a periodic effect is added,
 every period of the same error joint from :data:`~kinid.identification.periods.MIN_PERIOD_MM` (or ``_DEG``) to
 twice the travel seen is scored (the score test at the fit, no refit); a period outside the effect's own peak
-(its frequency more than one cycle over the span away) that explains at least :data:`TWIN_SHARE` of what the
-effect explains is a twin, and the period is not determined. As in the period search, the longest of periods
+(its frequency more than one cycle over the span away) whose χ² drop falls short of the effect's by less than
+:data:`TWIN_DELTA` (what two alternatives of two parameters differ by at 1 %) is a twin, and the period is not
+determined. As in the period search, the longest of periods
 that alias on a regular grid of positions is the convention: for a period at or above twice the positions'
 spacing only periods there are twins; one below it has to beat every period.
 """
@@ -19,10 +20,11 @@ import numpy as np
 from .machine import Machine
 from .observations import Observations
 
-__all__ = ["period_twins", "TWIN_SHARE", "TWIN_PERIODS"]
+__all__ = ["period_twins", "TWIN_DELTA", "TWIN_PERIODS"]
 
-#: A period explaining at least this share of the effect's χ² drop is as good an explanation.
-TWIN_SHARE = 0.9
+#: A period whose χ² drop falls short of the effect's by less than this explains the data as well: the data cannot
+#: tell the two apart (χ²₂ at 0.99: two periodic effects of two parameters each, compared at the same σ).
+TWIN_DELTA = 9.21
 #: Periods scored per check (log-spaced).
 TWIN_PERIODS = 160
 #: Readings closer than this share of the span are one position (the jitter of solved readings is no sampling).
@@ -68,4 +70,4 @@ def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma
     if not own > 0:
         return ()
     return tuple(float(n.split(":")[2]) for n in names
-                 if n in by_name and by_name[n].status == "live" and by_name[n].statistic >= TWIN_SHARE * own)
+                 if n in by_name and by_name[n].status == "live" and by_name[n].statistic > own - TWIN_DELTA)

@@ -1,7 +1,7 @@
 """Files with axis columns — observations, plans and poses, run logs: one reader of their header and
 readings (docs/formats.md), one travel check with one margin.
 
-Every such file is a CSV table (:func:`kinid.files.read_csv_table`: header, no column twice, rows as
+Every such file is a CSV table (:func:`kinid.csv_columns.read_csv_columns`: header, no column twice, rows as
 long as the header) with a column per axis named ``<axis>_mm`` or ``<axis>_deg`` after the axis's
 kind, optional ``dir_<axis>`` approach directions (±1) and an optional ``t_s``. The readers of the
 observation CSV and the run log take their own columns (marks, offsets; image names, laser) from
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from kinid.errors import DataError
-from kinid.files import csv_number, read_csv_table
+from kinid.csv_columns import CsvColumns, read_csv_columns
 from .machine import Machine, axis_limits
 
 __all__ = ["AxisTable", "read_axis_table", "check_travel", "warn_if_metres", "TRAVEL_MARGIN", "TRAVEL_TOLERANCE"]
@@ -37,7 +37,8 @@ class AxisTable:
     path : Path
     header_line : int
     header : list of str
-    rows : list of (line, cells)
+    columns : CsvColumns
+        The table by columns (numbers as arrays; the text columns asked for).
     axes : array (N, n_axes)
         Readings in ``machine.axes`` order, mm / deg (NaN for an optional axis without a column).
     directions : dict axis name -> array (N,) of ±1
@@ -48,7 +49,7 @@ class AxisTable:
     path: Path
     header_line: int
     header: list
-    rows: list
+    columns: CsvColumns
     axes: np.ndarray
     directions: dict
     t_s: np.ndarray | None
@@ -56,19 +57,11 @@ class AxisTable:
 
     def numbers(self, column: str) -> np.ndarray:
         """The finite numbers of ``column``, one per row; DataError naming the line of a bad cell."""
-        k = self.header.index(column)
-        return np.array([csv_number(cells, k, path=self.path, line=line, column=column) for line, cells in self.rows])
+        return self.columns.numbers(column)
 
     def texts(self, column: str, what: str) -> list:
         """The stripped, non-empty texts of ``column``; DataError naming the line of an empty one."""
-        k = self.header.index(column)
-        out = []
-        for line, cells in self.rows:
-            value = cells[k].strip()
-            if not value:
-                raise DataError(f"empty {what}", path=self.path, line=line, column=column)
-            out.append(value)
-        return out
+        return self.columns.texts(column, what)
 
 
 def _axis_of(machine: Machine, header: str):
@@ -83,7 +76,7 @@ def _axis_of(machine: Machine, header: str):
 
 
 def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_axes=(),
-                    check_limits: bool = True) -> AxisTable:
+                    check_limits: bool = True, texts=()) -> AxisTable:
     """Read a CSV table with axis columns.
 
     Parameters
@@ -96,6 +89,8 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         Axes that may be absent (their readings are NaN).
     check_limits : bool
         Refuse a reading outside its axis's URDF travel (:func:`check_travel`).
+    texts : sequence of str
+        Columns read as text (marks, image names); every other is read as numbers.
 
     Raises
     ------
@@ -103,7 +98,8 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         Naming the file, line and column of the first problem.
     """
     path = Path(path)
-    header_line, header, rows = read_csv_table(path, what=what, required=required)
+    table = read_csv_columns(path, what=what, required=required, texts=texts)
+    header_line, header = table.header_line, table.header
     axis_cols, dir_cols = {}, {}
     for h in header:
         try:
@@ -123,29 +119,34 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
     for a in machine.axes:
         if a.name not in axis_cols and a.name not in optional:
             raise DataError(f"missing column {a.column!r} for axis {a.name}", path=path, line=header_line)
-    if not rows:
+    lines = table.lines
+    if not lines:
         raise DataError("no data rows after the header", path=path, line=header_line)
-    n = len(rows)
+    n = len(lines)
+    # the first bad cell in reading order among the columns read here, as a row-by-row reader would meet it
+    read = [a.column for a in machine.axes if a.name in axis_cols] + (["t_s"] if "t_s" in header else []) + \
+        [header[k] for k in dir_cols.values()]
+    first = table.first_bad(read)
+    if first is not None:
+        raise first
     axes = np.full((n, len(machine.axes)), np.nan)
-    dirs = {k: np.empty(n) for k in dir_cols}
-    t_s = np.empty(n) if "t_s" in header else None
-    for i, (line, cells) in enumerate(rows):
-        for j, a in enumerate(machine.axes):
-            if a.name in axis_cols:
-                axes[i, j] = csv_number(cells, axis_cols[a.name], path=path, line=line, column=a.column)
-        if t_s is not None:
-            t_s[i] = csv_number(cells, header.index("t_s"), path=path, line=line, column="t_s")
-        for name, k in dir_cols.items():
-            v = csv_number(cells, k, path=path, line=line, column=header[k])
-            if v not in (1.0, -1.0):
-                raise DataError(f"approach direction must be +1 or -1, found {cells[k].strip()!r}", path=path,
-                                line=line, column=header[k])
-            dirs[name][i] = v
-    lines = tuple(line for line, _ in rows)
+    for j, a in enumerate(machine.axes):
+        if a.name in axis_cols:
+            axes[:, j] = table.numbers(a.column)
+    t_s = table.numbers("t_s").copy() if "t_s" in header else None
+    dirs = {}
+    for name, k in dir_cols.items():
+        v = table.numbers(header[k])
+        wrong = np.flatnonzero((v != 1.0) & (v != -1.0))
+        if wrong.size:
+            i = int(wrong[0])
+            raise DataError(f"approach direction must be +1 or -1, found {v[i]:g}", path=path, line=lines[i],
+                            column=header[k])
+        dirs[name] = v.copy()
     if check_limits:
         check_travel(machine, axes, lines, path)
     warn_if_metres(machine, axes, path)
-    return AxisTable(path, header_line, header, rows, axes, dirs, t_s, lines)
+    return AxisTable(path, header_line, header, table, axes, dirs, t_s, lines)
 
 
 #: A linear axis whose readings all lie within this share of its travel's larger end looks like metres in mm.

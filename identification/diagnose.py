@@ -103,6 +103,8 @@ class Diagnosis:
     undetermined : str
         When the best candidate is periodic and the positions measured do not determine its period
         (:mod:`~kinid.identification.ambiguity`): which periods fit as well, and what to measure.
+    twins : tuple of float
+        Those periods (the best candidate's unit).
     """
 
     fit: FitResult
@@ -121,6 +123,7 @@ class Diagnosis:
     structure: object = None
     time_follows: tuple = ()
     undetermined: str = ""
+    twins: tuple = ()
 
     @property
     def noise_um(self) -> float:
@@ -353,7 +356,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
             note = (f"the residual looks like noise of about {np.sqrt(rss / dof) * sigma:.2g} µm, not "
                     f"{sigma:.2g} µm as given: no candidate explains more than white noise would, and "
                     f"neighbouring alignments do not agree more than noise would")
-    undetermined = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0) if significant else ""
+    undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0) if significant else ("", ())
     stud, lev = studentized(result, q0, sigma)
     bound = chi2_isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
@@ -362,19 +365,20 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), structure=structure,
-                     time_follows=time_follows(obs, machine), undetermined=undetermined)
+                     time_follows=time_follows(obs, machine), undetermined=undetermined, twins=twins)
 
 
-def _undetermined(machine, obs, result, best, sigma, d_errors, q0) -> str:
-    """Why the best candidate's period is not determined by the positions measured, or ""."""
+def _undetermined(machine, obs, result, best, sigma, d_errors, q0):
+    """Why the best candidate's period is not determined by the positions measured, and the periods that fit as
+    well; ("", ()) when it is."""
     from .ambiguity import period_twins
 
     parts = best.effect.split(":")
     if len(parts) < 3 or parts[1] != "periodic":
-        return ""
+        return "", ()
     twins = period_twins(machine, obs, result, best.effect, sigma, d_errors=d_errors, q0=q0)
     if not twins:
-        return ""
+        return "", ()
     axis = machine.error_joint(parts[0]).axis
     q = obs.axes[:, machine.axis_names.index(axis)]
     positions = np.unique(np.round(q / max(1e-3 * np.ptp(q), 1e-3))).size
@@ -382,4 +386,4 @@ def _undetermined(machine, obs, result, best, sigma, d_errors, q0) -> str:
     shown = ", ".join(f"{p:.3g}" for p in sorted(twins)[:6]) + (" …" if len(twins) > 6 else "")
     return (f"{best.effect} is significant (p = {best.p_value:.2g}) but its period is not determined: periods "
             f"{shown}{unit} explain the data about as well on the {positions} positions of {axis} measured, and "
-            f"differ between them — measure {axis} at more positions (kinid plan --detect {best.effect}=SIZE)")
+            f"differ between them — measure {axis} at more positions (kinid plan --detect {best.effect}=SIZE)"), twins

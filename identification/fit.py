@@ -26,6 +26,7 @@ from .lm_step import lm_step as _lm_step
 from .machine import Machine, check_machine, machine_from_urdf
 from .noise import Noise
 from .observations import Observations, SetAside, check_observations
+from .fit_pass import model_pass_qr, residuals_chunked
 from .residuals import design, residuals
 
 __all__ = ["FitResult", "Noise", "fit", "save_fit", "load_fit", "model_effects", "FIT_FORMAT"]
@@ -254,19 +255,23 @@ def fit(
         if s.shape != (P,) or np.any(np.isnan(s)) or np.any(s <= 0):
             raise DataError(f"must be {P} positive standard deviations (inf for none)", parameter="prior_std")
         w_prior = noise_um / s
-    r, J, _ = residuals(machine, d, obs, theta)
+    # the Jacobian is only ever held as the R factor of its QR (fit_pass): memory flat in the alignments
+    ps = model_pass_qr(machine, d, obs, theta)
+    r = ps.r
     M = r.size
+    rows = M + int(np.sum(w_prior > 0))  # the analysis's per-row figures count the data's rows and the prior's
     sigma0 = noise_um or 1.0
-    ident = analyse(_with_prior(J.reshape(M, P), w_prior) / sigma0, names, tol=rank_tol)
+    ident = analyse(_with_prior(ps.R, w_prior) / sigma0, names, tol=rank_tol, rows=rows)
     free = ident.identifiable
     if np.any(theta[~free] != 0.0):
         # a warm start that gives values to parameters these data cannot identify (another subset of the
         # data held others) is no start for these data: its aliased pairs would lose their sums. From zero.
         theta[:] = 0.0
-        r, J, _ = residuals(machine, d, obs, theta)
-        ident = analyse(_with_prior(J.reshape(M, P), w_prior) / sigma0, names, tol=rank_tol)
+        ps = model_pass_qr(machine, d, obs, theta)
+        r = ps.r
+        ident = analyse(_with_prior(ps.R, w_prior) / sigma0, names, tol=rank_tol, rows=rows)
         free = ident.identifiable
-    D = np.linalg.norm(_with_prior(J.reshape(M, P), w_prior)[:, free], axis=0)
+    D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
     lo = np.full(P, -np.inf)
     hi = np.full(P, np.inf)
     for name, (a, b) in (bounds or {}).items():
@@ -280,28 +285,29 @@ def fit(
     lam = 1e-9
     success, message, it = False, "", 0
     for it in range(1, max_iter + 1):
-        Js = J.reshape(M, P)[:, free] / D
+        Js = ps.R[:, free] / D  # ‖r + Jδ‖² = rest + ‖Qᵀr + Rδ‖²
         xs = theta[free] * D
         if wf.any():  # the prior's rows: w·(θ + δ/D)
             Js = np.vstack([Js, np.diag(wf / D)])
-            r_all = np.concatenate([r.ravel(), wf * theta[free]])
+            r_all = np.concatenate([ps.qtr, wf * theta[free]])
         else:
-            r_all = r.ravel()
+            r_all = ps.qtr
         delta = _lm_step(Js, r_all, lam, lo[free] * D - xs, hi[free] * D - xs)
-        predicted = cost - 0.5 * float(np.sum((r_all + Js @ delta) ** 2))
+        predicted = cost - 0.5 * (ps.rest + float(np.sum((r_all + Js @ delta) ** 2)))
         if predicted <= 1e-13 * cost:  # the linearised model promises nothing more: converged
             success, message = True, f"converged in {it} iterations"
             break
         trial = theta.copy()
         trial[free] += delta / D
-        r_new = residuals(machine, d, obs, trial, jacobian=False)
+        r_new = residuals_chunked(machine, d, obs, trial)
         cost_new = 0.5 * float(np.sum(r_new**2)) + prior_cost(trial)
         if cost_new <= cost:
             small = np.linalg.norm(delta) <= xtol * (1 + np.linalg.norm(xs))
             flat = cost - cost_new <= 1e-13 * cost
             theta, cost = trial, cost_new
             lam = max(lam / 10, 1e-12)
-            r, J, _ = residuals(machine, d, obs, theta)
+            ps = model_pass_qr(machine, d, obs, theta)
+            r = ps.r
             if small or flat:
                 success, message = True, f"converged in {it} iterations"
                 break
@@ -320,7 +326,7 @@ def fit(
     if noise is None:
         noise = Noise(float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan"), "residuals")
     sigma = noise.value_um
-    Jf = J.reshape(M, P)[:, free] / sigma
+    Jf = ps.R[:, free] / sigma
     if wf.any():  # the posterior: the prior's rows 1/s in whitened units
         Jf = np.vstack([Jf, np.diag(wf / noise_um)])
     Df = np.linalg.norm(Jf, axis=0)
@@ -328,9 +334,9 @@ def fit(
     cov_scaled = (Vt.T / s**2) @ Vt
     std = np.full(P, np.nan)
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
-    shared = _shared_std(machine, d, obs, theta, J.reshape(M, P)[:, free], free)
+    shared = _shared_std(machine, d, obs, theta, free)
     std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
-    final = analyse(_with_prior(J.reshape(M, P), w_prior) / sigma, names, tol=rank_tol)
+    final = analyse(_with_prior(ps.R, w_prior) / sigma, names, tol=rank_tol, rows=rows)
     stats = final  # observability at the solution
     if not np.array_equal(final.identifiable, free):
         message += "; the identifiable set changed at the solution (nonlinear aliasing): check the held parameters"
@@ -352,7 +358,7 @@ def _with_prior(J, w_prior):
     return np.vstack([J, np.diag(w_prior)[w_prior > 0]]) if np.any(w_prior > 0) else J
 
 
-def _shared_std(machine: Machine, d, obs: Observations, theta, J_free, free) -> dict:
+def _shared_std(machine: Machine, d, obs: Observations, theta, free) -> dict:
     """Each shared source's change of the parameters at one standard deviation: the least-squares answer to the
     residuals' change when the offsets move by ``obs.shifts_mm[source]`` (the residual is affine in the offset)."""
     from .machine import evaluate
@@ -360,6 +366,7 @@ def _shared_std(machine: Machine, d, obs: Observations, theta, J_free, free) -> 
 
     if not obs.shifts_mm:
         return {}
+    J_free = residuals(machine, d, obs, theta)[1].reshape(-1, d.n_params)[:, free]  # observe's runs: small
     values = joint_values(machine, d, theta)
     base = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm)
     out = {}

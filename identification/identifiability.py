@@ -91,7 +91,8 @@ def _describe(name, partners):
     return f"{name} is aliased with {', '.join(p for p, _ in partners)}: the data see only {seen} ({name} held fixed)"
 
 
-def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float = INVISIBLE_TOL) -> Identifiability:
+def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float = INVISIBLE_TOL,
+            rows: int | None = None) -> Identifiability:
     """Identifiability of the parameters of Jacobian ``J``.
 
     Parameters
@@ -104,12 +105,15 @@ def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float
         Rank tolerance on unit columns (see module docstring).
     invisible_tol : float
         Relative column norm below which a parameter is invisible.
+    rows : int, optional
+        The rows of the Jacobian when ``J`` is its R factor (the same analysis; ``o1`` is per row).
 
     Returns
     -------
     Identifiability
     """
     M, P = J.shape
+    M = M if rows is None else rows
     norms = np.linalg.norm(J, axis=0)
     biggest = norms.max() if P else 0.0
     visible = norms > invisible_tol * max(biggest, np.finfo(float).tiny)

@@ -52,13 +52,34 @@ def model_pass(machine: Machine, obs: Observations, result):
     return d_errors, d_axes, Q0
 
 
-def studentized(result, q0, sigma):
-    """Per-alignment studentized residual norm and leverage (hat matrix Q0 Q0ᵀ of the identifiable Jacobian)."""
+def studentized(result, q0, sigma, *, h=None):
+    """Per-alignment studentized residual norm and leverage (hat matrix Q0 Q0ᵀ of the identifiable Jacobian;
+    ``h`` (N, 3) instead of ``q0``: its diagonal, from :func:`leverages`)."""
     r = result.residuals_um
     N = r.shape[0]
-    h = np.sum(q0**2, axis=1).reshape(N, 3)
+    h = np.sum(q0**2, axis=1).reshape(N, 3) if h is None else h
     stud = np.sqrt(np.sum(r**2 / np.maximum(1 - h, 1e-12), axis=1)) / sigma
     return stud, h.sum(axis=1)
+
+
+def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
+    """The hat matrix's diagonal (N, 3) of the identifiable Jacobian at the fit, a chunk of alignments at a time
+    (two passes: the R factor, then each row's ‖J_i R⁻¹‖²): memory flat in the alignments."""
+    from .fit_pass import CHUNK_ROWS, chunks, model_pass_qr
+    from .residuals import residuals
+
+    d0 = design(machine, result.effects, obs)
+    free = result.identifiable
+    if not free.any():
+        return np.zeros((len(obs), 3))
+    R = model_pass_qr(machine, d0, obs, result.theta).R[:, free]
+    Rf = scipy.linalg.qr(R, mode="r")[0][: int(free.sum())]
+    out = []
+    for dc, part in chunks(d0, obs, CHUNK_ROWS):
+        J = residuals(machine, dc, part, result.theta)[1].reshape(-1, d0.n_params)[:, free]
+        rows = scipy.linalg.solve_triangular(Rf, J.T, trans="T").T  # J_i R⁻¹: rows of Q
+        out.append(np.sum(rows**2, axis=1).reshape(-1, 3))
+    return np.concatenate(out)
 
 
 def axis_residuals(machine: Machine, obs: Observations, result, *, d_axes=None):

@@ -329,8 +329,7 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
         offsets_mm = np.broadcast_to(offsets_mm, (axes_user.shape[0], 3))
     data = _pinocchio_data(machine)
     n = axes_user.shape[0]
-    qs = _configurations(machine, axes_to_si(machine, axes_user),
-                         errors_to_si(machine, np.broadcast_to(errors_user, (n, len(machine.error_joints)))))
+    errors_user = np.broadcast_to(errors_user, (n, len(machine.error_joints)))
     ev = np.array([e.v_index for e in machine.error_joints], dtype=int)
     av = np.array([a.v_index for a in machine.axes], dtype=int)
     # SI derivative (m per m, m per rad) -> µm per µm, µm per µrad (errors); µm per mm, µm per deg (axes)
@@ -340,7 +339,8 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
     d_ax = np.empty((n, 3, len(av))) if jacobian else None
     for lo in range(0, n, EVALUATE_CHUNK):  # chunks keep the Pinocchio copies small whatever N is
         hi = min(lo + EVALUATE_CHUNK, n)
-        out = _evaluate_chunk(machine, data, qs[lo:hi], jacobian,
+        qs = _configurations(machine, axes_to_si(machine, axes_user[lo:hi]), errors_to_si(machine, errors_user[lo:hi]))
+        out = _evaluate_chunk(machine, data, qs, jacobian,
                               None if offsets_mm is None else offsets_mm[lo:hi] * 1e-3)
         if jacobian:
             p[lo:hi], G = out

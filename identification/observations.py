@@ -110,7 +110,7 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     """
     from .axis_columns import read_axis_table
 
-    t = read_axis_table(path, machine, what="CSV file", required=("mark",) + _MARK_COLUMNS,
+    t = read_axis_table(path, machine, what="CSV file", required=("mark",) + _MARK_COLUMNS, texts=("mark",),
                         optional_axes=optional_axes, check_limits=check_limits)
     marks = t.texts("mark", "mark label")
     w = np.column_stack([t.numbers(c) for c in _MARK_COLUMNS])

@@ -251,7 +251,8 @@ def read_run_log(path, machine: Machine, *, check_limits: bool = True) -> RunLog
     """
     from .axis_columns import read_axis_table
 
-    t = read_axis_table(path, machine, what="run log", required=("image",), check_limits=check_limits)
+    t = read_axis_table(path, machine, what="run log", required=("image",), check_limits=check_limits,
+                        texts=("image",))
     images = t.texts("image", "image name")
     laser = t.numbers("laser_mm") if "laser_mm" in t.header else None
     return RunLog(tuple(images), t.axes, laser, t.t_s, t.directions, t.lines, str(t.path))

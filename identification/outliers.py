@@ -46,7 +46,7 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
     """
     from kinid.stats import chi2_isf
 
-    from .leverage import model_pass, studentized
+    from .leverage import leverages, studentized
     from .fit import fit
 
     index = np.arange(len(obs))
@@ -61,8 +61,7 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
         sigma = robust_um if noise_um is None else max(float(noise_um), robust_um)
         if not sigma > 0:
             break
-        _, _, q0 = model_pass(machine, kept, result)
-        stud, _ = studentized(result, q0, sigma)
+        stud, _ = studentized(result, None, sigma, h=leverages(machine, kept, result))
         bound = chi2_isf(alpha / len(kept), 3)
         bad = np.flatnonzero(stud**2 > bound)
         total = len(out) + bad.size

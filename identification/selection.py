@@ -113,9 +113,6 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
         stop = ""
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
-        elif best is None and undetermined:
-            stop = "; ".join(undetermined.values())
-            undetermined = {}
         elif best is None:
             stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
                     "from the model: see the aliased candidates")
@@ -157,16 +154,15 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
 
 
 def _first_determined(dg, undetermined: dict):
-    """The best live candidate; when the diagnosis found it periodic with a period the positions measured do not
-    determine (:mod:`.ambiguity`), the best significant candidate of the same error joint that is not periodic (a
-    smooth description those positions do determine), else None — and why, in ``undetermined``."""
+    """The best live candidate. When the diagnosis found it periodic with a period the positions measured do not
+    determine (:mod:`.ambiguity`): the longest of the periods that fit as well — it reproduces every position
+    measured as well as any of them, and between them it is the smoothest (the convention of the period
+    search: of aliases, the lowest frequency) — and why, in ``undetermined``, for the step's stop message."""
     best = dg.live[0] if dg.live else None
     if best is None or not dg.undetermined:
         return best
-    code = best.effect.split(":")[0]
-    undetermined[code] = dg.undetermined.replace(" — measure", "; no period added — measure")
-    for c in dg.live:
-        parts = c.effect.split(":")
-        if parts[0] == code and (len(parts) < 2 or parts[1] != "periodic") and c.p_value < dg.threshold:
-            return c
-    return None
+    code, _, period = best.effect.split(":")[:3]
+    longest = max((float(period),) + tuple(dg.twins))
+    name = best.effect if longest == float(period) else f"{code}:periodic:{longest:.6g}"
+    undetermined[code] = dg.undetermined.replace(" — measure", f"; {name} added, the longest of them — measure")
+    return replace(best, effect=name)

@@ -111,7 +111,8 @@ def _sensor(args) -> int:
             raise DataError("a sensor file is a JSON object", path=args.base)
     source = args.hole or args.sphere
     method = "hole" if args.hole else "sphere"
-    table = read_axis_table(source, machine, what=f"{method} measurement", required=("role",))
+    table = read_axis_table(source, machine, what=f"{method} measurement", required=("role",),
+                            texts=("role",))
     standoff = args.standoff_mm if args.standoff_mm is not None else base.get("laser_standoff_mm")
     offset, std, result = laser_offset(machine, table, method=method, standoff_mm=standoff,
                                        radius_mm=args.radius_mm, sigma_mm=args.sigma_mm)

@@ -11,7 +11,7 @@ from pathlib import Path
 from .images import MAX_IMAGE_BYTES, MAX_IMAGE_PIXELS, image_size, read_image  # noqa: F401 (re-exported)
 from .untrusted import read_untrusted_bytes, shown_path  # noqa: F401 (re-exported)
 
-__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "iter_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS", "MAX_IMAGE_BYTES", "json_text", "read_untrusted_bytes",
            "shown_path", "strict_json", "json_finite"]
 
@@ -178,29 +178,39 @@ def read_csv_rows(path, *, what: str = "CSV file") -> list:
         Naming the file (and line): missing, a folder, not UTF-8, too large,
         a cell longer than ``MAX_CSV_CELL`` characters, or malformed quoting.
     """
+    return list(iter_csv_rows(path, what=what))
+
+
+def _physical_lines(text: str):
+    """The lines of ``text`` with their endings (CR LF, LF or CR), one at a time."""
+    import re
+
+    for m in re.finditer(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+$", text):
+        yield m.group()
+
+
+def iter_csv_rows(path, *, what: str = "CSV file"):
+    """:func:`read_csv_rows` one row at a time (the file's text is read whole, its rows are not held)."""
     import csv
-    import io
 
     from .errors import DataError
 
     path = Path(path)
     text = read_limited_text(path, what=what, max_bytes=MAX_CSV_BYTES)
-    reader = csv.reader(io.StringIO(text, newline=""), strict=False)
-    rows = []
+    reader = csv.reader(_physical_lines(text), strict=False)
     start = 1
     try:
         for cells in reader:
             lineno, start = start, reader.line_num + 1
             if not cells or (len(cells) == 1 and not cells[0].strip()) or cells[0].lstrip().startswith("#"):
                 continue
-            for k, c in enumerate(cells):
+            for c in cells:
                 if len(c) > MAX_CSV_CELL:
                     raise DataError(f"a cell of {len(c):,} characters, more than the limit of {MAX_CSV_CELL:,}",
                                     path=path, line=lineno)
-            rows.append((lineno, cells))
+            yield lineno, cells
     except csv.Error as exc:
         raise DataError(f"malformed CSV ({exc})", path=path, line=start) from None
-    return rows
 
 
 def read_csv_table(path, *, what: str = "CSV file", required=()) -> tuple:

@@ -309,11 +309,12 @@ def _ac_plan(machine, stagger_deg):
                         tuple(range(2, n + 2)), "<A/C plan>")
 
 
-def test_a_period_the_positions_cannot_determine_is_named_not_added():
+def test_a_period_the_positions_cannot_determine_is_named():
     """On an A/C table a plan repeating the same six table angles at every tilt visits X at six positions: a 10 mm
     lead of X is significant, but 2, 5, 10 and 20 mm fit alike there and differ between them. The diagnosis says
-    so and --auto adds no period; with the table angles turned by 20° per tilt (18 positions of X) the lead is
-    found within 1 %."""
+    so; --auto adds the longest of them (the smoothest between the positions, as the period search's convention)
+    and says so when it stops; with the table angles turned by 20° per tilt (18 positions of X) the lead is found
+    within 1 % and nothing is said."""
     ac = load_machine(path("five_axis_ac"))
     effects, theta = errors_from_mapping({"EX0C": 12.0, "EY0C": -8.0, "EXX:periodic:10": [1.5, -0.8]}, ac)
     rng = np.random.default_rng(7)
@@ -321,12 +322,15 @@ def test_a_period_the_positions_cannot_determine_is_named_not_added():
     dg = diagnose(ac, six, default_model(ac), noise_um=0.5)
     assert dg.verdict == "missing-effect" and "period is not determined" in dg.undetermined, dg.text()
     assert "6 positions of X" in dg.undetermined
+    assert len(dg.twins) >= 3 and 20.0 in [round(p) for p in dg.twins], dg.twins
     steps = forward_select(ac, six, default_model(ac), noise_um=0.5)
-    assert not any(":periodic:" in (s.added or "") for s in steps), [s.added for s in steps]
-    assert "period is not determined" in steps[-1].stopped
+    periods = [float(s.added.split(":")[2]) for s in steps[1:] if ":periodic:" in s.added]
+    assert periods == [max(dg.twins + (float(dg.live[0].effect.split(":")[2]),))], [s.added for s in steps]
+    assert "period is not determined" in steps[-1].stopped and "added, the longest of them" in steps[-1].stopped
     eighteen = simulate(ac, _ac_plan(ac, 20.0), effects, theta, noise_um=0.5, rng=rng)
     dg = diagnose(ac, eighteen, default_model(ac), noise_um=0.5)
     assert not dg.undetermined
     steps = forward_select(ac, eighteen, default_model(ac), noise_um=0.5)
     leads = [float(s.added.split(":")[2]) for s in steps[1:] if s.added.startswith("EXX:periodic:")]
     assert leads and abs(leads[0] - 10.0) <= 0.1, [s.added for s in steps]
+    assert "not determined" not in steps[-1].stopped
