@@ -33,9 +33,19 @@ from kinid.errors import DataError
 if TYPE_CHECKING:  # numpy is imported by the functions that compute: ``kinid iso230-2 --help`` loads without it
     import numpy as np
 
-__all__ = ["PositioningResult", "evaluate_runs", "read_runs", "register"]
+__all__ = ["PositioningResult", "evaluate_runs", "read_runs", "register", "STANDARD"]
 
 _COLUMNS = ("target_mm", "run", "direction", "deviation_um")
+#: The edition the values follow.
+STANDARD = "ISO 230-2:2014"
+
+
+def _decimals(values_um) -> int:
+    """Decimals that give the largest of ``values_um`` four significant digits (1 to 5): 22.04, 5.123, 0.08941."""
+    import math
+
+    big = max((abs(float(v)) for v in values_um), default=0.0)
+    return 3 if big == 0 else min(5, max(1, 3 - math.floor(math.log10(big))))
 
 
 @dataclass(frozen=True)
@@ -93,20 +103,27 @@ class PositioningResult:
                                                self.s_up_um, self.s_down_um, self.reversal_um, self.repeatability_um)]
         return out
 
-    def text(self) -> str:
-        lines = [f"ISO 230-2 positioning of one axis: {len(self.targets_mm)} targets, {self.runs} runs per direction",
-                 "", f"{'target (mm)':>12} {'x̄↑ (µm)':>9} {'x̄↓ (µm)':>9} {'B_i (µm)':>9} {'s↑ (µm)':>8} "
-                     f"{'s↓ (µm)':>8} {'R_i (µm)':>9}"]
+    def text(self, axis: str = "", source: str = "") -> str:
+        """The report as text: the standard's edition, the axis and file, then the table and the values, in µm
+        with decimals enough for four significant digits of the accuracy A."""
+        k = _decimals([self.A_um, self.R_um, self.E_um])
+        w = 9 + max(k - 3, 0)
+        named = f" of axis {axis}" if axis else " of one axis"
+        lines = [f"{STANDARD} positioning{named}" + (f" from {source}" if source else "")
+                 + f": {len(self.targets_mm)} targets, {self.runs} runs per direction",
+                 "", f"{'target (mm)':>12} {'x̄↑ (µm)':>{w}} {'x̄↓ (µm)':>{w}} {'B_i (µm)':>{w}} {'s↑ (µm)':>{w}} "
+                     f"{'s↓ (µm)':>{w}} {'R_i (µm)':>{w}}"]
         for t, u, d, b, su, sd, r in zip(self.targets_mm, self.mean_up_um, self.mean_down_um, self.reversal_um,
                                          self.s_up_um, self.s_down_um, self.repeatability_um):
-            lines.append(f"{t:12.3f} {u:9.3f} {d:9.3f} {b:9.3f} {su:8.3f} {sd:8.3f} {r:9.3f}")
-        lines += ["", f"{'':<44}{'bidirectional':>14}{'↑':>9}{'↓':>9}",
-                  f"{'accuracy A (µm)':<44}{self.A_um:14.3f}{self.A_up_um:9.3f}{self.A_down_um:9.3f}",
-                  f"{'systematic positional deviation E (µm)':<44}{self.E_um:14.3f}{self.E_up_um:9.3f}{self.E_down_um:9.3f}",
-                  f"{'repeatability R (µm)':<44}{self.R_um:14.3f}{self.R_up_um:9.3f}{self.R_down_um:9.3f}",
-                  f"{'range of mean bidirectional deviation M (µm)':<44}{self.M_um:14.3f}",
-                  f"{'reversal value B (µm)':<44}{self.B_um:14.3f}",
-                  f"{'mean reversal value B̄ (µm)':<44}{self.mean_reversal_um:14.3f}"]
+            lines.append(f"{t:12.3f} {u:{w}.{k}f} {d:{w}.{k}f} {b:{w}.{k}f} {su:{w}.{k}f} {sd:{w}.{k}f} {r:{w}.{k}f}")
+        lines += ["", f"{'':<44}{'bidirectional':>14}{'↑':>{w}}{'↓':>{w}}",
+                  f"{'accuracy A (µm)':<44}{self.A_um:14.{k}f}{self.A_up_um:{w}.{k}f}{self.A_down_um:{w}.{k}f}",
+                  f"{'systematic positional deviation E (µm)':<44}{self.E_um:14.{k}f}{self.E_up_um:{w}.{k}f}"
+                  f"{self.E_down_um:{w}.{k}f}",
+                  f"{'repeatability R (µm)':<44}{self.R_um:14.{k}f}{self.R_up_um:{w}.{k}f}{self.R_down_um:{w}.{k}f}",
+                  f"{'range of mean bidirectional deviation M (µm)':<44}{self.M_um:14.{k}f}",
+                  f"{'reversal value B (µm)':<44}{self.B_um:14.{k}f}",
+                  f"{'mean reversal value B̄ (µm)':<44}{self.mean_reversal_um:14.{k}f}"]
         return "\n".join(lines)
 
 
@@ -217,8 +234,9 @@ def _warn_if_mm(path, deviation_um) -> None:
                       f"are millimetres, multiply by 1000", stacklevel=3)
 
 
-def plot_runs(result: PositioningResult, path) -> None:
-    """The standard's plot: mean deviation per direction with ±2s bands against the target."""
+def plot_runs(result: PositioningResult, path, *, axis: str = "", source: str = "") -> None:
+    """The standard's plot: mean deviation per direction with ±2s bands against the target; the legend below the
+    axes (never over the points), the edition, axis and file in the title."""
     from kinid.figures import new_figure, save_figure
 
     fig = new_figure((7.5, 4.2))
@@ -233,10 +251,13 @@ def plot_runs(result: PositioningResult, path) -> None:
     ax.axhline(0, color="0.6", lw=0.8)
     ax.set_xlabel("target position (mm)")
     ax.set_ylabel("positional deviation (µm)")
-    ax.set_title(f"ISO 230-2: A = {result.A_um:.2f} µm, E = {result.E_um:.2f} µm, R = {result.R_um:.2f} µm, "
-                 f"B = {result.B_um:.2f} µm", fontsize=10)
+    k = _decimals([result.A_um, result.R_um, result.E_um])
+    named = f"axis {axis}" if axis else "one axis"
+    ax.set_title(f"{STANDARD}, {named}" + (f" ({source})" if source else "") +
+                 f"\nA = {result.A_um:.{k}f} µm, E = {result.E_um:.{k}f} µm, R = {result.R_um:.{k}f} µm, "
+                 f"B = {result.B_um:.{k}f} µm", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3, frameon=False)
     save_figure(fig, path)
 
 
@@ -249,6 +270,7 @@ def register(subparsers) -> None:
     p.add_argument("runs", metavar="RUNS.csv", help="bidirectional positioning runs")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys A_um, E_um, R_um, M_um, B_um, ...)")
     p.add_argument("--plot", metavar="OUT.png", help="mean deviations ±2s per direction against the target")
+    p.add_argument("--axis", default="", metavar="NAME", help="the axis measured, for the report (e.g. X)")
     p.set_defaults(run=_run)
 
 
@@ -258,9 +280,16 @@ def _run(args) -> int:
         result = evaluate_runs(target, direction, deviation)
     except DataError as exc:
         raise DataError(str(exc), path=args.runs) from None
+    from pathlib import Path
+
+    from kinid.untrusted import shown_path
+
+    source = shown_path(Path(args.runs).name)
+    axis = shown_path(args.axis) if args.axis else ""
     if args.plot:
-        plot_runs(result, args.plot)
+        plot_runs(result, args.plot, axis=axis, source=source)
     from kinid.files import strict_json
 
-    print(strict_json(result.summary()) if args.json else result.text())
+    summary = {"standard": STANDARD, "axis": args.axis, "source": str(args.runs), **result.summary()}
+    print(strict_json(summary) if args.json else result.text(axis, source))
     return 0

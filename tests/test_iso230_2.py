@@ -7,7 +7,7 @@ import pytest
 
 from kinid.cli import main
 from kinid.errors import DataError
-from kinid.stages.iso230_2 import evaluate_runs
+from kinid.stages.iso230_2 import _decimals, evaluate_runs
 
 # targets 0, 10, 20 mm; two runs per direction; deviations µm
 RUNS = [  # target, run, direction, deviation
@@ -43,12 +43,22 @@ def test_command_line_json_text_and_plot(tmp_path, capsys):
     f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, r)) for r in RUNS) + "\n")
     assert main(["iso230-2", str(f), "--json", "--plot", str(tmp_path / "iso.png")]) == 0
     out = json.loads(capsys.readouterr().out)
+    assert out["standard"] == "ISO 230-2:2014" and out["source"] == str(f)
     for key, value in HAND.items():
         assert out[key] == pytest.approx(value, abs=1e-9), key
     assert (tmp_path / "iso.png").stat().st_size > 5000
-    assert main(["iso230-2", str(f)]) == 0
+    assert main(["iso230-2", str(f), "--axis", "X"]) == 0
     text = capsys.readouterr().out
-    assert "accuracy A (µm)" in text and f"{HAND['A_um']:14.3f}" in text and f"{HAND['R_um']:14.3f}" in text
+    k = _decimals([HAND["A_um"], HAND["R_um"], HAND["E_um"]])  # four significant digits of A
+    assert text.startswith("ISO 230-2:2014 positioning of axis X from runs.csv")
+    assert "accuracy A (µm)" in text and f"{HAND['A_um']:14.{k}f}" in text and f"{HAND['R_um']:14.{k}f}" in text
+
+
+def test_decimals_follow_the_size_of_the_axis():
+    """An axis of 22 µm shows 22.04; one of 0.09 µm shows 0.08941, not 0.089."""
+    assert _decimals([22.04]) == 2 and f"{22.0412:.{_decimals([22.0412])}f}" == "22.04"
+    assert f"{0.089412:.{_decimals([0.089412])}f}" == "0.08941"
+    assert _decimals([1234.5]) == 1 and _decimals([0.0]) == 3
 
 
 @pytest.mark.parametrize("rows, message", [
