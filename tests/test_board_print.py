@@ -125,3 +125,26 @@ def test_ring_runs(code, bits, runs):
 def test_board_refuses_overlapping_marks(tmp_path, capsys):
     assert main(["board", "--out", str(tmp_path / "b.json"), "--pitch-mm", "10"]) == 2
     assert "must be smaller than --pitch-mm" in capsys.readouterr().err
+
+
+def test_a_standard_page_with_two_scale_bars_and_the_board_s_identifier(printed, tmp_path, capsys):
+    """The 4 x 5 board goes on A4 (auto); bars across and down (a printer may scale the two directions differently);
+    the identifier printed on the page is the one recomputed from the board file; a board too large for the paper
+    asked for is one line, exit 2, nothing written."""
+    from kinid.vision.board_print import PAGES, board_id
+
+    d, board = printed
+    lay = board_layout(board)
+    assert lay.page == "a4" and (lay.width_mm, lay.height_mm) == PAGES["a4"]
+    root, ns = _svg(d), "{http://www.w3.org/2000/svg}"
+    vertical = next(g for g in root.iter(ns + "g") if g.get("id") == "scale-bar-vertical")
+    assert float(vertical.find(ns + "rect").get("height")) == lay.vertical_bar_mm == 50.0
+    text = (d / "b.svg").read_text()
+    assert f"board {board_id(board)}" in text and board_id(board) == board_id(load_board(d / "b.json"))
+    assert f"board {board_id(board)}".encode() in (d / "b.pdf").read_bytes()
+    assert main(["board", "--out", str(tmp_path / "big.json"), "--pdf", str(tmp_path / "big.pdf"), "--page", "a4"]) == 2
+    err = capsys.readouterr().err
+    assert "does not fit a4" in err and err.count("\n") == 1
+    assert not (tmp_path / "big.json").exists() and not (tmp_path / "big.pdf").exists()
+    assert main(["board", "--out", str(tmp_path / "big.json"), "--page", "auto"]) == 0
+    assert "a3 page" in capsys.readouterr().out

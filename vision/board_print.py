@@ -18,14 +18,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BoardLayout", "board_layout", "board_svg", "board_pdf", "ring_runs", "MAX_PAGE_MM"]
+__all__ = ["BoardLayout", "board_layout", "board_svg", "board_pdf", "ring_runs", "board_id", "PAGES", "MAX_PAGE_MM"]
 
 #: White space around the marks, mm.
 MARGIN_MM = 10.0
 #: Height of the strip below the marks that holds the scale bar and the caption, mm.
 FOOTER_MM = 22.0
+#: Width of the strip left of the marks that holds the vertical scale bar, mm.
+SIDE_MM = 12.0
 #: Largest page kinid draws, mm a side (2 m: a wide-format plotter's roll), checked before anything is drawn.
 MAX_PAGE_MM = 2000.0
+#: Paper sizes, portrait (width, height) mm; ``auto`` takes the first the board fits, either way round.
+PAGES = {"a4": (210.0, 297.0), "letter": (215.9, 279.4), "a3": (297.0, 420.0), "tabloid": (279.4, 431.8),
+         "a2": (420.0, 594.0), "a1": (594.0, 841.0), "a0": (841.0, 1189.0)}
+
+
+def board_id(board) -> str:
+    """A short identifier of the board's geometry and codes (8 hex digits): printed on the page and by the
+    commands, recomputed from the board file, so a print can be matched to its file."""
+    import hashlib
+    import json
+
+    key = json.dumps([board.pitch_mm, board.rows, board.cols, board.center_d_mm, board.ring_inner_d_mm,
+                      board.ring_outer_d_mm, board.bits, [list(r) for r in board.codes]])
+    return hashlib.sha256(key.encode()).hexdigest()[:8]
 
 
 @dataclass(frozen=True)
@@ -39,11 +55,17 @@ class BoardLayout:
     origin_mm : (float, float)
         Page position of mark (0, 0), the board frame's origin.
     scale_bar_mm : float
-        Length of the scale bar.
+        Length of the horizontal scale bar.
     scale_bar_at_mm : (float, float)
-        Page position of the scale bar's left end.
+        Page position of its left end.
+    vertical_bar_mm : float
+        Length of the vertical scale bar (a printer may scale the two directions differently).
+    vertical_bar_at_mm : (float, float)
+        Page position of its top end.
     caption : str
         Two lines.
+    page : str
+        The paper size (``PAGES``), or ``"fit"`` for a page the board's own size.
     """
 
     width_mm: float
@@ -52,32 +74,63 @@ class BoardLayout:
     scale_bar_mm: float
     scale_bar_at_mm: tuple
     caption: str
+    vertical_bar_mm: float = 0.0
+    vertical_bar_at_mm: tuple = (0.0, 0.0)
+    page: str = "fit"
 
 
-def board_layout(board) -> BoardLayout:
-    """The page of ``board``: marks, then a scale bar and a caption below them.
+def board_layout(board, page: str = "auto") -> BoardLayout:
+    """The page of ``board``: a vertical scale bar left of the marks, then a scale bar and a caption below them.
+
+    ``page``: a paper size of :data:`PAGES` (portrait, or landscape if only that fits), ``"auto"`` for the
+    first of them the board fits, or ``"fit"`` for a page the board's own size.
 
     Raises
     ------
     DataError
-        Naming ``pitch_mm``, if the page would be larger than :data:`MAX_PAGE_MM` a side.
+        Naming ``pitch_mm``, if the page would be larger than :data:`MAX_PAGE_MM` a side; naming ``page``, if
+        the board does not fit the paper asked for.
     """
+    from kinid.errors import DataError
+
     r = board.ring_outer_d_mm / 2.0
     span_x = (board.cols - 1) * board.pitch_mm + 2 * r
     span_y = (board.rows - 1) * board.pitch_mm + 2 * r
-    width = max(span_x, 80.0) + 2 * MARGIN_MM
-    height = span_y + 2 * MARGIN_MM + FOOTER_MM
-    if not (width <= MAX_PAGE_MM and height <= MAX_PAGE_MM):  # NaN too
-        from kinid.errors import DataError
-
-        raise DataError(f"{board.pitch_mm:g} with {board.rows} x {board.cols} marks makes a page of {width:.4g} x "
-                        f"{height:.4g} mm, larger than kinid draws ({MAX_PAGE_MM:g} mm a side); give a smaller pitch "
+    need_w = max(span_x, 80.0) + 2 * MARGIN_MM + SIDE_MM
+    need_h = span_y + 2 * MARGIN_MM + FOOTER_MM
+    if not (need_w <= MAX_PAGE_MM and need_h <= MAX_PAGE_MM):  # NaN too
+        raise DataError(f"{board.pitch_mm:g} with {board.rows} x {board.cols} marks makes a page of {need_w:.4g} x "
+                        f"{need_h:.4g} mm, larger than kinid draws ({MAX_PAGE_MM:g} mm a side); give a smaller pitch "
                         f"or fewer rows or columns", parameter="pitch_mm")
-    origin = (MARGIN_MM + r + (width - 2 * MARGIN_MM - span_x) / 2.0, MARGIN_MM + r)
-    bar = 50.0 if width - 2 * MARGIN_MM >= 50.0 else 10.0 * math.floor((width - 2 * MARGIN_MM) / 10.0)
-    caption = (f"kinid ring-coded board: {board.rows} x {board.cols} marks, pitch {board.pitch_mm:g} mm, "
-               f"{board.bits}-bit codes.\nPrint at 100 % (no scaling); the bar must measure {bar:g} mm.")
-    return BoardLayout(width, height, origin, bar, (MARGIN_MM, height - MARGIN_MM - 8.0), caption)
+    if page not in ("fit", "auto") and page not in PAGES:
+        raise DataError(f"must be auto, fit or one of {', '.join(PAGES)}, got {page!r}", parameter="page")
+    width, height = need_w, need_h
+    names = list(PAGES) if page == "auto" else ([] if page == "fit" else [page])
+    chosen = "fit"
+    for name in names:
+        pw, ph = PAGES[name]
+        fits = [(w, h) for w, h in ((pw, ph), (ph, pw)) if need_w <= w and need_h <= h]
+        if fits:
+            (width, height), chosen = fits[0], name
+            break
+    else:
+        if page not in ("fit", "auto"):
+            raise DataError(f"a board of {need_w:.0f} x {need_h:.0f} mm (marks, scale bars, caption) does not fit "
+                            f"{page} ({PAGES[page][0]:g} x {PAGES[page][1]:g} mm) either way round; give --page "
+                            f"auto or a smaller board", parameter="page")
+    # the drawing centred on the page: side strip + marks across, marks + footer down
+    left = (width - need_w) / 2.0 + MARGIN_MM + SIDE_MM
+    top = (height - need_h) / 2.0 + MARGIN_MM
+    inner = need_w - 2 * MARGIN_MM - SIDE_MM
+    origin = (left + r + (inner - span_x) / 2.0, top + r)
+    bar = 50.0 if inner >= 50.0 else 10.0 * math.floor(inner / 10.0)
+    vbar = 50.0 if span_y >= 50.0 else 10.0 * max(1, math.floor(span_y / 10.0))
+    bar_y = top + span_y + FOOTER_MM - 8.0
+    caption = (f"kinid ring-coded board {board_id(board)}: {board.rows} x {board.cols} marks, pitch "
+               f"{board.pitch_mm:g} mm, {board.bits}-bit codes.\nPrint at 100 % (no scaling); "
+               + (f"both bars must measure {bar:g} mm." if bar == vbar else
+                  f"the bars must measure {bar:g} mm across and {vbar:g} mm down."))
+    return BoardLayout(width, height, origin, bar, (left, bar_y), caption, vbar, (left - SIDE_MM + 4.0, top), chosen)
 
 
 def ring_runs(code: int, bits: int) -> list:
@@ -120,9 +173,9 @@ def _f(v: float) -> str:
     return f"{v:.4f}".rstrip("0").rstrip(".")
 
 
-def board_svg(board) -> str:
+def board_svg(board, page: str = "auto") -> str:
     """The board as an SVG document, true scale (width and height in mm, viewBox in mm)."""
-    lay = board_layout(board)
+    lay = board_layout(board, page)
     rc, ri, ro = board.center_d_mm / 2.0, board.ring_inner_d_mm / 2.0, board.ring_outer_d_mm / 2.0
     step = 2 * math.pi / board.bits
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{_f(lay.width_mm)}mm" height="{_f(lay.height_mm)}mm" '
@@ -154,6 +207,14 @@ def board_svg(board) -> str:
         out.append(f'<rect x="{_f(bx + 10 * k - 0.15)}" y="{_f(by - 2)}" width="0.3" height="3.5" fill="#000"/>')
     out.append(f'<text x="{_f(bx + lay.scale_bar_mm + 3)}" y="{_f(by + 1.5)}" font-family="Helvetica, Arial, '
                f'sans-serif" font-size="4">{lay.scale_bar_mm:g} mm</text></g>')
+    vx, vy = lay.vertical_bar_at_mm
+    out.append(f'<g id="scale-bar-vertical"><rect x="{_f(vx)}" y="{_f(vy)}" width="1.5" '
+               f'height="{_f(lay.vertical_bar_mm)}" fill="#000"/>')
+    for k in range(int(lay.vertical_bar_mm // 10) + 1):
+        out.append(f'<rect x="{_f(vx - 2)}" y="{_f(vy + 10 * k - 0.15)}" width="3.5" height="0.3" fill="#000"/>')
+    out.append(f'<text x="{_f(vx + 5.5)}" y="{_f(vy + lay.vertical_bar_mm)}" font-family="Helvetica, Arial, '
+               f'sans-serif" font-size="4" transform="rotate(-90 {_f(vx + 5.5)} {_f(vy + lay.vertical_bar_mm)})">'
+               f'{lay.vertical_bar_mm:g} mm</text></g>')
     for i, line in enumerate(lay.caption.splitlines()):
         out.append(f'<text x="{_f(bx)}" y="{_f(by + 7 + 4 * i)}" font-family="Helvetica, Arial, sans-serif" '
                    f'font-size="3">{line}</text>')
@@ -183,10 +244,10 @@ def _pdf_path(ops):
     return " ".join(ops)
 
 
-def board_pdf(board) -> bytes:
+def board_pdf(board, page: str = "auto") -> bytes:
     """The board as a one-page PDF, true scale: the page is the layout's size in points and the
     drawing is in mm through one transform (scale 72/25.4, y down)."""
-    lay = board_layout(board)
+    lay = board_layout(board, page)
     k = 72.0 / 25.4
     w_pt, h_pt = lay.width_mm * k, lay.height_mm * k
     rc, ri, ro = board.center_d_mm / 2.0, board.ring_inner_d_mm / 2.0, board.ring_outer_d_mm / 2.0
@@ -217,12 +278,18 @@ def board_pdf(board) -> bytes:
     ops.append(f"{g(bx)} {g(by)} {g(lay.scale_bar_mm)} 1.5 re f")
     for i in range(int(lay.scale_bar_mm // 10) + 1):
         ops.append(f"{g(bx + 10 * i - 0.15)} {g(by - 2)} 0.3 3.5 re f")
+    vx, vy = lay.vertical_bar_at_mm
+    ops.append(f"{g(vx)} {g(vy)} 1.5 {g(lay.vertical_bar_mm)} re f")
+    for i in range(int(lay.vertical_bar_mm // 10) + 1):
+        ops.append(f"{g(vx - 2)} {g(vy + 10 * i - 0.15)} 3.5 0.3 re f")
     ops.append("Q")
     # text in points, y up (PDF's own frame)
     def text(x_mm, y_mm, size_pt, s):
         s = s.replace("\\", "\\\\").replace("(", "\\(").replace(")", "\\)")
         return f"BT /F1 {size_pt:g} Tf {g(x_mm * k)} {g(h_pt - y_mm * k)} Td ({s}) Tj ET"
     ops.append(text(bx + lay.scale_bar_mm + 3, by + 1.5, 11, f"{lay.scale_bar_mm:g} mm"))
+    tx, ty = (vx + 5.5) * k, h_pt - (vy + lay.vertical_bar_mm) * k  # rotated 90°: reads upwards beside the bar
+    ops.append(f"BT /F1 11 Tf 0 1 -1 0 {g(tx)} {g(ty)} Tm ({lay.vertical_bar_mm:g} mm) Tj ET")
     for i, line in enumerate(lay.caption.splitlines()):
         ops.append(text(bx, by + 7 + 4 * i, 8, line))
     content = "\n".join(ops).encode("latin-1", "replace")
