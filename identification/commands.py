@@ -177,7 +177,7 @@ def _identify(args) -> int:
         result = steps[-1].fit
         obs = steps[-1].data
         if args.report:
-            selection_report(steps, obs, args.report)
+            selection_report(steps, obs, args.report, fit_file=args.out)
     else:
         from dataclasses import replace
 

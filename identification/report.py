@@ -172,15 +172,17 @@ def _provenance(fit_result, obs, extra=()) -> list:
     return rows
 
 
-def _summary(diagnosis, obs) -> list:
+def _summary(diagnosis, obs, fit_file=None) -> list:
     f = diagnosis.fit
     moved = tool_motion_um(f, obs)
     first = (f"The machine's identified errors (the board's and the sensor's set-up aside) move the tool point by "
-             f"up to {_num(moved)} µm over the measured poses; the clearest: {_largest(f)}.")
+             f"up to {_num(moved)} µm over the measured poses; the clearest (the largest against their "
+             f"uncertainty): {_largest(f)}.")
     if diagnosis.verdict == "noise":
         second = (f"The model explains the data to the noise (residual {diagnosis.rms_um:.3g} µm per coordinate, "
                   f"σ {diagnosis.noise_um:.3g} µm){': ' + diagnosis.note if diagnosis.note else ''}; next: load the "
-                  f"compensation (kinid compensate --fit FIT.json --out DIR).")
+                  f"compensation (kinid compensate --fit {fit_file or 'FIT.json'} --out "
+                  f"{'compensation' if fit_file else 'DIR'}).")
     else:
         best = diagnosis.live[0] if diagnosis.live else None
         if best is not None and best.p_value < diagnosis.threshold:
@@ -238,7 +240,8 @@ def _diagnosis_report(diagnosis, obs, folder: Path, provenance) -> Path:
     return page
 
 
-def selection_report(steps, obs, folder, *, preface: str = "", provenance=(), whole: bool = True) -> Path:
+def selection_report(steps, obs, folder, *, preface: str = "", provenance=(), whole: bool = True,
+                     fit_file=None) -> Path:
     """Write the forward-selection report (falling error, first and last residual plots) into ``folder``;
     returns the page's path.
 
@@ -248,15 +251,17 @@ def selection_report(steps, obs, folder, *, preface: str = "", provenance=(), wh
         Write the folder whole or not at all, replacing only an empty folder or an earlier report
         (:func:`kinid.report_html.report_folder`), or (False) write the report's files into ``folder``
         beside what it holds (the demo, whose page goes into its own output folder beside its data).
+    fit_file : str, optional
+        Where the final fit was written, as the next step's command should name it.
     """
     if not whole:
-        return _selection_report(steps, obs, _outdir(folder), preface, provenance)
+        return _selection_report(steps, obs, _outdir(folder), preface, provenance, fit_file)
     with report_folder(folder) as stage:
-        _selection_report(steps, obs, stage, preface, provenance)
+        _selection_report(steps, obs, stage, preface, provenance, fit_file)
     return Path(folder) / "index.html"
 
 
-def _selection_report(steps, obs, folder: Path, preface: str, provenance) -> Path:
+def _selection_report(steps, obs, folder: Path, preface: str, provenance, fit_file=None) -> Path:
     machine = steps[0].fit.machine
     plot_selection(steps, folder / "rms_steps.png")
     first = steps[0].data if getattr(steps[0], "data", None) is not None else obs  # gross errors set aside
@@ -285,5 +290,5 @@ def _selection_report(steps, obs, folder: Path, preface: str, provenance) -> Pat
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     page = folder / "index.html"
     write_text(page, report_page("Machine calibration: compare, diagnose, add", f"kinid: {Path(machine.path).name}",
-                                 _provenance(final, last, provenance), _summary(steps[-1].diagnosis, last), sections))
+                                 _provenance(final, last, provenance), _summary(steps[-1].diagnosis, last, fit_file), sections))
     return page
