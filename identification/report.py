@@ -223,11 +223,13 @@ def _diagnosis_report(diagnosis, obs, folder: Path, provenance) -> Path:
     if plot_maps(f, folder / "maps.png"):
         error_figs.append(Figure("maps.png", "Identified error maps at their knots with the ±2σ band"))
     live = diagnosis.live[:10]
-    cand = Table(("rank", "effect", "p-value", "RMS after (µm)", "size", "± std"),
+    cand = Table(("rank", "effect", "p-value", "RMS after (µm)", "estimated size", "U (k = 2)", "unit"),
                  tuple((str(i), c.effect, f"{c.p_value:.2g}", f"{c.rms_after_um:.3f}", f"{c.size:.4g}",
-                        f"{c.size_std:.2g} {c.size_unit.replace('um', 'µm').replace('urad', 'µrad')}")
+                        f"{2 * c.size_std:.2g}", c.size_unit.replace("um", "µm").replace("urad", "µrad"))
                        for i, c in enumerate(live, 1)), numeric=(0, 2, 3, 4, 5),
-                 caption=f"Threshold for a missing effect: p < {diagnosis.threshold:.3g} (0.001 over the candidates tested)")
+                 caption=f"Threshold for a missing effect: p < {diagnosis.threshold:.3g} (0.001 over the candidates "
+                         f"tested). Size: the amplitude of a periodic effect, the highest term of a polynomial, the "
+                         f"peak of a map; U: expanded uncertainty, k = 2, as in the table of identified errors.")
     sections = [
         Section("Identified errors", tables=(errors_table(f),), figures=tuple(error_figs)),
         Section("Where the model fails", paragraphs=(f"Verdict: {diagnosis.verdict}. Residual {diagnosis.rms_um:.3f} µm "

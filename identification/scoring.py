@@ -179,7 +179,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
                 g += Cp[:, a:b].T @ Cp[:, a:b]
         for e, (a, b), gram in zip(block, spans, grams):
             k = e.n_params
-            unit = e.param_units(machine)[0]
+            unit = e.param_units(machine)[-1]  # the unit of the size: a polynomial sizes its highest term
             norm_c = np.sqrt(norm2[a:b])
             if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
                 out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
