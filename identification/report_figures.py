@@ -148,8 +148,10 @@ def plot_measured_vs_model(diagnosis, obs, path) -> None:
             ax.plot(i + 1, diagnosis.axis_residuals_um[i, k], "o", mfc="none", mec="tab:red", ms=8)
         ax.axhline(0, color="k", lw=0.5)
         ax.set_ylabel(f"{n} (µm)")
-    axs[-1, 0].set_xlabel("alignment (red circles: possible outliers)")
-    axs[0, 0].legend(fontsize=8, ncol=6, markerscale=3, loc="upper right")
+    axs[-1, 0].set_xlabel("alignment number" + (" (red circles: possible outliers)" if len(diagnosis.outliers) else ""))
+    # the marks' legend above the panels, never over the points
+    axs[0, 0].legend(fontsize=8, ncol=min(len(dict.fromkeys(obs.marks)), 12), markerscale=3, loc="lower left",
+                     bbox_to_anchor=(0.0, 1.02), frameon=False, title="mark", title_fontsize=8)
     fig.suptitle("Measured minus model readings")
     save_figure(fig, path)
 
