@@ -89,7 +89,7 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     steps = []
     theta0 = None
     carried = None
-    undetermined = {}  # error joint -> why its periodic candidates are not added
+    undetermined = {}  # error joint -> why the period added for it is not determined by the data
     for _ in range(max_steps + 1):
         dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0)
         if theta0 is not None and (not dg.fit.success or dg.fit.iterations > WARM_START_ITERATIONS):
