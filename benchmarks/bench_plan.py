@@ -49,28 +49,39 @@ def true_errors(tm, rng, n) -> dict:
     return out
 
 
+def _true_points(machine, tm, obs, errors: dict) -> np.ndarray:
+    """The true tool point (mm) at each row's readings, with constant error values ``errors`` (µm / µrad) or
+    per-row arrays."""
+    n = len(obs)
+    values = {k: np.broadcast_to(np.asarray(v, float), (n,)) for k, v in errors.items()}
+    return truth.tool_point_mm(tm, {a: obs.axes[:, j] for j, a in enumerate(machine.axis_names)}, values, n)
+
+
+def _volume_error_um(machine, tm, volume_obs, result, errors: dict) -> np.ndarray:
+    """Errors (µm, (N, 3)) of the tool point ``result`` predicts at the volume's poses, t = 0, against the truth
+    with constant ``errors``."""
+    from kinid.identification.observations import Observations
+    from kinid.identification.residuals import design, residuals
+
+    vol = Observations(volume_obs.marks, _true_points(machine, tm, volume_obs, errors), volume_obs.axes,
+                       np.zeros(len(volume_obs)), {}, (), "<volume>")
+    return residuals(machine, design(machine, result.effects, vol), vol, result.theta, jacobian=False)
+
+
 def held_out(machine, text: str, plan_obs, volume_obs, seed: int, noise_um: float = NOISE_UM) -> np.ndarray:
     """Errors (µm, (N_volume, 3)) of the tool point kinid predicts at the volume's poses after fitting the default
     model to the plan's alignments simulated on a machine with errors drawn from ``seed`` (plain-numpy truth)."""
     from kinid.identification import default_model, fit
     from kinid.identification.observations import Observations
-    from kinid.identification.residuals import design, residuals
 
     tm = truth.read_urdf(text)
     rng = np.random.default_rng(seed)
-    names = machine.axis_names
-    n, nv = len(plan_obs), len(volume_obs)
-    errors = true_errors(tm, rng, 1)
-    read = {a: plan_obs.axes[:, j] for j, a in enumerate(names)}
-    p = truth.tool_point_mm(tm, read, {k: np.full(n, v[0]) for k, v in errors.items()}, n)
-    p = p + rng.normal(0.0, noise_um, (n, 3)) * 1e-3
+    n = len(plan_obs)
+    errors = {k: v[0] for k, v in true_errors(tm, rng, 1).items()}
+    p = _true_points(machine, tm, plan_obs, errors) + rng.normal(0.0, noise_um, (n, 3)) * 1e-3
     data = Observations(plan_obs.marks, p, plan_obs.axes, plan_obs.t_s, {}, (), "<simulated plan>")
-    model = default_model(machine)
-    result = fit(machine, data, model, noise_um=noise_um)
-    vread = {a: volume_obs.axes[:, j] for j, a in enumerate(names)}
-    pv = truth.tool_point_mm(tm, vread, {k: np.full(nv, v[0]) for k, v in errors.items()}, nv)
-    vol = Observations(volume_obs.marks, pv, volume_obs.axes, None, {}, (), "<volume>")
-    return residuals(machine, design(machine, model, vol), vol, result.theta, jacobian=False)
+    result = fit(machine, data, default_model(machine), noise_um=noise_um)
+    return _volume_error_um(machine, tm, volume_obs, result, errors)
 
 
 def warm_up_run(machine, pool, obs, seed):
@@ -78,24 +89,16 @@ def warm_up_run(machine, pool, obs, seed):
     of the cold machine kinid predicts at the candidates (3-D RMS, µm) and whether it added a time effect."""
     from kinid.identification import default_model, forward_select
     from kinid.identification.observations import Observations
-    from kinid.identification.residuals import design, residuals
 
-    text = Path(machine.path).read_text()
-    tm = truth.read_urdf(text)
+    tm = truth.read_urdf(Path(machine.path).read_text())
     rng = np.random.default_rng(seed)
-    n, names = len(obs), machine.axis_names
-    errors = {k: np.full(n, v[0]) for k, v in true_errors(tm, rng, 1).items()}
-    cold = {k: v[:1] for k, v in errors.items()}
-    errors["EX0T"] = errors["EX0T"] + 8.0 * (1.0 - np.exp(-obs.t_s / 1500.0))
-    p = truth.tool_point_mm(tm, {a: obs.axes[:, j] for j, a in enumerate(names)}, errors, n)
-    data = Observations(obs.marks, p + rng.normal(0.0, 1.0, (n, 3)) * 1e-3, obs.axes, obs.t_s, {},
-                        tuple(range(2, n + 2)), "<simulated>")
+    n = len(obs)
+    cold = {k: v[0] for k, v in true_errors(tm, rng, 1).items()}
+    warm = dict(cold, EX0T=cold["EX0T"] + 8.0 * (1.0 - np.exp(-obs.t_s / 1500.0)))
+    p = _true_points(machine, tm, obs, warm) + rng.normal(0.0, 1.0, (n, 3)) * 1e-3
+    data = Observations(obs.marks, p, obs.axes, obs.t_s, {}, tuple(range(2, n + 2)), "<simulated>")
     final = forward_select(machine, data, default_model(machine), noise_um=1.0)[-1].fit
-    nv = len(pool)
-    pv = truth.tool_point_mm(tm, {a: pool.axes[:, j] for j, a in enumerate(names)},
-                             {k: np.full(nv, v[0]) for k, v in cold.items()}, nv)
-    vol = Observations(pool.marks, pv, pool.axes, np.zeros(nv), {}, (), "<volume>")
-    r = residuals(machine, design(machine, final.effects, vol), vol, final.theta, jacobian=False)
+    r = _volume_error_um(machine, tm, pool, final, cold)
     timed = any(":warmup:" in e.name or e.name.endswith(":drift") for e in final.effects)
     return float(np.sqrt(np.mean(np.sum(r**2, axis=1)))), timed
 

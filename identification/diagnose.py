@@ -371,7 +371,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
 def _undetermined(machine, obs, result, best, sigma, d_errors, q0):
     """Why the best candidate's period is not determined by the positions measured, and the periods that fit as
     well; ("", ()) when it is."""
-    from .ambiguity import period_twins
+    from .ambiguity import distinct_positions, period_twins
 
     parts = best.effect.split(":")
     if len(parts) < 3 or parts[1] != "periodic":
@@ -380,8 +380,7 @@ def _undetermined(machine, obs, result, best, sigma, d_errors, q0):
     if not twins:
         return "", ()
     axis = machine.error_joint(parts[0]).axis
-    q = obs.axes[:, machine.axis_names.index(axis)]
-    positions = np.unique(np.round(q / max(1e-3 * np.ptp(q), 1e-3))).size
+    positions = distinct_positions(obs.axes[:, machine.axis_names.index(axis)]).size
     unit = "°" if machine.axis(axis).kind != "prismatic" else " mm"
     shown = ", ".join(f"{p:.3g}" for p in sorted(twins)[:6]) + (" …" if len(twins) > 6 else "")
     return (f"{best.effect} is significant (p = {best.p_value:.2g}) but its period is not determined: periods "

@@ -70,16 +70,17 @@ def _pose_text(machine, obs, i) -> str:
 def advice_pool(machine: Machine, marks_mm, *, solve=None, steps: int = 9, samples: int = 2000, rng=None) -> Observations:
     """Poses over the machine's whole travel: each preset axis at ``steps`` values (a turntable every 30°), every
     mark; on a machine without three linear axes, ``samples`` joint configurations within the travel."""
-    from .plan_pool import candidate_poses, solved_axes
+    from .plan_pool import axis_motion, candidate_poses, solved_axes
 
     solve = solved_axes(machine, solve)
     limits = axis_limits(machine)
+    _, turns = axis_motion(machine)
     presets = {}
     for j, a in enumerate(machine.axes):
         if a.name in solve:
             continue
         lo, hi = limits[j]
-        if a.kind == "revolute" and (not np.isfinite(hi - lo) or hi - lo >= 359.999):
+        if turns[j]:
             presets[a.name] = np.arange(0.0, 360.0, 30.0)
         elif np.isfinite(hi - lo):
             presets[a.name] = np.linspace(lo, hi, steps)

@@ -58,17 +58,11 @@ def register(sub) -> None:
     p.set_defaults(run=_plan, outputs={"out": "file"})
 
 
-def _positive(value, name):
-    import math
-
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise DataError(f"must be a positive number, got {value}", parameter=name)
-
-
 def _ranges(texts, machine, solve) -> dict:
     import numpy as np
 
     from .machine import axis_limits
+    from .plan_pool import axis_motion
 
     out = {}
     for text in texts:
@@ -96,11 +90,12 @@ def _ranges(texts, machine, solve) -> dict:
             values = list(np.linspace(values[0], values[1], 9))
         out[name] = np.array(values)
     limits = axis_limits(machine)
+    _, turns = axis_motion(machine)
     for j, a in enumerate(machine.axes):
         if a.name in solve or a.name in out:
             continue
         lo, hi = limits[j]
-        if a.kind == "revolute" and (not np.isfinite(hi - lo) or hi - lo >= 359.999):
+        if turns[j]:
             out[a.name] = np.arange(0.0, 360.0, 15.0)
         elif a.kind == "revolute":
             out[a.name] = np.arange(max(lo, -60.0), min(hi, 60.0) + 1e-9, 10.0)
@@ -139,8 +134,11 @@ def _plan(args) -> int:
     from .plan_order import TravelModel
     from .simulate import PATENT_MARKS_MM
 
+    from kinid.checks import check_positive
+
     for name in ("target_um", "noise_um", "speed_mm_s", "accel_mm_s2", "speed_deg_s", "accel_deg_s2", "align_s"):
-        _positive(getattr(args, name), "--" + name.replace("_", "-"))
+        if getattr(args, name) is not None:
+            check_positive(name, getattr(args, name))
     if not (args.settle_s >= 0 and args.settle_s < 3600):
         raise DataError(f"must be 0 to 3600 s, got {args.settle_s}", parameter="--settle-s")
     if not 0.0 < args.power < 1.0:

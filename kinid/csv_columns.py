@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DataError
-from .files import csv_number, iter_csv_rows
+from .files import check_row_width, checked_header, csv_number, iter_csv_rows
 
 __all__ = ["CsvColumns", "read_csv_columns"]
 
@@ -78,18 +78,7 @@ def read_csv_columns(path, *, what: str = "CSV file", required=(), texts=()) -> 
     """
     path = Path(path)
     rows = iter_csv_rows(path, what=what)
-    first = next(rows, None)
-    if first is None:
-        raise DataError("no header row and no data", path=path)
-    header_line, header = first
-    header = [h.strip() for h in header]
-    if len(set(header)) != len(header):
-        raise DataError("duplicate column", path=path, line=header_line,
-                        column=next(h for h in header if header.count(h) > 1))
-    for col in required:
-        if col not in header:
-            raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
-    width = len(header)
+    header_line, header = checked_header(path, next(rows, None), required)
     kept = [k for k, h in enumerate(header) if h in texts]
     values = [array("d") for _ in header]
     text = {header[k]: [] for k in kept}
@@ -97,8 +86,7 @@ def read_csv_columns(path, *, what: str = "CSV file", required=(), texts=()) -> 
     lines = array("q")
     nan = float("nan")
     for line, cells in rows:
-        if len(cells) != width:
-            raise DataError(f"{len(cells)} cells but the header has {width} columns", path=path, line=line)
+        check_row_width(path, line, cells, header)
         lines.append(line)
         for k, cell in enumerate(cells):
             try:

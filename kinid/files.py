@@ -222,12 +222,21 @@ def read_csv_table(path, *, what: str = "CSV file", required=()) -> tuple:
     DataError
         Naming the file, and the line or column, of the first problem.
     """
+    rows = read_csv_rows(path, what=what)
+    header_line, header = checked_header(path, rows[0] if rows else None, required)
+    for line, cells in rows[1:]:
+        check_row_width(path, line, cells, header)
+    return header_line, header, rows[1:]
+
+
+def checked_header(path, first, required=()) -> tuple:
+    """``(header_line, header)`` of a CSV table's first row ``(line, cells)`` (None: an empty file), the cells
+    stripped; DataError for an empty file, a column given twice or a ``required`` one missing."""
     from .errors import DataError
 
-    rows = read_csv_rows(path, what=what)
-    if not rows:
+    if first is None:
         raise DataError("no header row and no data", path=path)
-    header_line, header = rows[0]
+    header_line, header = first
     header = [h.strip() for h in header]
     if len(set(header)) != len(header):
         raise DataError("duplicate column", path=path, line=header_line,
@@ -235,10 +244,15 @@ def read_csv_table(path, *, what: str = "CSV file", required=()) -> tuple:
     for col in required:
         if col not in header:
             raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
-    for line, cells in rows[1:]:
-        if len(cells) != len(header):
-            raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=line)
-    return header_line, header, rows[1:]
+    return header_line, header
+
+
+def check_row_width(path, line, cells, header) -> None:
+    """DataError when a row has another number of cells than the header has columns."""
+    from .errors import DataError
+
+    if len(cells) != len(header):
+        raise DataError(f"{len(cells)} cells but the header has {len(header)} columns", path=path, line=line)
 
 
 def csv_number(cells, index: int, *, path, line, column) -> float:

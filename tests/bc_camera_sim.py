@@ -116,8 +116,22 @@ def board_origin_w():
     return np.array([-half, half, 0.0])
 
 
+#: Camera axes in tool axes (columns x, y, z): the image x axis turned IMAGE_X_ANGLE_DEG, looking down the tool.
+_A = np.radians(IMAGE_X_ANGLE_DEG)
+CAM = np.array([[np.cos(_A), np.sin(_A), 0.0], [np.sin(_A), -np.cos(_A), 0.0], [0.0, 0.0, -1.0]]).T
+
+
 def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=(0.0, 0.0), camera=None):
-    """The camera's image (uint8) and the laser reading (mm) at these true readings.
+    """The camera's image (uint8) and the laser reading (mm) at these true readings (:func:`render_at`)."""
+    x, y, z = readings
+    pw, Rw = workpiece(y, b_deg, c_deg, truth)
+    pt, Rt = tool(x, z, truth)
+    return render_at(pw, Rw, pt, Rt, rng, noise=noise, laser_offset_mm=laser_offset_mm, camera=camera)
+
+
+def render_at(pw, Rw, pt, Rt, rng, *, noise=2.0, laser_offset_mm=(0.0, 0.0), camera=None):
+    """The camera's image (uint8) and the laser reading (mm) with the workpiece frame (origin ``pw``, rotation
+    ``Rw``) and the tool frame (``pt``, ``Rt``) where the true machine puts them, machine frame, mm.
 
     ``camera`` None: a telecentric lens, IMAGE_PX² at PIXEL_MM; else a pinhole camera (see PINHOLE) whose
     pixel rays start at its projection centre, ``working_distance_mm`` above the tool point on the tool axis.
@@ -125,11 +139,7 @@ def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=
     from kinid.vision import board_coverage, make_board, render_pattern
 
     board = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
-    x, y, z = readings
-    pw, Rw = workpiece(y, b_deg, c_deg, truth)
-    pt, Rt = tool(x, z, truth)
-    a = np.radians(IMAGE_X_ANGLE_DEG)
-    cam = np.array([[np.cos(a), np.sin(a), 0.0], [np.sin(a), -np.cos(a), 0.0], [0.0, 0.0, -1.0]]).T  # columns: camera x, y, z in tool axes
+    cam = CAM
     size = IMAGE_PX if camera is None else camera["size_px"]
     c0 = (size - 1) / 2.0
     origin = board_origin_w()

@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 
 import bc_camera_sim as bc
-from bc_camera_sim import (BOARD_COLS, BOARD_ROWS, IMAGE_PX, IMAGE_X_ANGLE_DEG, LASER_STANDOFF_MM, PINHOLE, PITCH_MM,
-                           PIXEL_MM, _undistort, pinhole_sensor)
+from bc_camera_sim import (BOARD_COLS, IMAGE_PX, IMAGE_X_ANGLE_DEG, LASER_STANDOFF_MM, PINHOLE, PITCH_MM,
+                           PIXEL_MM, pinhole_sensor)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import proving_truth as pt  # noqa: E402
@@ -50,12 +50,6 @@ TRUTHS = {
     "five_axis_bhead_c": {"EX0C": 12.0, "EY0C": -8.0, "EZ0B": -10.0, "EZ0T": 15.0, "EC0T": 800.0,
                           "EXX:periodic:10": [1.5, -0.8]},
 }
-
-#: Columns of the camera frame (x, y, z) in tool axes: the camera looks along the tool's −z, its image x axis the
-#: tool x axis turned by IMAGE_X_ANGLE_DEG, its image y axis the tool −y turned by the same (docs/observe.md).
-_A = np.radians(IMAGE_X_ANGLE_DEG)
-CAM = np.array([[np.cos(_A), np.sin(_A), 0.0], [np.sin(_A), -np.cos(_A), 0.0], [0.0, 0.0, -1.0]]).T
-
 
 @dataclass(frozen=True)
 class Layout:
@@ -149,41 +143,11 @@ def seen_offset(lay, readings: dict, mark_w, truth=None) -> np.ndarray:
 
 
 def render(lay, readings: dict, rng, truth=None, noise=2.0, laser_offset_mm=(0.0, 0.0), camera=None):
-    """The camera's image (uint8) and the laser reading (mm) at one pose's true readings (scalars).
-
-    ``camera`` None: a telecentric lens, IMAGE_PX² at PIXEL_MM; else a pinhole camera (see bc_camera_sim.PINHOLE)
-    whose pixel rays start at its projection centre, ``working_distance_mm`` above the tool point on the tool axis.
-    """
-    from kinid.vision import board_coverage, make_board, render_pattern
-
+    """The camera's image (uint8) and the laser reading (mm) at one pose's true readings (scalars): the true
+    machine's frames traced by bc_camera_sim's ray tracer (:func:`bc_camera_sim.render_at`)."""
     lay = _as_layout(lay)
-    board = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
     pw, Rw, ptool, Rt = (v[0] for v in frames(lay, {k: np.atleast_1d(v) for k, v in readings.items()}, truth, 1))
-    size = IMAGE_PX if camera is None else camera["size_px"]
-    c0 = (size - 1) / 2.0
-    origin = bc.board_origin_w()
-
-    def image_to_plane(xy_px):
-        if camera is None:  # telecentric: every ray along the camera axis, from the plane through the tool point
-            u = (xy_px[:, 0] - c0) * PIXEL_MM
-            v = (xy_px[:, 1] - c0) * PIXEL_MM
-            start = ptool + (Rt @ (CAM[:, 0:1] * u + CAM[:, 1:2] * v)).T
-            direction = np.broadcast_to(Rt @ CAM[:, 2], start.shape)
-        else:  # pinhole: from the projection centre through the undistorted pixel
-            xn, yn = _undistort((xy_px[:, 0] - c0) / camera["f_px"], (xy_px[:, 1] - c0) / camera["f_px"], camera["dist"])
-            start = np.broadcast_to(ptool + Rt @ np.array([0.0, 0.0, camera["working_distance_mm"]]), (len(xn), 3))
-            direction = (Rt @ (CAM[:, 0:1] * xn + CAM[:, 1:2] * yn + CAM[:, 2:3])).T
-        s_w = (start - pw) @ Rw  # workpiece frame
-        d_w = direction @ Rw
-        t = -s_w[:, 2] / d_w[:, 2]
-        hit = s_w + t[:, None] * d_w
-        return np.column_stack([hit[:, 0] - origin[0], -(hit[:, 1] - origin[1])])  # board frame
-
-    img = render_pattern(board_coverage(board), (size, size), image_to_plane, blur_px=0.7, noise_sigma=noise, rng=rng)
-    # laser: parallel to the camera axis, from its offset beside the tool point to the board surface
-    s_w = Rw.T @ (ptool + Rt @ np.array([laser_offset_mm[0], laser_offset_mm[1], 0.0]) - pw)
-    d_w = Rw.T @ (Rt @ np.array([0.0, 0.0, -1.0]))
-    laser = LASER_STANDOFF_MM + (-s_w[2] / d_w[2])
+    img, laser = bc.render_at(pw, Rw, ptool, Rt, rng, noise=noise, laser_offset_mm=laser_offset_mm, camera=camera)
     return img, float(laser)
 
 
