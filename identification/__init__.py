@@ -28,7 +28,7 @@ _SOURCES = {
     "load_machine": "machine", "tool_in_workpiece_mm": "machine",
     "read_observations": "observations", "write_observations": "observations",
     "parse_effect": "effects", "default_model": "effects",
-    "fit": "fit", "save_fit": "fit", "load_fit": "fit",
+    "fit": "fit", "save_fit": "fit_file", "load_fit": "fit_file",
     "diagnose": "diagnose", "forward_select": "selection", "solve_axes": "alignment",
     "simulate": "simulate", "load_errors": "simulate",
 }

@@ -138,7 +138,8 @@ def _without_duplicates(obs):
 
 
 def _identify(args) -> int:
-    from .fit import fit, model_effects, save_fit
+    from .fit import fit, model_effects
+    from .fit_file import save_fit
     from .machine import load_machine
     from .observations import read_observations
 
@@ -207,7 +208,7 @@ def _identify(args) -> int:
 
 def _predict(args) -> int:
     from .alignment import solve_axes
-    from .fit import load_fit
+    from .fit_file import load_fit
     from .observations import read_observations, write_observations
 
     loaded = load_fit(args.fit)
@@ -278,7 +279,7 @@ def _diagnose(args) -> int:
     from kinid.files import strict_json
 
     from .diagnose import diagnose
-    from .fit import load_fit
+    from .fit_file import load_fit
     from .noise import Noise
     from .observations import read_observations
 

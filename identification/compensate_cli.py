@@ -61,7 +61,7 @@ def _compensate(args) -> int:
 
     from kinid.checks import check_positive
     from .compensate import write_compensation
-    from .fit import load_fit
+    from .fit_file import load_fit
 
     for option, value in (("--step-mm", args.step_mm), ("--step-deg", args.step_deg)):
         if value is not None:

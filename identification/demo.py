@@ -138,7 +138,7 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         sa, sb = last.fit.std[start : start + 2]
         say(f"  identified: sin {a:.3f} ± {sa:.3f} µm, cos {b:.3f} ± {sb:.3f} µm (truth {truth[hidden][0]}, {truth[hidden][1]})")
     preface = "\n".join(f"{n:<28} residual RMS {r:7.3f} µm   held-out 3-D RMS {e:7.3f} µm   {v}" for n, r, e, v in lines)
-    from .fit import save_fit
+    from .fit_file import save_fit
 
     save_fit(steps[0].fit, folder / "fit_default.json")
     save_fit(last.fit, folder / "fit.json")  # the report's next step, kinid compensate --fit fit.json, runs here

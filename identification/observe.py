@@ -30,6 +30,7 @@ import numpy as np
 from kinid.errors import DataError, KinidError
 from kinid.files import read_image, read_json
 from kinid.progress import as_progress
+from kinid.schema import Either, Fields, Number, Row, Text, validate
 from .machine import Machine, evaluate, tool_rotation_in_workpiece
 from .observations import Observations
 
@@ -75,8 +76,21 @@ class Sensor:
     laser_offset_std_mm: tuple | None = None
 
 
-_SENSOR_KEYS = {"pixel_mm", "optical_axis_px", "image_x_angle_deg", "laser_standoff_mm", "camera", "working_distance_mm",
-                "laser_offset_mm", "laser_offset_std_mm", "measured_by"}
+_PIXEL = Number(low=-1e5, high=1e5)
+#: What a sensor file holds (docs/formats.md), with the ranges of a camera and a laser on a machine tool:
+#: a pixel of 10 nm to 10 mm on the board, a stand-off and a working distance within a metre, a laser
+#: beside the camera (within 200 mm of its axis).
+SENSOR_SCHEMA = Fields({}, optional={
+    "pixel_mm": Number(low=1e-5, high=10, null=True),
+    "optical_axis_px": Row((_PIXEL, _PIXEL), null=True),
+    "image_x_angle_deg": Number(low=-360, high=360, null=True),
+    "laser_standoff_mm": Number(low=-1000, high=1000, null=True),
+    "camera": Either((Text(null=True), Fields({}, other=True))),
+    "working_distance_mm": Number(low=0, high=1000, open_low=True, null=True),
+    "laser_offset_mm": Row((Number(low=-200, high=200), Number(low=-200, high=200)), null=True),
+    "laser_offset_std_mm": Row((Number(low=0, high=200), Number(low=0, high=200)), null=True),
+    "measured_by": Either((Text(null=True), Fields({}, other=True))),
+})
 
 
 def load_sensor(path) -> Sensor:
@@ -92,58 +106,34 @@ def load_sensor(path) -> Sensor:
     if not isinstance(data, dict):
         raise DataError("a sensor file is a JSON object (pixel_mm or camera, optical_axis_px, image_x_angle_deg, "
                         "laser_standoff_mm)", path=path)
-    unknown = sorted(set(data) - _SENSOR_KEYS)
-    if unknown:
-        raise DataError(f"unknown key {unknown[0]!r}; keys: {', '.join(sorted(_SENSOR_KEYS))}", path=path, column=unknown[0])
+    validate(data, SENSOR_SCHEMA, path=path)
 
-    def number(key, *, positive=False, default=None):
-        if key not in data or data[key] is None:
-            return default
-        v = data[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise DataError(f"expected a finite number, got {v!r}", path=path, column=key)
-        if positive and not v > 0:
-            raise DataError(f"must be > 0, got {v!r}", path=path, column=key)
-        return float(v)
+    def number(key, default=None):
+        return default if data.get(key) is None else float(data[key])
 
-    def pair(key, what):
-        v = data.get(key)
-        if v is None:
-            return None
-        if (not isinstance(v, list) or len(v) != 2
-                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
-            raise DataError(f"expected [x, y] in {what}, got {v!r}", path=path, column=key)
-        return (float(v[0]), float(v[1]))
+    def pair(key):
+        return None if data.get(key) is None else (float(data[key][0]), float(data[key][1]))
 
-    axis_px = pair("optical_axis_px", "pixels")
-    laser_offset = pair("laser_offset_mm", "mm") or (0.0, 0.0)
-    laser_std = pair("laser_offset_std_mm", "mm")
-    if laser_std is not None and not all(s >= 0 for s in laser_std):
-        raise DataError(f"standard deviations must be >= 0, got {list(laser_std)}", path=path,
-                        column="laser_offset_std_mm")
+    axis_px = pair("optical_axis_px")
+    laser_offset = pair("laser_offset_mm") or (0.0, 0.0)
+    laser_std = pair("laser_offset_std_mm")
     if math.hypot(*laser_offset) > 200.0:
         raise DataError(f"a laser {math.hypot(*laser_offset):.4g} mm from the camera's axis is not on the same tool; "
                         f"the offset is in mm, in the tool frame", path=path, column="laser_offset_mm")
     camera = None
     if data.get("camera") is not None:
-        from kinid.vision import CameraModel, load_camera
+        from kinid.vision import camera_from_dict, load_camera
 
         spec = data["camera"]
-        try:
-            if isinstance(spec, str):
-                camera = load_camera(path.parent / spec)
-            elif isinstance(spec, dict):
-                camera = CameraModel(spec.get("camera_matrix"), spec.get("dist_coeffs"), spec.get("image_size"),
-                                     spec.get("rms_px", math.nan))
-            else:
-                raise DataError("expected a camera file name or a camera object (docs/formats.md, 'Camera file')")
-        except KinidError as exc:
-            raise DataError(exc.message, path=path, column="camera") from None
-        except (TypeError, ValueError) as exc:
-            raise DataError(f"not a camera model ({exc})", path=path, column="camera") from None
-    sensor = Sensor(number("pixel_mm", positive=True), axis_px, number("image_x_angle_deg", default=0.0),
-                    number("laser_standoff_mm"), camera, number("working_distance_mm", positive=True), laser_offset,
-                    laser_std)
+        if isinstance(spec, str):
+            camera = load_camera(path.parent / spec)  # an error names the camera file
+        else:
+            try:
+                camera = camera_from_dict(spec)
+            except KinidError as exc:
+                raise DataError(exc.message, path=path, column="camera") from None
+    sensor = Sensor(number("pixel_mm"), axis_px, number("image_x_angle_deg", default=0.0),
+                    number("laser_standoff_mm"), camera, number("working_distance_mm"), laser_offset, laser_std)
     if (sensor.pixel_mm is None) == (sensor.camera is None):
         raise DataError("give either pixel_mm (pixel equivalent on the board) or camera with working_distance_mm",
                         path=path, column="pixel_mm")

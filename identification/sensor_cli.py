@@ -96,8 +96,10 @@ def _sensor(args) -> int:
     from kinid.checks import check_positive
     from kinid.errors import DataError
     from kinid.files import read_json, write_json
+    from kinid.schema import validate
     from .axis_columns import read_axis_table
     from .machine import load_machine
+    from .observe import SENSOR_SCHEMA
 
     for option, value in (("--standoff-mm", args.standoff_mm), ("--radius-mm", args.radius_mm),
                           ("--sigma-mm", args.sigma_mm)):
@@ -109,6 +111,7 @@ def _sensor(args) -> int:
         base = read_json(args.base, what="sensor file")
         if not isinstance(base, dict):
             raise DataError("a sensor file is a JSON object", path=args.base)
+        validate(base, SENSOR_SCHEMA, path=args.base)
     source = args.hole or args.sphere
     method = "hole" if args.hole else "sphere"
     table = read_axis_table(source, machine, what=f"{method} measurement", required=("role",),

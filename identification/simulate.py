@@ -19,6 +19,7 @@ from .bases import basis_of
 from .effects import parse_effect
 from kinid.errors import DataError
 from kinid.files import read_json
+from kinid.schema import Either, Items, Number, Table, validate
 from .machine import Machine, evaluate, tool_rotation_in_workpiece
 from .observations import Observations, read_observations
 from .residuals import design, joint_values
@@ -97,7 +98,14 @@ def load_errors(path, machine: Machine):
     data = read_json(path, what="error-set file")
     if not isinstance(data, dict):
         raise DataError("an error set is a JSON object: effect name -> value or list of values", path=path)
+    validate(data, ERROR_SET_SCHEMA, path=path)
     return errors_from_mapping(data, machine, source=str(path))
+
+
+_SIZE = Number(low=-1e7, high=1e7)
+#: What an error-set file holds: effect name -> its value, or its list of values, each in its unit (µm, µrad, ...)
+#: and within ±10⁷ of it (10 m in µm): a larger one is no machine's error.
+ERROR_SET_SCHEMA = Table(Either((_SIZE, Items(_SIZE, min_length=1))))
 
 
 def errors_from_mapping(data: dict, machine: Machine, *, source="<errors>"):

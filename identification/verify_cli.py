@@ -36,11 +36,17 @@ def _fit_of_compensation(folder) -> str:
 
     from kinid.errors import DataError
     from kinid.files import read_json
+    from kinid.schema import Fields, Text, validate
 
-    info = read_json(Path(folder) / "compensation.json")
-    fit = info.get("fit") if isinstance(info, dict) else None
-    if not isinstance(fit, dict) or not isinstance(fit.get("file"), str):
-        raise DataError(f"{Path(folder) / 'compensation.json'}: names no fit file; give it with --fit")
+    # what verify reads of a compensation.json (the rest is for people): the fit it was made from
+    schema = Fields({"fit": Fields({"file": Text(), "sha256": Text()})}, other=True)
+
+    marker = Path(folder) / "compensation.json"
+    info = read_json(marker, what="compensation file")
+    if not isinstance(info, dict) or info.get("fit") is None:
+        raise DataError(f"{marker}: names no fit file; give it with --fit")
+    validate(info, schema, path=marker)
+    fit = info["fit"]
     path = Path(fit["file"])
     for candidate in (path, Path(folder) / path.name):
         if candidate.is_file():
@@ -57,7 +63,7 @@ def _verify(args) -> int:
 
     from kinid.checks import check_positive
     from kinid.files import strict_json
-    from .fit import load_fit
+    from .fit_file import load_fit
     from .observations import read_observations
     from .verify import verify
 

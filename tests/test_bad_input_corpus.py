@@ -121,9 +121,9 @@ CASES = [
     ("data not UTF-8", lambda d: ID + [_bytes(d, "b.csv", (d / "obs.csv").read_bytes()[:200] + b"\xff\n"), "--out", "f.json"], r"b\.csv:\d+: CSV file is not UTF-8"),
     ("data a folder", lambda d: (d / "ddir.csv").mkdir(exist_ok=True) or ID + ["ddir.csv", "--out", "f.json"], r"ddir\.csv: is a folder"),
     # fit files
-    ("fit effects not names", lambda d: ["diagnose", "--fit", _fit_with(d, "f1.json", effects=[1, 2]), "--data", "obs.csv"], r"f1\.json: malformed kinid fit"),
-    ("fit noise zero", lambda d: ["diagnose", "--fit", _fit_with(d, "f2.json", noise_um=0), "--data", "obs.csv"], r"f2\.json: malformed kinid fit.*noise_um must be a positive number"),
-    ("fit noise negative", lambda d: ["diagnose", "--fit", _fit_with(d, "f3.json", noise_um=-1), "--data", "obs.csv"], r"f3\.json: malformed kinid fit"),
+    ("fit effects not names", lambda d: ["diagnose", "--fit", _fit_with(d, "f1.json", effects=[1, 2]), "--data", "obs.csv"], r"f1\.json: effects\[0\]: must be a string, got 1"),
+    ("fit noise zero", lambda d: ["diagnose", "--fit", _fit_with(d, "f2.json", noise_um=0), "--data", "obs.csv"], r"f2\.json: noise_um: must be a number in \(0, 1e\+07\], got 0"),
+    ("fit noise negative", lambda d: ["diagnose", "--fit", _fit_with(d, "f3.json", noise_um=-1), "--data", "obs.csv"], r"f3\.json: noise_um: must be a number in \(0, 1e\+07\], got -1"),
     ("fit deep", lambda d: ["diagnose", "--fit", _text(d, "f4.json", "{\"a\":" * 3000 + "1" + "}" * 3000), "--data", "obs.csv"], r"f4\.json: fit file nests deeper"),
     ("fit Infinity", lambda d: ["diagnose", "--fit", _text(d, "f5.json", (d / "fit.json").read_text().replace('"rank":', '"rank": Infinity, "r2":')), "--data", "obs.csv"],
      r"f5\.json: fit file holds Infinity"),

@@ -7,7 +7,8 @@ import pytest
 from kinid.identification.alignment import solve_axes
 from kinid.identification.effects import default_model, parse_effect
 from kinid.errors import DataError
-from kinid.identification.fit import fit, load_fit, save_fit
+from kinid.identification.fit import fit
+from kinid.identification.fit_file import load_fit, save_fit
 from kinid.identification.machine import load_machine
 from kinid.identification.residuals import design, residuals
 from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate

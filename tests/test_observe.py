@@ -116,9 +116,10 @@ def test_observe_refuses_to_write_over_an_image(run, capsys):
 
 @pytest.mark.parametrize("sensor, message", [
     ({}, "give either pixel_mm"),
-    ({"pixel_mm": -1}, "must be > 0"),
-    ({"pixel_mm": 0.01, "focal": 3}, "unknown key 'focal'"),
-    ({"pixel_mm": 0.01, "optical_axis_px": [1]}, "expected [x, y] in pixels"),
+    ({"pixel_mm": -1}, "pixel_mm: must be a number in [1e-05, 10], got -1"),
+    ({"pixel_mm": 0.01, "focal": 3}, "focal: unknown key; known keys: camera, "),
+    ({"pixel_mm": 0.01, "optical_axis_px": [1]},
+     "optical_axis_px: must be [a number in [-100000, 100000], a number in [-100000, 100000]], got [1]"),
 ])
 def test_bad_sensor_file(run, tmp_path, capsys, sensor, message):
     folder, _ = run

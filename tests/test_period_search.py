@@ -273,7 +273,7 @@ def test_local_bumps_of_several_sizes_and_places(bc):
 def test_map_effect_grammar_basis_and_round_trip(bc, tmp_path):
     from kinid.errors import DataError
     from kinid.identification.effects import basis_values
-    from kinid.identification.fit import load_fit, save_fit
+    from kinid.identification.fit_file import load_fit, save_fit
 
     e = parse_effect("EXX:map:5:-20:20", bc)
     assert e.knots == tuple(float(k) for k in range(-20, 21, 5)) and e.n_params == 9

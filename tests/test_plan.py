@@ -215,7 +215,7 @@ def test_the_plan_file_is_what_simulate_and_identify_read(tmp_path):
     assert r.returncode == 0, r.stderr
     r = _kinid("identify", "--machine", urdf, "--data", "obs.csv", "--noise-um", "1", "--out", "fit.json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    from kinid.identification.fit import load_fit
+    from kinid.identification.fit_file import load_fit
 
     fit = load_fit(tmp_path / "fit.json")
     k = fit.param_names.index("EX0C")

@@ -136,7 +136,7 @@ def test_identify_prior_on_the_command_line(tmp_path, capsys):
 def test_a_value_far_beyond_its_prior_is_flagged_and_the_prior_is_saved(tmp_path):
     """A location error of 0.8 mm under a prior of 0.1 mm: inside the 1 mm a machine may have, but beyond
     PRIOR_MULTIPLE (5) prior standard deviations — flagged; FIT.json keeps the prior and the flag."""
-    from kinid.identification.fit import load_fit, save_fit
+    from kinid.identification.fit_file import load_fit, save_fit
 
     text, machine = _arm()
     tm = truth.read_urdf(text)

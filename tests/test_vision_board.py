@@ -70,12 +70,12 @@ def _write(tmp_path, **changes):
 
 
 @pytest.mark.parametrize("changes,match", [
-    ({"pitch_mm": None}, r"bad\.json, column 'pitch_mm': missing key"),
-    ({"rows": 2.5}, r"column 'rows': expected an integer"),
-    ({"pitch_mm": "16"}, r"column 'pitch_mm': expected a number"),
+    ({"pitch_mm": None}, r"bad\.json: pitch_mm: missing"),
+    ({"rows": 2.5}, r"bad\.json: rows: must be an integer in \[1, 10000\], got 2\.5"),
+    ({"pitch_mm": "16"}, r"bad\.json: pitch_mm: must be a number in \(0, 10000\], got '16'"),
     ({"codes": [[1, 3]]}, r"column 'codes': expected a list of 2 rows"),
     ({"codes": [[1, 3], [5]]}, r"row 1: expected a list of 2 codes"),
-    ({"codes": [[1, 3], [5, "x"]]}, r"row 1, column 1: expected an integer code"),
+    ({"codes": [[1, 3], [5, "x"]]}, r"bad\.json: codes\[1\]\[1\]: must be an integer in \[0, .*\], got 'x'"),
     ({"codes": [[1, 3], [5, 3]]}, r"code 3 appears twice"),
     ({"codes": [[1, 3], [5, 6]]}, r"code 6 at row 1, column 1 is not canonical"),
     ({"codes": [[1, 3], [5, 4095]]}, r"not a decodable 12-bit code"),

@@ -179,13 +179,13 @@ def test_rms_unknown_saves_as_null(tmp_path, truth):
     "content, match",
     [
         ("{not json", "not valid JSON"),
-        ('{"dist_coeffs": [0,0,0,0,0], "image_size": [640, 480]}', "missing key 'camera_matrix'"),
+        ('{"dist_coeffs": [0,0,0,0,0], "image_size": [640, 480]}', "camera_matrix: missing"),
         ('{"camera_matrix": [[1,0,0],[0,1,0],[0,0,1]], "dist_coeffs": [0,0,0,0,0], "image_size": [640]}',
-         "image_size must be"),
+         "image_size: must be \\[an integer in \\[1, 100000\\], an integer in \\[1, 100000\\]\\], got \\[640\\]"),
         ('{"camera_matrix": [[1,0,0],[0,1,0]], "dist_coeffs": [0,0,0,0,0], "image_size": [640, 480]}',
-         "3x3"),
+         "camera_matrix: must be \\[\\[a number"),
         ('{"camera_matrix": [[1,0,0],[0,1,0],[0,0,1]], "dist_coeffs": [0,0,0], "image_size": [640, 480]}',
-         "dist_coeffs must be 5"),
+         "dist_coeffs: must be a list of 5 numbers, got 3 item"),
         ('[1, 2]', "JSON object"),
     ],
 )

@@ -21,7 +21,7 @@ from kinid.lazy import front_door as _front_door
 _SOURCES = {
     "Board": "board", "load_board": "board", "make_board": "board", "match_to_board": "board",
     "save_board": "board",
-    "CameraModel": "camera", "calibrate_camera": "camera", "circle_centre_bias": "camera", "load_camera": "camera",
+    "CameraModel": "camera", "calibrate_camera": "camera", "circle_centre_bias": "camera", "load_camera": "camera", "camera_from_dict": "camera",
     "save_camera": "camera",
     "CircleResult": "circles", "locate_disk": "circles", "locate_hole": "circles", "locate_sphere": "circles",
     "axial_offset": "laser_offsets", "radial_offset_from_hole": "laser_offsets",
@@ -33,7 +33,7 @@ _SOURCES = {
     "locate_template": "template", "make_template": "template",
 }
 
-__all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "circle_centre_bias", "CameraModel", "load_camera", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]
+__all__ = ["detect_markers", "Marker", "Board", "make_board", "load_board", "save_board", "match_to_board", "locate_disk", "locate_hole", "locate_sphere", "CircleResult", "make_template", "locate_template", "calibrate_camera", "circle_centre_bias", "CameraModel", "load_camera", "camera_from_dict", "save_camera", "pixel_equivalent", "backlash_from_reversals", "pixel_to_machine_matrix", "radial_offset_from_hole", "radial_offset_from_sphere", "axial_offset", "render_pattern", "render_disk", "board_coverage", "MatrixResult", "ScaleResult"]
 
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

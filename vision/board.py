@@ -7,13 +7,13 @@ camera with the board unrotated; millimetres.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from kinid.errors import DataError
 from kinid.files import read_json
+from kinid.schema import Fields, Items, Number, validate
 
 __all__ = ["Board", "BoardMatch", "make_board", "load_board", "save_board", "match_to_board", "board_codes"]
 
@@ -152,6 +152,15 @@ def _validate(board: Board, path):
 
 
 _KEYS = ("pitch_mm", "rows", "cols", "center_d_mm", "ring_inner_d_mm", "ring_outer_d_mm", "bits", "codes")
+_SIZE_MM = Number(low=0, high=10000, open_low=True)
+_COUNT = Number(low=1, high=10000, integer=True)
+#: What a board file holds (docs/formats.md): sizes in mm up to 10 m, up to 10 000 rows and columns, codes of
+#: up to 62 bits (how the codes fit the rings is checked after, with the board).
+BOARD_SCHEMA = Fields({
+    "pitch_mm": _SIZE_MM, "rows": _COUNT, "cols": _COUNT, "center_d_mm": _SIZE_MM, "ring_inner_d_mm": _SIZE_MM,
+    "ring_outer_d_mm": _SIZE_MM, "bits": Number(low=1, high=62, integer=True),
+    "codes": Items(Items(Number(low=0, high=2 ** 62, integer=True))),
+}, other=True)
 
 
 def load_board(path) -> Board:
@@ -166,42 +175,18 @@ def load_board(path) -> Board:
     data = read_json(path, what="board file")
     if not isinstance(data, dict):
         raise DataError(f"expected a JSON object with keys {', '.join(_KEYS)}, got {type(data).__name__}", path=path)
-    missing = [k for k in _KEYS if k not in data]
-    if missing:
-        raise DataError(f"missing key(s) {', '.join(missing)}", path=path, column=missing[0])
-
-    def number(key):
-        v = data[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise DataError(f"expected a number, got {v!r}", path=path, column=key)
-        return float(v)
-
-    def integer(key):
-        v = data[key]
-        if isinstance(v, bool) or not (isinstance(v, int) or (isinstance(v, float) and v.is_integer())):
-            raise DataError(f"expected an integer, got {v!r}", path=path, column=key)
-        if int(v) < 1:
-            raise DataError(f"expected a positive integer, got {v!r}", path=path, column=key)
-        return int(v)
-
-    rows, cols, bits = integer("rows"), integer("cols"), integer("bits")
+    validate(data, BOARD_SCHEMA, path=path)
+    rows, cols, bits = int(data["rows"]), int(data["cols"]), int(data["bits"])
     codes = data["codes"]
-    if not isinstance(codes, list) or len(codes) != rows:
-        got = len(codes) if isinstance(codes, list) else type(codes).__name__
-        raise DataError(f"expected a list of {rows} rows (key rows), got {got}", path=path, column="codes")
-    grid = []
+    if len(codes) != rows:
+        raise DataError(f"expected a list of {rows} rows (key rows), got {len(codes)}", path=path, column="codes")
     for r, row in enumerate(codes):
-        if not isinstance(row, list) or len(row) != cols:
-            got = f"{len(row)} codes" if isinstance(row, list) else repr(row)
-            raise DataError(f"row {r}: expected a list of {cols} codes (key cols), got {got}", path=path,
+        if len(row) != cols:
+            raise DataError(f"row {r}: expected a list of {cols} codes (key cols), got {len(row)} codes", path=path,
                             column="codes")
-        for c, v in enumerate(row):
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise DataError(f"row {r}, column {c}: expected an integer code, got {v!r}", path=path,
-                                column="codes")
-        grid.append(tuple(int(v) for v in row))
-    board = Board(number("pitch_mm"), rows, cols, number("center_d_mm"), number("ring_inner_d_mm"),
-                  number("ring_outer_d_mm"), bits, tuple(grid))
+    grid = tuple(tuple(int(v) for v in row) for row in codes)
+    board = Board(float(data["pitch_mm"]), rows, cols, float(data["center_d_mm"]), float(data["ring_inner_d_mm"]),
+                  float(data["ring_outer_d_mm"]), bits, grid)
     _validate(board, path)
     return board
 

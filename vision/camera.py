@@ -30,6 +30,7 @@ import numpy as np
 
 from kinid.files import read_json, write_json
 from kinid.errors import DataError, ImageError
+from kinid.schema import Fields, Items, Number, Row, validate
 
 __all__ = [
     "CameraModel",
@@ -39,6 +40,7 @@ __all__ = [
     "detect_pattern",
     "load_camera",
     "save_camera",
+    "camera_from_dict",
 ]
 
 #: Newton iterations and tolerance (normalised units) of the distortion inverse.
@@ -449,6 +451,17 @@ def save_camera(camera, path):
     write_json(path, data, indent=2)
 
 
+_ENTRY = Number(low=-1e7, high=1e7)
+#: What a camera file holds (:func:`save_camera`): a 3x3 matrix in pixels (focal lengths up to 10^7 px),
+#: the 5 distortion coefficients of OpenCV's model (a lens whose coefficients pass 1000 is no lens OpenCV
+#: can undo), the image size in pixels and the calibration's RMS reprojection error.
+CAMERA_SCHEMA = Fields({
+    "camera_matrix": Row((Row((_ENTRY,) * 3),) * 3),
+    "dist_coeffs": Items(Number(low=-1000, high=1000), length=5),
+    "image_size": Row((Number(low=1, high=100000, integer=True),) * 2),
+}, optional={"rms_px": Number(low=0, high=1000, null=True)}, other=True)
+
+
 def load_camera(path):
     """Read a camera written by :func:`save_camera`.
 
@@ -459,30 +472,18 @@ def load_camera(path):
         message names the key).
     """
     path = Path(path)
-    data = read_json(path, what="camera file")
+    return camera_from_dict(read_json(path, what="camera file"), path=path)
+
+
+def camera_from_dict(data, *, path=None) -> CameraModel:
+    """The camera a camera file's object describes (:data:`CAMERA_SCHEMA`); a DataError naming ``path`` and the key."""
     if not isinstance(data, dict):
         raise DataError("expected a JSON object with camera_matrix, dist_coeffs, image_size", path=path)
-    for key in ("camera_matrix", "dist_coeffs", "image_size"):
-        if key not in data:
-            raise DataError(f"missing key {key!r}", path=path, column=key)
+    validate(data, CAMERA_SCHEMA, path=path)
+    rms = math.nan if data.get("rms_px") is None else data["rms_px"]
     try:
-        k = np.array(data["camera_matrix"], dtype=float)
-    except (TypeError, ValueError):
-        raise DataError("camera_matrix must be a 3x3 list of numbers", path=path, column="camera_matrix") from None
-    try:
-        d = np.array(data["dist_coeffs"], dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise DataError("dist_coeffs must be 5 numbers", path=path, column="dist_coeffs") from None
-    size = data["image_size"]
-    if not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and v > 0 for v in size)):
-        raise DataError(f"image_size must be [width, height] positive integers, got {size!r}", path=path,
-                        column="image_size")
-    rms = data.get("rms_px")
-    rms = math.nan if rms is None else rms
-    if not isinstance(rms, (int, float)):
-        raise DataError(f"rms_px must be a number or null, got {rms!r}", path=path, column="rms_px")
-    try:
-        return CameraModel(k, d, tuple(size), float(rms))
+        return CameraModel(np.array(data["camera_matrix"], dtype=float), np.array(data["dist_coeffs"], dtype=float),
+                           tuple(data["image_size"]), float(rms))
     except DataError as exc:
         column = "camera_matrix" if "camera_matrix" in exc.message else "dist_coeffs"
         raise DataError(exc.message, path=path, column=column) from None
