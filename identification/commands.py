@@ -95,7 +95,7 @@ def register(sub) -> None:
     p.add_argument("--case", choices=("library", "lead"), default="library",
                    help="hidden effect: 'library' (a 10 mm lead, a listed period) or 'lead' (a 12.7 mm lead the "
                         "library does not list: the period search finds it)")
-    p.set_defaults(run=_demo, outputs={"out": "folder"})
+    p.set_defaults(run=_demo, outputs={"out": "replaced folder"})
 
 
 def _positive(value, name):

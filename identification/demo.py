@@ -94,6 +94,9 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
 
         raise DataError(f"must be one of {', '.join(CASES)}, got {case!r}", parameter="case")
     hidden = CASES[case]
+    from kinid.folders import check_listed_folder, listed_folder
+
+    check_listed_folder(folder)  # a folder it could not replace is refused before the work
     machine = load_machine(urdf_path("five_axis_bc"))
     rng = np.random.default_rng(seed)
     truth = demo_truth(machine, rng, hidden)
@@ -102,8 +105,6 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
     say(f"kinid demo — machine {Path(machine.path).name}: axes {', '.join(machine.axis_names)}, {len(machine.error_joints)} error joints")
     say(f"[1/4] simulating the patent's plan: {len(plan)} alignments, noise σ = {NOISE_UM} µm, one hidden effect")
     obs = simulate(machine, plan, effects, theta, noise_um=NOISE_UM, rng=rng)
-    folder.mkdir(parents=True, exist_ok=True)
-    write_observations(folder / "observations.csv", obs, machine)
 
     held_plan = _heldout_plan(machine, rng)
     held_true = solve_axes(machine, effects, theta, held_plan)
@@ -140,9 +141,13 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
     preface = "\n".join(f"{n:<28} residual RMS {r:7.3f} µm   held-out 3-D RMS {e:7.3f} µm   {v}" for n, r, e, v in lines)
     from .fit_file import save_fit
 
-    save_fit(steps[0].fit, folder / "fit_default.json")
-    save_fit(last.fit, folder / "fit.json")  # the report's next step, kinid compensate --fit fit.json, runs here
-    page = selection_report(steps, obs, folder, preface=preface, whole=False,  # beside the demo's own files
-                            fit_file="fit.json")
+    # the run's files, written whole into a new folder that replaces ``folder`` at the end
+    with listed_folder(folder, written_by="kinid demo") as stage:
+        write_observations(stage / "observations.csv", obs, machine)
+        save_fit(steps[0].fit, stage / "fit_default.json")
+        save_fit(last.fit, stage / "fit.json")  # the report's next step, kinid compensate --fit fit.json, runs here
+        page = selection_report(steps, obs, stage, preface=preface, whole=False,  # beside the demo's own files
+                                fit_file="fit.json")
+    page = folder / Path(page).relative_to(stage)
     say(f"report: {page}   ({time.perf_counter() - t0:.1f} s)")
     return page

@@ -55,7 +55,10 @@ def atomic_write(path, mode: str = "w", **kwargs):
             file_mode = 0o666 & ~umask
         os.chmod(tmp, file_mode)
         with os.fdopen(fd, mode, **kwargs) as f:
-            yield f
+            try:
+                yield f
+            except OSError as exc:  # ENOSPC, EDQUOT, EIO while writing: one line naming the file
+                raise DataError(f"cannot write the file ({exc.strerror or exc})", path=path) from None
             try:
                 f.flush()
                 os.fsync(f.fileno())

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .files import _inside
 
-__all__ = ["staged_folder", "check_output_folder"]
+__all__ = ["staged_folder", "check_output_folder", "listed_folder", "check_listed_folder", "not_listed", "LIST_NAME"]
 
 
 #: Names of what :func:`staged_folder` keeps beside the folder ``DIR`` while it writes it:
@@ -106,6 +106,57 @@ def staged_folder(path, *, foreign=None):
             raise
         if earlier is not None:
             _remove_tree(earlier)
+
+
+#: The file in which a folder written by :func:`listed_folder` lists its own files (what a later run may replace).
+LIST_NAME = "kinid-files.json"
+
+
+@contextlib.contextmanager
+def listed_folder(path, *, written_by: str):
+    """:func:`staged_folder` for a folder of a command's files (tables, rendered frames, the demo's run).
+
+    When the body has written its files, the folder is given ``kinid-files.json`` listing them and the
+    command (``written_by``); a later run replaces the folder only if it holds nothing else
+    (:func:`not_listed`). A folder of the user's files is never replaced.
+
+    Examples
+    --------
+    >>> with listed_folder("tables", written_by="kinid uvw --tables") as d:   # doctest: +SKIP
+    ...     write_text(d / "U.csv", text)
+    """
+    from .files import write_json
+
+    with staged_folder(path, foreign=not_listed) as stage:
+        yield stage
+        write_json(stage / LIST_NAME, {"written_by": written_by, "files": sorted(os.listdir(stage))}, indent=1)
+
+
+def check_listed_folder(path) -> None:
+    """Refuse early what :func:`listed_folder` would refuse to replace (before the command's work)."""
+    check_output_folder(path, foreign=not_listed)
+
+
+def not_listed(folder) -> list:
+    """Names in ``folder`` that its ``kinid-files.json`` does not list (every name where there is no such list).
+
+    The ``foreign=`` of :func:`listed_folder`: links are never the command's own.
+    """
+    from .errors import KinidError
+    from .files import read_json
+    from .schema import Fields, Items, Text, validate
+
+    folder = Path(folder)
+    names = sorted(os.listdir(folder))
+    marker = folder / LIST_NAME
+    if marker.is_symlink() or not marker.is_file():
+        return names
+    try:
+        own = validate(read_json(marker, what="list of files"), Fields({"files": Items(Text())}, other=True))["files"]
+    except KinidError:
+        return names
+    own = set(own) | {LIST_NAME}
+    return [n for n in names if n not in own or (folder / n).is_symlink()]
 
 
 def _shown_name(name, staged: Path, shown: str) -> str:

@@ -8,13 +8,14 @@ command's inputs before it runs).
 ``--report DIR`` is written whole or not at all: the command checks the folder before its work
 (:func:`check_report`) and writes the report inside :func:`staged_report`, which hands the report writer
 the command's arguments with ``report`` naming a new folder that replaces ``DIR`` when the writer is done
-(:func:`kinid.report_html.report_folder`).
+(:func:`kinid.report_html.report_folder`). ``--tables DIR`` too: checked by :func:`check_report`, written
+inside :func:`staged_tables` (:func:`kinid.folders.listed_folder`).
 """
 from __future__ import annotations
 
 import contextlib
 
-__all__ = ["add_output_options", "check_report", "refuse_unused", "staged_report"]
+__all__ = ["add_output_options", "check_report", "refuse_unused", "staged_report", "staged_tables"]
 
 
 def add_output_options(parser, *, out=None, tables=None, plot=None, json=None, report=None) -> dict:
@@ -31,7 +32,7 @@ def add_output_options(parser, *, out=None, tables=None, plot=None, json=None, r
         outputs["out"] = "file"
     if tables is not None:
         parser.add_argument("--tables", metavar=tables[0], help=tables[1])
-        outputs["tables"] = "folder"
+        outputs["tables"] = "replaced folder"  # written whole (staged_tables): no input may lie in it
     if plot is not None:
         parser.add_argument("--plot", metavar=plot[0], help=plot[1])
         outputs["plot"] = "file"
@@ -55,12 +56,24 @@ def refuse_unused(args, options, mode: str, instead: str) -> None:
 
 
 def check_report(args) -> None:
-    """Refuse ``--report DIR`` before the command's work if the report could not replace it (a folder
-    holding files that are not an earlier kinid report's, a file, a read-only folder)."""
+    """Refuse ``--report DIR`` and ``--tables DIR`` before the command's work if they could not be replaced (a
+    folder holding files that are not an earlier result of the command, a file, a read-only folder)."""
     if getattr(args, "report", None):
         from kinid.report_html import check_report_folder
 
         check_report_folder(args.report)
+    if getattr(args, "tables", None):
+        from kinid.folders import check_listed_folder
+
+        check_listed_folder(args.tables)
+
+
+def staged_tables(args, command: str):
+    """A new folder that replaces ``args.tables`` whole when the block ends (an error or Ctrl-C in the block
+    leaves it as it was); ``command`` names the writer in its list of files."""
+    from kinid.folders import listed_folder
+
+    return listed_folder(args.tables, written_by=f"{command} --tables")
 
 
 @contextlib.contextmanager

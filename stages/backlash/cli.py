@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from kinid.errors import DataError
-from ..outputs import add_output_options, check_report, staged_report
+from ..outputs import add_output_options, check_report, staged_report, staged_tables
 
 __all__ = ["register", "plot_result"]
 
@@ -124,7 +124,8 @@ def _run(args) -> int:
     if args.out:
         write_json(args.out, _result_json(res, source, truth))
     if args.tables:
-        _write_tables(res, args.tables, args.travel_mm)
+        with staged_tables(args, "kinid backlash") as folder:
+            _write_tables(res, folder, args.travel_mm)
     after = None
     if (args.plot or args.report) and args.simulate:  # measure again through the compensation: the gaps left
         from .compensated import CompensatedStage
@@ -202,7 +203,6 @@ def _write_tables(res, folder, travel_mm) -> None:
     from kinid.axis_tables import AxisErrorTable, neutral_csv_text, write_tables
     from kinid.files import write_text
 
-    Path(folder).mkdir(parents=True, exist_ok=True)
     tables = []
     for k, (axis, b_mm) in enumerate((("X", res.backlash_x_mm), ("Y", res.backlash_y_mm))):
         centre = res.start[k]

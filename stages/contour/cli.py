@@ -59,7 +59,7 @@ def register(subparsers) -> None:
                    help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
     p.add_argument("--seed", type=int, default=0, help="with --simulate: seed of the image noise (default 0)")
     p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
-    p.set_defaults(run=_run, outputs={**outputs, "keep": "folder"})
+    p.set_defaults(run=_run, outputs={**outputs, "keep": "replaced folder"})
 
 
 def _pair(text, option):
@@ -93,10 +93,13 @@ def _path_from_args(args):
 
 def _simulate(args) -> int:
     """Render a run of a simulated machine, measure it like real frames, print measured against true."""
+    import contextlib
     import tempfile
     from pathlib import Path
 
     import numpy as np
+
+    from kinid.folders import check_listed_folder, listed_folder
 
     from kinid.files import write_text
     from kinid.vision import make_board, save_board, save_camera
@@ -113,14 +116,22 @@ def _simulate(args) -> int:
     camera = simulation_camera((512, 512), 0.03, k1=-0.05)
     motion = circle_motion(args.sim_frames, 8.0, fps=80.0, lag_deg=0.03, spike_um=6.0, spike_width_deg=20.0,
                            scale_x_ppm=150.0)
-    folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="kinid-contour-"))
-    frames = folder / "frames"
-    frames.mkdir(parents=True, exist_ok=True)
-    seq = render_sequence(frames, board, camera, motion, noise_sigma=2.0, rng=np.random.default_rng(args.seed))
-    save_board(board, folder / "board.json")
-    save_camera(camera, folder / "camera.json")
-    m = measure_contour(frames, board, FrameSettings(camera=camera, bits=board.bits), CirclePath(), fps=80.0,
-                        workers=args.workers, scheduler=args.scheduler)
+    if args.keep:
+        check_listed_folder(args.keep)
+        kept = listed_folder(args.keep, written_by="kinid contour --simulate --keep")
+    else:
+        kept = contextlib.nullcontext(Path(tempfile.mkdtemp(prefix="kinid-contour-")))
+    with kept as folder:  # --keep DIR: rendered and measured in a new folder that replaces DIR whole at the end
+        frames = folder / "frames"
+        frames.mkdir()
+        seq = render_sequence(frames, board, camera, motion, noise_sigma=2.0, rng=np.random.default_rng(args.seed))
+        save_board(board, folder / "board.json")
+        save_camera(camera, folder / "camera.json")
+        m = measure_contour(frames, board, FrameSettings(camera=camera, bits=board.bits), CirclePath(), fps=80.0,
+                            workers=args.workers, scheduler=args.scheduler)
+    if args.keep:
+        folder = Path(args.keep)
+        frames = folder / "frames"
     if args.out:
         write_text(args.out, track_csv(m))
     if args.plot:
@@ -129,7 +140,8 @@ def _simulate(args) -> int:
         plot_contour(m, args.plot)
     if args.report:
         with staged_report(args) as staged:
-            write_report(m, staged, frames=frames, board=folder / "board.json", scale=folder / "camera.json",
+            write_report(m, staged, frames=frames if args.keep else "not kept (--keep DIR keeps them)",
+                         board=folder / "board.json", scale=folder / "camera.json",
                          simulated=True)
     ok = m.track.located
     track_err = np.sqrt(np.mean(np.sum(((m.track.xy_mm - seq.track_mm) * 1e3)[ok] ** 2, axis=1)))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 
 from kinid.errors import DataError
-from ..outputs import add_output_options
+from ..outputs import add_output_options, check_report, staged_report
 
 __all__ = ["register", "run_simulation"]
 
@@ -72,6 +72,7 @@ def _measured(args) -> int:
                         "docs/dual_axis.md shows)")
     if not (np.isfinite(args.spec_um) and args.spec_um > 0):
         raise DataError(f"--spec-um must be a positive number, got {args.spec_um!r}")
+    check_report(args)
     y, shift, used = read_round(args.data)
     table = table_from_round(y, shift, used, np.reshape(args.pixel_to_mm, (2, 2)), args.spec_um)
     smooth = fit_smooth(table, args.degree)
@@ -80,7 +81,8 @@ def _measured(args) -> int:
     if args.plot:
         plot_measured(args.plot, table, smooth)
     if args.report:
-        write_measured_report(args, table, smooth)
+        with staged_report(args) as staged:
+            write_measured_report(staged, table, smooth)
     report = {"source": str(args.data), "table": table.to_dict(), "message": table.message,
               "smooth": {"degree": smooth.degree, "parallelism_urad": smooth.parallelism_urad,
                          "scale_um_per_m": smooth.scale_um_per_m, "fit_rms_um": smooth.rms_um.tolist()}}

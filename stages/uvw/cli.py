@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from ..outputs import add_output_options, check_report, refuse_unused, staged_report
+from ..outputs import add_output_options, check_report, refuse_unused, staged_report, staged_tables
 
 __all__ = ["register"]
 
@@ -40,8 +40,6 @@ def register(subparsers) -> None:
 
 
 def _measured(args) -> int:
-    from pathlib import Path
-
     from kinid.axis_tables import neutral_csv_text, write_tables
     from kinid.errors import DataError
     from kinid.files import strict_json, write_json, write_text
@@ -56,12 +54,12 @@ def _measured(args) -> int:
     if args.out:
         write_json(args.out, doc)
     if args.tables:
-        Path(args.tables).mkdir(parents=True, exist_ok=True)
         tables = actuator_tables(models)
-        for a, table in tables.items():
-            write_text(Path(args.tables) / f"{a}.csv", neutral_csv_text(f"{a.lower()}_mm", table.positions, {
-                f"E{a}_um": table.forward, f"E{a}_rev_um": table.reverse}))
-        write_tables(args.tables, list(tables.values()), comment="kinid uvw: error = actual - commanded")
+        with staged_tables(args, "kinid uvw") as folder:
+            for a, table in tables.items():
+                write_text(folder / f"{a}.csv", neutral_csv_text(f"{a.lower()}_mm", table.positions, {
+                    f"E{a}_um": table.forward, f"E{a}_rev_um": table.reverse}))
+            write_tables(folder, list(tables.values()), comment="kinid uvw: error = actual - commanded")
     if args.plot:
         plot_measured(models, args.plot)
     if args.report:
