@@ -6,7 +6,8 @@ identify`` do not pay for OpenCV, the stage simulators or matplotlib. A verb
 module provides ``register(subparsers)``, which adds its parsers and sets
 ``run=function(args) -> int`` on each. A :class:`~kinid.errors.KinidError`
 raised by a verb becomes one line on stderr and exit status 2; Ctrl-C gives
-one line and exit status 130.
+one line and exit status 130, SIGTERM (``kill``, a job scheduler's stop) one line and 143 — both after what
+the verb was writing has been put back (an output is the earlier one or the new one, whole).
 """
 from __future__ import annotations
 
@@ -155,8 +156,32 @@ def main(argv=None) -> int:
     # numpy-heavy verbs work on small matrices, where threaded BLAS costs more than it gives; the
     # library limits itself around the fit and the diagnosis, this covers the rest of a command
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), _terminate_as_interrupt():
         return _run(argv)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the process is, so that every ``finally`` and staged output is put back as for Ctrl-C."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """While a verb runs, SIGTERM raises :class:`Terminated` (only where nobody else handles SIGTERM, and only in
+    the main thread: a program that embeds kinid keeps its own handler)."""
+    import signal
+    import threading
+
+    def raise_terminated(signum, frame):
+        raise Terminated()
+
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) != signal.SIG_DFL:
+        yield
+        return
+    signal.signal(signal.SIGTERM, raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _run(argv) -> int:
@@ -180,9 +205,10 @@ def _run(argv) -> int:
             exc = exc.renamed(option) if option else exc
         print(f"kinid {verb}: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"kinid{' ' + verb if verb else ''}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        stopped = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        print(f"kinid{' ' + verb if verb else ''}: {stopped}", file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of kinid
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

@@ -69,3 +69,55 @@ def test_bad_sources(tmp_path):
         list(map_frames([], BOARD, SETTINGS, workers=0))
     with pytest.raises(DataError, match="batch must be >= 1, got 0"):
         list(map_frames([], BOARD, SETTINGS, batch=0))
+
+
+def _descendants(pid: int) -> set:
+    """Every process below ``pid`` (from /proc), children of children included."""
+    import os
+
+    parents = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    parents[int(entry)] = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                pass
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {p for p, pp in parents.items() if pp in frontier} - found
+        found |= frontier
+    return found
+
+
+@pytest.mark.skipif(not __import__("os").path.isdir("/proc"), reason="needs /proc to find the worker processes")
+def test_worker_processes_end_when_kinid_is_killed(tmp_path):
+    """``kinid contour --workers 2`` killed with SIGKILL (it cannot shut its pool down): its fork server, workers
+    and resource tracker are gone within seconds, not left running."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from kinid.cli import main
+
+    assert main(["contour", "--simulate", "--sim-frames", "120", "--workers", "1", "--keep", str(tmp_path / "run")]) == 0
+    run = tmp_path / "run"
+    p = subprocess.Popen([sys.executable, "-m", "kinid", "contour", "--frames", str(run / "frames"), "--board",
+                          str(run / "board.json"), "--camera", str(run / "camera.json"), "--out",
+                          str(tmp_path / "t.csv"), "--workers", "2"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline, helpers = time.monotonic() + 60, set()
+    while len(helpers) < 3 and time.monotonic() < deadline and p.poll() is None:  # workers and their fork server
+        time.sleep(0.1)
+        helpers = _descendants(p.pid)
+    assert len(helpers) >= 3 and p.poll() is None, (helpers, p.poll())
+    p.send_signal(signal.SIGKILL)
+    p.wait(timeout=30)
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline and any(os.path.exists(f"/proc/{h}") for h in helpers):
+        time.sleep(0.2)
+    alive = [h for h in helpers if os.path.exists(f"/proc/{h}")]
+    for h in alive:  # do not leave them to the next test
+        os.kill(h, signal.SIGKILL)
+    assert not alive, f"{len(alive)} of {len(helpers)} helper processes still running 15 s after the kill"

@@ -136,7 +136,7 @@ def test_cli_report_and_polyline_path(seq, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--board", "BAD"], "board.json, column 'codes': missing key(s) codes"),
+    (["--board", "BAD"], "board.json: codes: missing"),
     (["--frames", "EMPTY"], "no image files"),
     (["--centre", "1;2"], "--centre expects two numbers X,Y in mm, got '1;2'"),
     (["--path", "polyline"], "--path polyline needs --path-file"),

@@ -6,7 +6,7 @@ The verbs and options are taken from the parsers (every output declared a folder
 makes the new result; the earlier one is that result with one file changed (it stays an earlier result of the
 command, which may be replaced). A small driver runs the command line with faults put in at chosen points:
 SIGKILL before the n-th file of the new folder or half-way through it, before and after the swap and while the
-earlier result is removed; SIGINT before a file and at the swap; ENOSPC on a write or a file's sync, EROFS and
+earlier result is removed; SIGINT before a file and at the swap; SIGTERM before a file and the swap; ENOSPC on a write or a file's sync, EROFS and
 EACCES. The clock of the reports is fixed, so two runs write the same bytes.
 """
 from __future__ import annotations
@@ -97,6 +97,8 @@ def fdopen(fd, *args, **kwargs):
                 die()
             if MODE == "sigint-before-file":
                 die(signal.SIGINT)
+            if MODE == "sigterm-before-file":
+                die(signal.SIGTERM)
             if MODE == "kill-mid-file" or MODE.startswith("fail-write-"):
                 return Faulty(f)
     return f
@@ -136,6 +138,8 @@ def swap(staged, target):
         die()
     if MODE == "sigint-before-swap":
         die(signal.SIGINT)
+    if MODE == "sigterm-before-swap":
+        die(signal.SIGTERM)
     earlier = real_swap(staged, target)
     swapped[0] = True
     if MODE == "kill-after-swap":
@@ -289,14 +293,16 @@ def _points(files: int) -> list:
     spread = sorted({1, 2, max(1, files // 2), files})
     return ([("kill-before-file", n) for n in spread] + [("kill-mid-file", n) for n in (1, files)]
             + [("kill-before-swap", 0), ("kill-after-swap", 0), ("kill-removing-earlier", 0),
-               ("sigint-before-file", max(1, files // 2)), ("sigint-before-swap", 0), ("sigint-after-swap", 0)])
+               ("sigint-before-file", max(1, files // 2)), ("sigint-before-swap", 0), ("sigint-after-swap", 0),
+               ("sigterm-before-file", files), ("sigterm-before-swap", 0)])
 
 
 #: What each fault leaves: the earlier result or the new one, and the exit status.
 EXPECT = {"kill-before-file": ("earlier", -signal.SIGKILL), "kill-mid-file": ("earlier", -signal.SIGKILL),
           "kill-before-swap": ("earlier", -signal.SIGKILL), "kill-after-swap": ("new", -signal.SIGKILL),
           "kill-removing-earlier": ("new", -signal.SIGKILL), "sigint-before-file": ("earlier", 130),
-          "sigint-before-swap": ("earlier", 130), "sigint-after-swap": ("new", 130)}
+          "sigint-before-swap": ("earlier", 130), "sigint-after-swap": ("new", 130),
+          "sigterm-before-file": ("earlier", 143), "sigterm-before-swap": ("earlier", 143)}
 
 
 @pytest.mark.parametrize("case", sorted(CALLS), ids=lambda c: f"{c[0]} {c[1]}")
@@ -320,8 +326,9 @@ def test_killed_or_interrupted_the_folder_is_the_earlier_or_the_new_result(data,
         assert got == (earlier if which == "earlier" else new), (case, mode, arg, "folder is neither result whole")
         assert all(n.startswith(f".{out.name}.kinid-") for n in left), (case, mode, left)
         kinds.add(which)
-        if code == 130:
-            assert err.strip().splitlines()[-1].endswith(": interrupted"), err
+        if code in (130, 143):
+            said = {130: ": interrupted", 143: ": terminated"}[code]
+            assert err.strip().splitlines()[-1] == f"kinid {case[0]}{said}", err
     assert kinds == {"earlier", "new"}
     # the next run into the folder a run killed while removing the earlier result clears what it left
     out = next(out for (mode, _), out, *_ in results if mode == "kill-removing-earlier")

@@ -118,12 +118,36 @@ _WORKER = {}
 _PRELOAD = ("numpy", "cv2", "scipy.special", "kinid.vision.board", "kinid.vision.ringcode", "kinid.stages.contour.track")
 
 
-def _init_worker(board, settings):
-    """Worker start-up: one OpenCV thread; board and settings sent once, not with every frame."""
+#: How often a worker looks whether the process that started it is still there, s.
+PARENT_CHECK_S = 0.5
+
+
+def _init_worker(board, settings, parent_pid=None):
+    """Worker start-up: one OpenCV thread; board and settings sent once, not with every frame; the worker ends
+    itself when ``parent_pid`` (the process that made the pool) is gone — killed, it cannot shut its pool down,
+    and a worker of the fork server is not its child, so no signal would reach it."""
     import cv2
 
     cv2.setNumThreads(1)
     _WORKER["board"], _WORKER["settings"] = board, settings
+    if parent_pid is not None:
+        import threading
+
+        threading.Thread(target=_end_with, args=(parent_pid,), daemon=True, name="kinid-parent-watch").start()
+
+
+def _end_with(pid: int) -> None:
+    import os
+    import time
+
+    while True:
+        time.sleep(PARENT_CHECK_S)
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            os._exit(1)
+        except OSError:  # alive, another user's (cannot happen for our parent, but never end a worker by mistake)
+            pass
 
 
 def _work_batch(items):
@@ -176,6 +200,7 @@ def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
             yield r
         return
     import multiprocessing
+    import os
     from concurrent.futures import ProcessPoolExecutor
     from concurrent.futures.process import BrokenProcessPool
 
@@ -184,7 +209,7 @@ def map_frames(source, board, settings, *, workers=2, batch=2, progress=None):
     ctx.set_forkserver_preload(list(_PRELOAD))  # workers fork from a server that has these imported
     pending = deque()
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
-                             initargs=(board, settings)) as pool:
+                             initargs=(board, settings, os.getpid())) as pool:
         try:
             for items in _batches(source, batch):
                 pending.append(pool.submit(_work_batch, items))
