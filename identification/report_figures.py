@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinid.figures import new_figure, save_figure
+from kinid.figures import legend_below, new_figure, panel_grid, save_figure
 from .bases import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of
 
 __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram", "plot_singular_values",
@@ -24,10 +24,8 @@ __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram
 
 def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against axis positions") -> None:
     """One panel per axis: residual components (µm) against the reading, coloured by approach direction."""
-    n = len(machine.axes)
-    fig = new_figure((3.2 * n, 3.2))
-    axs = fig.subplots(1, n, sharey=True, squeeze=False)
-    for j, (ax, a) in enumerate(zip(axs[0], machine.axes)):
+    fig, axs = panel_grid(len(machine.axes))
+    for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         s = obs.directions.get(a.name)
         for comp, marker in zip(range(3), "o^s"):
@@ -39,11 +37,18 @@ def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against ax
                     ax.scatter(q[sel], r_um[sel, comp], s=6, marker=marker, color=colour, alpha=0.6,
                                label=f"{'xyz'[comp]}, dir {'+' if sign > 0 else '−'}" if j == 0 else None)
         ax.axhline(0, color="k", lw=0.5)
-        ax.set_xlabel(a.column)
-    axs[0, 0].set_ylabel("residual (µm), workpiece frame")
-    axs[0, 0].legend(fontsize=8, markerscale=2)
-    fig.suptitle(title)
+        ax.set_xlabel(_position_label(a))
+    for ax in axs[::3]:
+        ax.set_ylabel("residual (µm)")
+    fig.suptitle(f"{title} (workpiece frame)")
+    fig.tight_layout()
+    legend_below(fig, axs[0], markerscale=2)
     save_figure(fig, path)
+
+
+def _position_label(axis) -> str:
+    """``X position (mm)``, ``B angle (deg)``: an axis's reading in plain words."""
+    return f"{axis.name} position (mm)" if axis.kind == "prismatic" else f"{axis.name} angle (deg)"
 
 
 def plot_time(obs, r_um, path) -> bool:
@@ -55,10 +60,11 @@ def plot_time(obs, r_um, path) -> bool:
     for comp in range(3):
         ax.plot(obs.t_s, r_um[:, comp], ".", ms=3, label="xyz"[comp])
     ax.axhline(0, color="k", lw=0.5)
-    ax.set_xlabel("t (s)")
+    ax.set_xlabel("time since the first alignment (s)")
     ax.set_ylabel("residual (µm)")
-    ax.legend(fontsize=8)
     ax.set_title("Residuals against time")
+    fig.tight_layout()
+    legend_below(fig, ax, markerscale=2)
     save_figure(fig, path)
     return True
 
@@ -67,10 +73,8 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
     """Lomb–Scargle power of the residuals against the spatial period of each axis."""
     from scipy.signal import lombscargle
 
-    n = len(machine.axes)
-    fig = new_figure((3.2 * n, 3.0))
-    axs = fig.subplots(1, n, squeeze=False)
-    for j, (ax, a) in enumerate(zip(axs[0], machine.axes)):
+    fig, axs = panel_grid(len(machine.axes), sharey=False)
+    for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         span = np.ptp(q)
         if span <= 0:
@@ -90,7 +94,8 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(f"period ({'mm' if a.kind == 'prismatic' else 'deg'}) of {a.name}")
-    axs[0, 0].set_ylabel("Lomb–Scargle power (µm²)")
+    for ax in axs[::3]:
+        ax.set_ylabel("Lomb–Scargle power (µm²)")
     fig.suptitle("Residual periodogram (red: candidate periods)")
     save_figure(fig, path)
 
@@ -173,13 +178,13 @@ def plot_maps(fit_result, path) -> bool:
         unit = "µm" if e.unit == "um" else "µrad"
         axis_unit = "mm" if fit_result.machine.axis(e.axis).kind == "prismatic" else "deg"
         ok = np.isfinite(v)
-        ax.fill_between(q[ok], (v - 2 * sd)[ok], (v + 2 * sd)[ok], color="tab:blue", alpha=0.25, label="±2σ")
-        ax.plot(q[ok], v[ok], "o-", color="tab:blue", ms=3, label=f"{e.code} at the knots")
+        ax.fill_between(q[ok], (v - 2 * sd)[ok], (v + 2 * sd)[ok], color="tab:blue", alpha=0.25)
+        ax.plot(q[ok], v[ok], "o-", color="tab:blue", ms=3)
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.set_xlabel(f"{e.axis} position ({axis_unit})")
         ax.set_ylabel(f"{e.code} ({unit})")
-        ax.set_title(f"{e.name}: identified map (the part the location errors do not hold)", fontsize=10)
-        ax.legend(fontsize=8, loc="best")
+        ax.set_title(f"{e.name}: identified map at its knots, band ±2σ (k = 2)\n(the part the location errors "
+                     f"do not hold)", fontsize=10)
     save_figure(fig, path)
     return True
 
@@ -240,15 +245,15 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
         band = 2 * np.sqrt(np.clip(np.einsum("np,pq,nq->n", B, cov, B), 0, None))
         unit = "µm" if parts[0][0].unit == "um" else "µrad"
         axis_unit = "mm" if machine.axis(axis).kind == "prismatic" else "deg"
-        ax.fill_between(grid, value - band, value + band, color="tab:blue", alpha=0.25, label="±2σ (k = 2)")
-        ax.plot(grid, value, color="tab:blue", lw=1.4, label=" + ".join(e.name for e, _ in parts))
+        ax.fill_between(grid, value - band, value + band, color="tab:blue", alpha=0.25)
+        ax.plot(grid, value, color="tab:blue", lw=1.4)
         ax.axhline(0, color="0.5", lw=0.8)
         ax.set_xlabel(f"{axis} position ({axis_unit})")
         ax.set_ylabel(f"{code} ({unit})")
         from .names import axis_directions, plain_name
 
-        ax.set_title(f"{code}: {plain_name(code, axis_directions(machine))}", fontsize=10)
-        ax.legend(fontsize=8, loc="best")
+        ax.set_title(f"{code}: {plain_name(code, axis_directions(machine))}\n"
+                     f"{' + '.join(e.name for e, _ in parts)}, band ±2σ (k = 2)", fontsize=10)
     fig.tight_layout()
     save_figure(fig, path, tight=False)
     return True
@@ -262,9 +267,7 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y
     Bins: each preset position of an axis read at 16 positions or fewer; else equal-width bins, about
     8 readings each (at most 40), so that a lead error of a few mm shows as a wave.
     """
-    n_ax = len(machine.axes)
-    fig = new_figure((3.3 * n_ax, 3.4))
-    axs = fig.subplots(1, n_ax, sharey=True, squeeze=False)[0]
+    fig, axs = panel_grid(len(machine.axes))
     colours = ("tab:blue", "tab:orange", "tab:green")
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
@@ -285,10 +288,11 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y
             mean = np.array([r_um[which == b, comp].mean() if counts[b] else np.nan for b in range(len(centres))])
             ax.plot(centres[keep], mean[keep], "o-", ms=3, lw=1, color=colours[comp % 3], label=labels[comp])
         ax.axhline(0, color="k", lw=0.5)
-        ax.set_xlabel(a.column)
-    axs[0].set_ylabel("mean per bin (µm)")
-    axs[0].legend(fontsize=8, loc="upper left")
-    fig.suptitle(f"{what[0].upper() + what[1:]}, binned by axis position (grey: where the mean of noise "
+        ax.set_xlabel(_position_label(a))
+    for ax in axs[::3]:
+        ax.set_ylabel("mean per bin (µm)")
+    fig.suptitle(f"{what[0].upper() + what[1:]}, binned by axis position\n(grey: where the mean of noise "
                  f"σ = {sigma_um:.3g} µm falls)")
     fig.tight_layout()
-    save_figure(fig, path, tight=False)
+    legend_below(fig, axs[0])
+    save_figure(fig, path)

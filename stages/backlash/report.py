@@ -88,9 +88,9 @@ def plot_result(res, path, *, truth=None, after=None) -> None:
     after : BacklashResult or None
         The same plan run again through the compensation: its gaps are drawn as "after".
     """
-    from kinid.figures import new_figure, save_figure
+    from kinid.figures import SHOWN_WIDTH_IN, new_figure, save_figure
 
-    fig = new_figure((13, 4.4))
+    fig = new_figure((SHOWN_WIDTH_IN, 3.9))
     ax0, ax1, ax2 = fig.subplots(1, 3)
     colours = {"scale": "tab:blue", "up": "tab:green", "down": "tab:red", "centre": "tab:purple"}
     for role, col in colours.items():
@@ -126,13 +126,13 @@ def plot_result(res, path, *, truth=None, after=None) -> None:
     ax1.set_xticks([0, 1, 2], [labels[a] for a in ("x", "y", "theta")])
     ax1.set_xlim(-0.6, 2.6)
     ax1.set_ylabel("reversal gap along the axis (µm)")
-    title = (f"backlash X {res.backlash_x_mm * 1e3:.3f} µm, Y {res.backlash_y_mm * 1e3:.3f} µm, "
+    title = (f"backlash X {res.backlash_x_mm * 1e3:.3f} µm,\nY {res.backlash_y_mm * 1e3:.3f} µm, "
              f"θ {res.backlash_theta_deg:.5f}°")
     if after is not None:
-        title += (f"\nafter compensation: X {after.backlash_x_mm * 1e3:+.3f} µm, Y {after.backlash_y_mm * 1e3:+.3f} µm, "
+        title += (f"\nafter: X {after.backlash_x_mm * 1e3:+.3f} µm,\nY {after.backlash_y_mm * 1e3:+.3f} µm, "
                   f"θ {after.backlash_theta_deg:+.5f}°")
     else:
-        title += "\n(after: run the plan again with the compensation on)"
+        title += "\n(after: measure again with\nthe compensation on)"
     ax1.set_title(title, fontsize=9)
     ax1.legend(fontsize=8, loc="upper right")
 
@@ -149,7 +149,7 @@ def plot_result(res, path, *, truth=None, after=None) -> None:
     ax2.set_xticks(idx)
     ax2.set_xlabel("non-reversal move")
     ax2.set_ylabel("pixel equivalent (µm/px)")
-    ax2.set_title(f"pixel equivalent X {res.pixel_mm_x * 1e3:.5f}, Y {res.pixel_mm_y * 1e3:.5f} µm/px", fontsize=9)
+    ax2.set_title(f"pixel equivalent (µm/px)\nX {res.pixel_mm_x * 1e3:.5f}, Y {res.pixel_mm_y * 1e3:.5f}", fontsize=9)
     ax2.ticklabel_format(axis="y", useOffset=False)
     fig.tight_layout()
     save_figure(fig, path, tight=False)

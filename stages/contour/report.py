@@ -34,7 +34,7 @@ def plot_contour(measurement, out_png, *, magnification=None):
         Circles only: the deviation, µm, drawn as 0.4 of the plot radius
         (default: the largest absolute deviation).
     """
-    from kinid.figures import new_figure, save_figure
+    from kinid.figures import SHOWN_WIDTH_IN, new_figure, save_figure
 
     from .paths import CirclePath
 
@@ -42,7 +42,7 @@ def plot_contour(measurement, out_png, *, magnification=None):
     xy = m.track.xy_mm
     ok = np.all(np.isfinite(xy), axis=1)
     err = m.contour.error_um
-    fig = new_figure((11, 5))
+    fig = new_figure((SHOWN_WIDTH_IN, 4.6))
     if isinstance(m.contour.path, CirclePath):
         c = m.contour.path.centre_mm
         ax = fig.add_subplot(1, 2, 1, projection="polar")

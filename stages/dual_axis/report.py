@@ -8,8 +8,8 @@ __all__ = ["plot_simulation", "simulation_text", "write_measured_report", "plot_
 
 
 def plot_simulation(path, result) -> None:
-    
-    from kinid.figures import new_figure, save_figure
+    """The simulated gantry before and after compensation: plate offsets and what is left, per head axis."""
+    from kinid.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
 
     g, table, smooth = result["gantry"], result["table"], result["smooth"]
     y0 = float(table.y_mm[0])
@@ -20,7 +20,7 @@ def plot_simulation(path, result) -> None:
         return g.compensated_offsets_um(y0, head0, ys, comp)
 
     before, after_t, after_s = offsets(None), offsets(table), offsets(smooth)
-    fig = new_figure((11, 7))
+    fig = new_figure((SHOWN_WIDTH_IN, 6.4))
     axes = fig.subplots(2, 2, sharex=True)
     for col, name in enumerate(("head X", "head Y")):
         ax = axes[0, col]
@@ -28,7 +28,6 @@ def plot_simulation(path, result) -> None:
         ax.plot(table.y_mm, -table.offset_mm[:, col] * 1e3, "o", ms=3, label="table vertices (negated)")
         ax.set_title(f"plate offset, {name}")
         ax.set_ylabel("µm")
-        ax.legend(fontsize=8)
         ax = axes[1, col]
         ax.plot(ys, after_t[:, col], "-", label="after: table")
         ax.plot(ys, after_s[:, col], "-", label=f"after: smooth (degree {smooth.degree})")
@@ -38,10 +37,10 @@ def plot_simulation(path, result) -> None:
         ax.axhline(-table.spec_um, color="grey", lw=0.5, ls="--")
         ax.set_xlabel("camera Y, mm")
         ax.set_ylabel("µm")
-        ax.legend(fontsize=8)
     fig.suptitle(f"dual Y axes: {table.message}", fontsize=9)
     fig.tight_layout()
-    save_figure(fig, path, tight=False)
+    legend_below(fig, list(axes.ravel()), columns=3)
+    save_figure(fig, path)
 
 
 def simulation_text(rep: dict) -> str:
@@ -93,9 +92,9 @@ def write_measured_report(args, table, smooth) -> None:
 
 
 def plot_measured(path, table, smooth) -> None:
-    from kinid.figures import new_figure, save_figure
+    from kinid.figures import SHOWN_WIDTH_IN, new_figure, save_figure
 
-    fig = new_figure((10, 4))
+    fig = new_figure((SHOWN_WIDTH_IN, 3.8))
     ax0, ax1 = fig.subplots(1, 2)
     yy = np.linspace(table.y_mm[0], table.y_mm[-1], 400)
     fitted = smooth.correction_mm(yy) * 1e3

@@ -145,10 +145,10 @@ def plot_demo(result: dict, path) -> None:
     model can represent) against position modulo the lead; the residual of
     the full model against the same.
     """
-    from kinid.figures import new_figure, save_figure
+    from kinid.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
 
     arrays = result["_arrays"]
-    fig = new_figure((15, 4.5))
+    fig = new_figure((SHOWN_WIDTH_IN, 3.6))
     axes = fig.subplots(1, 3)
     ax = axes[0]
     colours = {"uncompensated": "tab:gray", "patent": "tab:orange", "model": "tab:blue"}
@@ -161,15 +161,15 @@ def plot_demo(result: dict, path) -> None:
     ax.set_xlabel("alignment move (X1, X2, Y in turn)")
     ax.set_ylabel("position error (µm)")
     ax.set_title("Error after each 50–2000 µm move")
-    ax.legend(fontsize=8)
     for ax, idx, title in ((axes[1], 1, "Residual of scale + reversal fit"), (axes[2], 2, "Residual of full model")):
         for name in ACTUATORS:
             phase, lin, full = arrays["phase"][name]
-            ax.plot(phase * result["lead_um"], (lin, full)[idx - 1], ".", ms=3, label=name)
+            ax.plot(phase * result["lead_um"], (lin, full)[idx - 1], ".", ms=3, label=name,
+                    color={"X1": "tab:purple", "X2": "tab:brown"}.get(name, "tab:olive"))
         ax.set_xlabel("commanded position modulo lead (µm)")
         ax.set_ylabel("residual (µm)")
         ax.set_title(title)
-        ax.legend(fontsize=8)
     axes[2].set_ylim(axes[1].get_ylim())
     fig.tight_layout()
-    save_figure(fig, path, tight=False)
+    legend_below(fig, list(axes), columns=3)
+    save_figure(fig, path)

@@ -53,9 +53,9 @@ def plot_measured(models, path) -> None:
     """Measured error against command per actuator with the model (both directions), and the residuals."""
     import numpy as np
 
-    from kinid.figures import new_figure, save_figure
+    from kinid.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
 
-    fig = new_figure((12, 6.5))
+    fig = new_figure((SHOWN_WIDTH_IN, 6.4))
     axes = fig.subplots(2, len(models), squeeze=False)
     for k, (a, m) in enumerate(models.items()):
         c, d = m.commands_um, m.directions
@@ -65,17 +65,17 @@ def plot_measured(models, path) -> None:
         for sign, col, label in ((1.0, "tab:blue", "approached +"), (-1.0, "tab:red", "approached −")):
             sel = d == sign
             top.plot(c[sel] * 1e-3, measured_err[sel], "o", ms=3, color=col, label=f"measured, {label}")
-            top.plot(grid * 1e-3, m.error_um(grid, sign), "-", lw=1, color=col)
+            top.plot(grid * 1e-3, m.error_um(grid, sign), "-", lw=1, color=col, label=f"model, {label}")
             bottom.plot(c[sel] * 1e-3, m.residuals_um[sel], "o", ms=3, color=col)
-        top.set_title(f"{a}: error before compensation (model lines)", fontsize=10)
+        top.set_title(f"{a}: error before compensation", fontsize=10)
         top.set_ylabel("measured − commanded (µm)")
-        top.legend(fontsize=8)
         bottom.axhline(0, color="0.6", lw=0.8)
-        bottom.set_title(f"{a}: left after compensation, RMS {m.rms_um:.3f} µm", fontsize=10)
+        bottom.set_title(f"{a}: left after it, RMS {m.rms_um:.3f} µm", fontsize=10)
         bottom.set_xlabel("command (mm)")
         bottom.set_ylabel("residual (µm)")
     fig.tight_layout()
-    save_figure(fig, path, tight=False)
+    legend_below(fig, axes[0, 0], columns=4)
+    save_figure(fig, path)
 
 
 def demo_text(r: dict, plot) -> str:
