@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.linalg
 
 from .machine import Machine
 from .observations import Observations
@@ -71,7 +70,7 @@ def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chun
         r, J, _ = residuals(machine, dc, part, theta)
         parts.append(r)
         stacked = np.vstack([top, np.column_stack([J.reshape(-1, P), r.ravel()])])
-        top = scipy.linalg.qr(stacked, mode="r", check_finite=False)[0][: P + 1]
+        top = np.linalg.qr(stacked, mode="r")[: P + 1]
     if top.shape[0] < P + 1:
         top = np.vstack([top, np.zeros((P + 1 - top.shape[0], P + 1))])
     return Pass(np.concatenate(parts) if parts else np.zeros((0, 3)), top[:P, :P], top[:P, P], float(top[P, P] ** 2))

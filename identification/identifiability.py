@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 __all__ = ["Alias", "Identifiability", "analyse", "RANK_TOL", "INVISIBLE_TOL"]
 
@@ -121,7 +120,7 @@ def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float
     accepted = np.zeros(P, dtype=bool)
     aliases = []
     if P:
-        R = scipy.linalg.qr(Jn, mode="r")[0]
+        R = np.linalg.qr(Jn, mode="r")
         diag = np.abs(np.diag(R)) if R.shape[0] >= P else np.r_[np.abs(np.diag(R)), np.zeros(P - R.shape[0])]
         for j in range(P):
             if visible[j] and diag[j] > tol:

@@ -7,7 +7,6 @@ Below the fit and the diagnosis: the fit's set-aside of gross errors
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 from .machine import Machine, evaluate
 from .observations import Observations, exact_duplicates
@@ -48,7 +47,7 @@ def model_pass(machine: Machine, obs: Observations, result):
     d0 = design(machine, result.effects, obs)
     _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta), offsets_mm=obs.offsets_mm)
     J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
-    Q0 = scipy.linalg.qr(J0, mode="economic")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
+    Q0 = np.linalg.qr(J0, mode="reduced")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
     return d_errors, d_axes, Q0
 
 
@@ -73,11 +72,11 @@ def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
     if not free.any():
         return np.zeros((len(obs), 3))
     R = model_pass_qr(machine, d0, obs, result.theta).R[:, free]
-    Rf = scipy.linalg.qr(R, mode="r")[0][: int(free.sum())]
+    Rf = np.linalg.qr(R, mode="r")[: int(free.sum())]
     out = []
     for dc, part in chunks(d0, obs, CHUNK_ROWS):
         J = residuals(machine, dc, part, result.theta)[1].reshape(-1, d0.n_params)[:, free]
-        rows = scipy.linalg.solve_triangular(Rf, J.T, trans="T").T  # J_i R⁻¹: rows of Q
+        rows = np.linalg.solve(Rf.T, J.T).T  # J_i R⁻¹: rows of Q
         out.append(np.sum(rows**2, axis=1).reshape(-1, 3))
     return np.concatenate(out)
 

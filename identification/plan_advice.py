@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from .machine import Machine, axis_limits
 from .observations import Observations
@@ -113,7 +112,7 @@ def pose_advice(machine: Machine, effects, obs: Observations, pool: Observations
     R0 = np.zeros((0, len(names)))
     for first in range(0, len(obs), ADVICE_CHUNK):
         rows = (jac(obs.subset(np.arange(first, min(first + ADVICE_CHUNK, len(obs))))) / scale).reshape(-1, len(names))
-        R0 = scipy.linalg.qr(np.vstack([R0, rows]), mode="r")[0][: len(names)]
+        R0 = np.linalg.qr(np.vstack([R0, rows]), mode="r")[: len(names)]
     linear, wraps = axis_motion(machine)
     out = []
     for alias in held:
@@ -134,7 +133,7 @@ def pose_advice(machine: Machine, effects, obs: Observations, pool: Observations
             if score[c] < SEPARATES:
                 break
             added.append(c)
-            R = scipy.linalg.qr(np.vstack([R, Jp[c]]), mode="r")[0][: len(names)]
+            R = np.linalg.qr(np.vstack([R, Jp[c]]), mode="r")[: len(names)]
             if analyse(R, names).identifiable[j]:
                 break
         if added and analyse(R, names).identifiable[j]:
