@@ -95,6 +95,7 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         raise DataError(f"must be one of {', '.join(CASES)}, got {case!r}", parameter="case")
     hidden = CASES[case]
     from kinid.folders import check_listed_folder, listed_folder
+    from kinid.report_html import write_one_file
 
     check_listed_folder(folder)  # a folder it could not replace is refused before the work
     machine = load_machine(urdf_path("five_axis_bc"))
@@ -148,6 +149,7 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         save_fit(last.fit, stage / "fit.json")  # the report's next step, kinid compensate --fit fit.json, runs here
         page = selection_report(steps, obs, stage, preface=preface, whole=False,  # beside the demo's own files
                                 fit_file="fit.json")
+        write_one_file(stage)  # report.html: the page with its figures inside, one file to send
     page = folder / Path(page).relative_to(stage)
     say(f"report: {page}   ({time.perf_counter() - t0:.1f} s)")
     return page

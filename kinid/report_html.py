@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["Table", "Figure", "Section", "report_page", "file_provenance", "now_utc", "report_folder",
+__all__ = ["Table", "Figure", "Section", "report_page", "file_provenance", "now_utc", "report_folder", "write_one_file",
            "check_report_folder", "not_earlier_report"]
 
 
@@ -150,7 +150,8 @@ def report_folder(path):
     """Write a report folder whole or not at all: yield a new folder that replaces ``path`` at the end.
 
     The body writes ``index.html`` (:func:`report_page`) and the report's other files into the yielded
-    folder; when it ends, the page is given the list of the folder's files and the folder takes the place
+    folder; when it ends, the page is also written as one file to send (:data:`ONE_FILE`, figures inside),
+    the page is given the list of the folder's files and the folder takes the place
     of ``path`` in one step (:func:`kinid.folders.staged_folder`). A run killed or interrupted (Ctrl-C)
     at any moment leaves at ``path`` the earlier report or the new one, whole. ``path`` is replaced only
     if it does not exist, is empty or holds an earlier kinid report and nothing else
@@ -171,6 +172,7 @@ def report_folder(path):
 
     with staged_folder(path, foreign=not_earlier_report) as stage:
         yield stage
+        write_one_file(stage)
         _list_files(stage)
 
 
@@ -240,3 +242,40 @@ def not_earlier_report(folder) -> list:
     else:
         return names
     return [n for n in names if n not in own or (folder / n).is_symlink() or not (folder / n).is_file()]
+
+
+#: The report as one file to send (``--report DIR`` writes it beside ``index.html``): the same page with its
+#: figures and the files it links inside it, so that it opens anywhere without the folder.
+ONE_FILE = "report.html"
+
+#: The media types of the files a report page shows or links, put inside :data:`ONE_FILE`.
+_INLINE = {".png": "image/png", ".svg": "image/svg+xml", ".csv": "text/csv"}
+
+
+def write_one_file(folder) -> None:
+    """Write ``folder/report.html``: the kinid page ``folder/index.html`` with every figure and linked file of
+    the folder inside it (data URIs); nothing if there is no kinid page."""
+    import base64
+    import re
+
+    from .files import write_text
+
+    folder = Path(folder)
+    page = folder / "index.html"
+    if not page.is_file():
+        return
+    text = page.read_text(encoding="utf-8")
+    if _GENERATOR not in text[: max(text.find("</head>"), 0)]:
+        return
+
+    def inline(match):
+        attribute, name = match.group(1), html.unescape(match.group(2))
+        path = folder / name
+        kind = _INLINE.get(path.suffix.lower())
+        if kind is None or "/" in name or path.is_symlink() or not path.is_file():
+            return match.group(0)
+        data = base64.b64encode(path.read_bytes()).decode("ascii")
+        keep_name = f' download="{html.escape(name)}"' if attribute == "href" else ""
+        return f'{attribute}="data:{kind};base64,{data}"{keep_name}'
+
+    write_text(folder / ONE_FILE, re.sub(r'\b(src|href)="([^"]+)"', inline, text))

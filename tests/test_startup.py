@@ -111,7 +111,7 @@ def test_identify_imports_only_what_the_fit_needs(tmp_path):
     assert rc == "0" and (tmp_path / "fit.json").exists()
     modules = set(json.loads(modules))
     # (kinid.identification.alignment is needed: the pose advice for held parameters solves nominal poses)
-    unneeded = {"matplotlib", "cv2", "scipy.special", "kinid.vision", "kinid.stages", "kinid.identification.diagnose",
+    unneeded = {"matplotlib", "cv2", "scipy", "kinid.vision", "kinid.stages", "kinid.identification.diagnose",
                 "kinid.identification.selection", "kinid.identification.simulate", "kinid.identification.plan_design",
                 "kinid.identification.report", "kinid.identification.urdf_builder", "kinid.identification.demo"}
     assert not unneeded & modules, f"kinid identify imports {sorted(unneeded & modules)}"

@@ -223,15 +223,15 @@ def test_report_replaces_an_earlier_report_whole(tmp_path, capsys):
     with report_folder(rep) as stage:  # an earlier report with a figure the next one does not make
         (stage / "old_figure.png").write_bytes(b"\x89PNG old")
         write_text(stage / "index.html", report_page("Earlier test report", "kinid test", [], [], []))
-    assert sorted(os.listdir(rep)) == ["index.html", "old_figure.png"]
+    assert sorted(os.listdir(rep)) == ["index.html", "old_figure.png", "report.html"]
     assert main([*UVW, "--report", str(rep)]) == 0
-    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html"]
+    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html", "report.html"]
     page = (rep / "index.html").read_text()
     assert "<h1>UVW stage: actuator error models</h1>" in page and "Earlier test report" not in page
     assert not _leftovers(rep)
     # and an earlier report of this command, again
     assert main([*UVW, "--report", str(rep)]) == 0
-    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html"] and not _leftovers(rep)
+    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html", "report.html"] and not _leftovers(rep)
 
 
 def test_interrupted_report_leaves_the_earlier_one_byte_for_byte(tmp_path, monkeypatch, capsys):
@@ -283,7 +283,7 @@ def test_backlash_and_contour_reports_are_written_whole(tmp_path, capsys):
         rep = tmp_path / argv[0]
         for _ in range(2):  # the second replaces the first
             assert main([*argv, "--report", str(rep)]) == 0
-            assert sorted(os.listdir(rep)) == [figure, "index.html"] and not _leftovers(rep)
+            assert sorted(os.listdir(rep)) == [figure, "index.html", "report.html"] and not _leftovers(rep)
         assert "kinid-report-files" in (rep / "index.html").read_text()
 
 
@@ -350,7 +350,7 @@ def test_verify_report_refused_early_replaced_and_interrupted(run, tmp_path, mon
     rep = tmp_path / "rep"
     assert main([*argv, str(rep)]) == 0
     first = _snapshot(rep)
-    assert set(first) == {"index.html", "before_after.png"}
+    assert set(first) == {"index.html", "before_after.png", "report.html"}
 
     def interrupted(v, path):
         Path(path).write_bytes(b"half")
@@ -404,3 +404,19 @@ def test_not_earlier_report(tmp_path):
     for name in ("a.png", "residuals.csv", "obs.csv"):
         (f / name).write_text("x")
     assert not_earlier_report(f) == ["obs.csv"]
+
+
+def test_every_report_is_also_one_file_to_send(tmp_path):
+    """report.html is index.html with every figure inside it: moved alone, it still shows them all."""
+    import base64
+    import re
+
+    rep = tmp_path / "rep"
+    assert main([*UVW, "--report", str(rep)]) == 0
+    page, one = (rep / "index.html").read_text(), (rep / "report.html").read_text()
+    figures = re.findall(r'<img src="([^"]+)"', page)
+    inside = re.findall(r'<img src="data:image/png;base64,([^"]+)"', one)
+    assert figures and len(inside) == len(figures)
+    assert [base64.b64decode(d) for d in inside] == [(rep / f).read_bytes() for f in figures]
+    assert not re.findall(r'(?:src|href)="(?!data:|https?:|#)[^"]*"', one)  # nothing outside the file
+    assert re.findall(r"<h[12]>[^<]*</h[12]>", one) == re.findall(r"<h[12]>[^<]*</h[12]>", page)
