@@ -6,6 +6,7 @@ watched: each figure is checked as it is saved.
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
@@ -59,12 +60,12 @@ def checked(tmp_path_factory):
         found[name] = problems(fig, dpi, tight)
         return real(fig, path, dpi=dpi, tight=tight)
 
-    kinid.figures.save_figure = save
-    try:
+    with pytest.MonkeyPatch.context() as patch:
+        # kinid.figures, and every module that took save_figure from it by name before this test ran
+        for module in [m for m in list(sys.modules.values()) if getattr(m, "save_figure", None) is real]:
+            patch.setattr(module, "save_figure", save)
         for argv in _commands(d):
             assert main(argv) == 0, argv
-    finally:
-        kinid.figures.save_figure = real
     return found
 
 

@@ -99,9 +99,8 @@ def _simulate(args) -> int:
 
     import numpy as np
 
-    from kinid.folders import check_listed_folder, listed_folder
-
     from kinid.files import write_text
+    from kinid.folders import check_listed_folder, listed_folder
     from kinid.vision import make_board, save_board, save_camera
     from .measure import measure_contour, track_csv
     from .paths import CirclePath, contour_error
