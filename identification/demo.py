@@ -95,7 +95,6 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         raise DataError(f"must be one of {', '.join(CASES)}, got {case!r}", parameter="case")
     hidden = CASES[case]
     from kinid.folders import check_listed_folder, listed_folder
-    from kinid.report_html import write_one_file
 
     check_listed_folder(folder)  # a folder it could not replace is refused before the work
     machine = load_machine(urdf_path("five_axis_bc"))
@@ -139,7 +138,6 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         a, b = last.fit.values[start : start + 2]
         sa, sb = last.fit.std[start : start + 2]
         say(f"  identified: sin {a:.3f} ± {sa:.3f} µm, cos {b:.3f} ± {sb:.3f} µm (truth {truth[hidden][0]}, {truth[hidden][1]})")
-    preface = "\n".join(f"{n:<28} residual RMS {r:7.3f} µm   held-out 3-D RMS {e:7.3f} µm   {v}" for n, r, e, v in lines)
     from .fit_file import save_fit
 
     # the run's files, written whole into a new folder that replaces ``folder`` at the end
@@ -147,9 +145,10 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         write_observations(stage / "observations.csv", obs, machine)
         save_fit(steps[0].fit, stage / "fit_default.json")
         save_fit(last.fit, stage / "fit.json")  # the report's next step, kinid compensate --fit fit.json, runs here
-        page = selection_report(steps, obs, stage, preface=preface, whole=False,  # beside the demo's own files
+        held_out = ([e for _, _, e, _ in lines], f"the tool point's 3-D error at {len(held_plan)} poses the fit did not "
+                    "see, against the simulated truth")
+        page = selection_report(steps, obs, stage, held_out=held_out, whole=False,  # beside the demo's own files
                                 fit_file="fit.json")
-        write_one_file(stage)  # report.html: the page with its figures inside, one file to send
     page = folder / Path(page).relative_to(stage)
     say(f"report: {page}   ({time.perf_counter() - t0:.1f} s)")
     return page

@@ -11,7 +11,7 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
-from kinid.report_html import Figure, Section, Table, report_folder, report_page
+from kinid.report_html import Figure, Section, Table, report_folder, write_report
 from .report_figures import (plot_binned_residuals, plot_identified_errors, plot_maps, plot_measured_vs_model,
                              plot_periodogram, plot_residuals_vs_axes, plot_selection, plot_singular_values,
                              plot_time)
@@ -80,28 +80,56 @@ def _fmt(v: float, u: float) -> tuple:
     return f"{v:.{digits}f}", f"{u:.{digits}f}"
 
 
-def errors_table(fit_result, *, caption="") -> Table:
-    """The identified parameters: code, plain name, how it varies, value, unit, U (k = 2)."""
+def errors_table(fit_result, *, caption="", obs=None) -> Table:
+    """The identified parameters: code, plain name, how it varies, value, unit, U (k = 2).
+
+    With ``obs``, each position-dependent error also says over which part of its axis's travel it was
+    measured: outside that range the identified curve is an extrapolation.
+    """
+    from .machine import axis_limits
     from .names import axis_directions, effect_description, plain_name
 
-    axes = axis_directions(fit_result.machine)
+    machine = fit_result.machine
+    axes = axis_directions(machine)
+    limits = axis_limits(machine)
     rows, k = [], 0
     for e in fit_result.effects:
         axis_unit = ""
         if e.axis:
-            axis_unit = "mm" if fit_result.machine.axis(e.axis).kind == "prismatic" else "deg"
-        for i, name in enumerate(e.param_names()):
+            axis_unit = "mm" if machine.axis(e.axis).kind == "prismatic" else "deg"
+        how = effect_description(e, axis_unit)
+        if e.axis and obs is not None:
+            how += "; " + _coverage(e.axis, obs, machine, limits, axis_unit)
+        what = plain_name(e.code, axes)
+        names = e.param_names()
+        for i, name in enumerate(names):
             unit = fit_result.units[k + i].replace("um", "µm").replace("urad", "µrad")
             if fit_result.identifiable[k + i]:
                 v, u = _fmt(fit_result.values[k + i], 2 * fit_result.std[k + i])
             else:
                 v, u = "held", "—"
-            rows.append((name, plain_name(e.code, axes) if i == 0 else "",
-                         effect_description(e, axis_unit) if i == 0 else "", v, u, unit))
+            term = name[name.find("[") + 1:-1] if len(names) > 1 and name.endswith("]") else ""
+            rows.append((name, f"{what}, {term} term" if term else what, how if i == 0 else "as above", v, u, unit))
         k += e.n_params
     return Table(("error", "what it is", "how it varies", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(3, 4),
                  caption=caption or "U: expanded uncertainty, k = 2 (twice the standard deviation at the σ used); "
                                     "held: not identifiable from these data (see below)")
+
+
+def _coverage(axis: str, obs, machine, limits, unit: str) -> str:
+    """``measured over X −67.6 to 67.6 mm of its travel −600 to 600 mm (11 %)``."""
+    j = [a.name for a in machine.axes].index(axis)
+    q = obs.axes[:, j]
+    q = q[np.isfinite(q)]
+    if q.size == 0:
+        return "not measured"
+    lo, hi = float(q.min()), float(q.max())
+    text = f"measured over {axis} {lo:.4g} to {hi:.4g} {unit}".replace("-", "−")
+    t_lo, t_hi = limits[j]
+    if np.isfinite(t_lo) and np.isfinite(t_hi):
+        share = 100 * (hi - lo) / (t_hi - t_lo)
+        text += f" of its travel {t_lo:.4g} to {t_hi:.4g} {unit} ({share:.0f} %)".replace("-", "−")
+    return text
 
 
 def tool_motion_um(fit_result, obs, *, setup: bool = False) -> float:
@@ -231,24 +259,27 @@ def _diagnosis_report(diagnosis, obs, folder: Path, provenance) -> Path:
                          f"tested). Size: the amplitude of a periodic effect, the highest term of a polynomial, the "
                          f"peak of a map; U: expanded uncertainty, k = 2, as in the table of identified errors.")
     sections = [
-        Section("Identified errors", tables=(errors_table(f),), figures=tuple(error_figs)),
+        Section("Identified errors", tables=(errors_table(f, obs=obs),), figures=tuple(error_figs)),
         Section("Where the model fails", paragraphs=(f"Verdict: {diagnosis.verdict}. Residual {diagnosis.rms_um:.3f} µm "
                                                      f"per coordinate; σ {diagnosis.noise_um:.3f} µm ({diagnosis.noise_source}).",),
                 tables=(cand,) if live else (), figures=tuple(figs), details=diagnosis.text(top=15) + "\n\n" + f.table()),
     ]
     page = folder / "index.html"
-    write_text(page, report_page("Machine diagnosis", f"kinid diagnose: {Path(machine.path).name}",
-                                 _provenance(f, obs, provenance), _summary(diagnosis, obs), sections))
+    write_report(folder, "Machine diagnosis", f"kinid diagnose: {Path(machine.path).name}",
+                 _provenance(f, obs, provenance), _summary(diagnosis, obs), sections)
     return page
 
 
-def selection_report(steps, obs, folder, *, preface: str = "", provenance=(), whole: bool = True,
+def selection_report(steps, obs, folder, *, held_out=None, provenance=(), whole: bool = True,
                      fit_file=None) -> Path:
     """Write the forward-selection report (falling error, first and last residual plots) into ``folder``;
     returns the page's path.
 
     Parameters
     ----------
+    held_out : (sequence of float, str), optional
+        Each step's 3-D RMS error of the tool point at poses the fit did not see (µm), and how those were
+        measured: a column of the step table and its caption.
     whole : bool
         Write the folder whole or not at all, replacing only an empty folder or an earlier report
         (:func:`kinid.report_html.report_folder`), or (False) write the report's files into ``folder``
@@ -257,22 +288,30 @@ def selection_report(steps, obs, folder, *, preface: str = "", provenance=(), wh
         Where the final fit was written, as the next step's command should name it.
     """
     if not whole:
-        return _selection_report(steps, obs, _outdir(folder), preface, provenance, fit_file)
+        return _selection_report(steps, obs, _outdir(folder), held_out, provenance, fit_file)
     with report_folder(folder) as stage:
-        _selection_report(steps, obs, stage, preface, provenance, fit_file)
+        _selection_report(steps, obs, stage, held_out, provenance, fit_file)
     return Path(folder) / "index.html"
 
 
-def _selection_report(steps, obs, folder: Path, preface: str, provenance, fit_file=None) -> Path:
+def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=None) -> Path:
     machine = steps[0].fit.machine
     plot_selection(steps, folder / "rms_steps.png")
     first = steps[0].data if getattr(steps[0], "data", None) is not None else obs  # gross errors set aside
     last = steps[-1].data if getattr(steps[-1], "data", None) is not None else obs
     final = steps[-1].fit
-    table = Table(("step", "model", "residual RMS (µm)", "σ (µm)", "verdict"),
-                  tuple((str(i), "default model" if i == 0 else f"+ {s.added}", f"{s.diagnosis.rms_um:.3f}",
-                         f"{s.diagnosis.noise_um:.3f}", s.diagnosis.verdict) for i, s in enumerate(steps)),
-                  numeric=(0, 2, 3))
+    header = ["step", "model", "residual RMS (µm)", "σ (µm)", "verdict"]
+    rows = [[str(i), "default model" if i == 0 else f"+ {s.added}", f"{s.diagnosis.rms_um:.3f}",
+             f"{s.diagnosis.noise_um:.3f}", s.diagnosis.verdict] for i, s in enumerate(steps)]
+    caption = "Residual RMS per coordinate of each step's fit, against the noise σ it used."
+    if held_out is not None:
+        values, how = held_out
+        header.insert(3, "held-out 3-D RMS (µm)")
+        for row, v in zip(rows, values):
+            row.insert(3, f"{v:.3f}")
+        caption += f" Held-out: {how}."
+    table = Table(tuple(header), tuple(map(tuple, rows)), numeric=tuple(range(2, len(header) - 1)) + (0,),
+                  caption=caption)
     error_figs = []
     if plot_identified_errors(final, last, folder / "errors.png"):
         error_figs.append(Figure("errors.png", "Identified position-dependent errors against their axes, with the "
@@ -280,9 +319,8 @@ def _selection_report(steps, obs, folder: Path, preface: str, provenance, fit_fi
     if plot_maps(final, folder / "maps.png"):
         error_figs.append(Figure("maps.png", "Identified error maps at their knots with the ±2σ band"))
     sections = [
-        Section("The error falls as effects are added", paragraphs=tuple(p.strip() for p in preface.splitlines() if p.strip()),
-                tables=(table,), figures=(Figure("rms_steps.png", "Residual RMS per step against the noise σ"),)),
-        Section("Identified errors (final model)", tables=(errors_table(final),), figures=tuple(error_figs)),
+        Section("The error falls as effects are added", tables=(table,), figures=(Figure("rms_steps.png", "Residual RMS per step against the noise σ"),)),
+        Section("Identified errors (final model)", tables=(errors_table(final, obs=last),), figures=tuple(error_figs)),
         Section("Default model: where it fails", figures=tuple(_figures("before_", machine, first, steps[0].fit, folder, steps[0].diagnosis)),
                 details=steps[0].diagnosis.text(top=10)),
     ]
@@ -291,6 +329,6 @@ def _selection_report(steps, obs, folder: Path, preface: str, provenance, fit_fi
                                 details=steps[-1].diagnosis.text(top=5) + "\n\n" + final.table()))
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     page = folder / "index.html"
-    write_text(page, report_page("Machine calibration: compare, diagnose, add", f"kinid: {Path(machine.path).name}",
-                                 _provenance(final, last, provenance), _summary(steps[-1].diagnosis, last, fit_file), sections))
+    write_report(folder, "Machine calibration: compare, diagnose, add", f"kinid: {Path(machine.path).name}",
+                 _provenance(final, last, provenance), _summary(steps[-1].diagnosis, last, fit_file), sections)
     return page

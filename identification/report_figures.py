@@ -1,6 +1,6 @@
 """The figures of the identification reports (PNG, written atomically).
 
-- residuals against each axis position, coloured by approach direction, and binned by position
+- residuals against each axis position (direction of approach by fill), and binned by position
   against the band where the mean of noise falls;
 - residuals against time;
 - a Lomb–Scargle periodogram of the residuals against the spatial period of each axis, with the
@@ -21,21 +21,32 @@ from .bases import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of
 __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram", "plot_singular_values",
            "plot_selection", "plot_measured_vs_model", "plot_identified_errors", "plot_binned_residuals"]
 
+#: x, y, z residual components: the same colour in every figure.
+COMPONENT_COLOURS = ("tab:blue", "tab:orange", "tab:green")
+
 
 def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against axis positions") -> None:
-    """One panel per axis: residual components (µm) against the reading, coloured by approach direction."""
+    """One panel per axis: residual components (µm) against the reading.
+
+    The component is told by colour and shape (x blue circles, y orange triangles, z green squares, as in
+    the other residual figures); the approach direction of the panel's axis by fill (filled +, hollow −).
+    """
     fig, axs = panel_grid(len(machine.axes))
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         s = obs.directions.get(a.name)
-        for comp, marker in zip(range(3), "o^s"):
+        for comp, (marker, colour) in enumerate(zip("o^s", COMPONENT_COLOURS)):
+            label = "xyz"[comp]
             if s is None:
-                ax.scatter(q, r_um[:, comp], s=6, marker=marker, alpha=0.6, label="xyz"[comp])
-            else:
-                for sign, colour in ((1, "tab:blue"), (-1, "tab:orange")):
-                    sel = s == sign
-                    ax.scatter(q[sel], r_um[sel, comp], s=6, marker=marker, color=colour, alpha=0.6,
-                               label=f"{'xyz'[comp]}, dir {'+' if sign > 0 else '−'}" if j == 0 else None)
+                ax.scatter(q, r_um[:, comp], s=10, marker=marker, color=colour, alpha=0.6,
+                           label=label if j == 0 else None)
+                continue
+            for sign in (1, -1):
+                sel = s == sign
+                face = colour if sign > 0 else "none"
+                ax.scatter(q[sel], r_um[sel, comp], s=10, marker=marker, facecolors=face, edgecolors=colour,
+                           linewidths=0.8, alpha=0.7,
+                           label=f"{label}, approached {'+' if sign > 0 else '−'}" if j == 0 else None)
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xlabel(_position_label(a))
     for ax in axs[::3]:
@@ -57,8 +68,8 @@ def plot_time(obs, r_um, path) -> bool:
         return False
     fig = new_figure((7, 3))
     ax = fig.subplots()
-    for comp in range(3):
-        ax.plot(obs.t_s, r_um[:, comp], ".", ms=3, label="xyz"[comp])
+    for comp, (marker, colour) in enumerate(zip("o^s", COMPONENT_COLOURS)):
+        ax.plot(obs.t_s, r_um[:, comp], marker, ms=2.5, ls="none", color=colour, alpha=0.7, label="xyz"[comp])
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel("time since the first alignment (s)")
     ax.set_ylabel("residual (µm)")
@@ -268,7 +279,6 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y
     8 readings each (at most 40), so that a lead error of a few mm shows as a wave.
     """
     fig, axs = panel_grid(len(machine.axes))
-    colours = ("tab:blue", "tab:orange", "tab:green")
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         values = np.unique(q[np.isfinite(q)])
@@ -286,7 +296,7 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y
         ax.fill_between(centres[keep], -half[keep], half[keep], color="0.85", step="mid", label="±2σ/√n")
         for comp in range(r_um.shape[1]):
             mean = np.array([r_um[which == b, comp].mean() if counts[b] else np.nan for b in range(len(centres))])
-            ax.plot(centres[keep], mean[keep], "o-", ms=3, lw=1, color=colours[comp % 3], label=labels[comp])
+            ax.plot(centres[keep], mean[keep], "o-", ms=3, lw=1, color=COMPONENT_COLOURS[comp % 3], label=labels[comp])
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xlabel(_position_label(a))
     for ax in axs[::3]:

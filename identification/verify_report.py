@@ -6,8 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from kinid.figures import new_figure, save_figure
-from kinid.files import write_text
-from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_folder, report_page
+from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_folder, write_report
 
 __all__ = ["verification_report", "plot_before_after"]
 
@@ -75,7 +74,7 @@ def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
         Section("What remains", paragraphs=(f"Verdict of the diagnosis of the remaining error: "
                                             f"{v.diagnosis.verdict}.",),
                 details=v.diagnosis.text(top=10))]
-    write_text(folder / "index.html", report_page("Compensation check", "kinid verify: the run after loading the compensation",
-                                 [("fit", file_provenance(fit_path)), ("second run", file_provenance(data_path)),
-                                  ("alignments", str(v.n_observations)), ("date", now_utc())],
-                                 summary, sections))
+    write_report(folder, "Compensation check", "kinid verify: the run after loading the compensation",
+                 [("fit", file_provenance(fit_path)), ("second run", file_provenance(data_path)),
+                  ("alignments", str(v.n_observations)), ("date", now_utc())],
+                 summary, sections)

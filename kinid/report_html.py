@@ -1,6 +1,7 @@
 """One HTML page layout for every kinid report: provenance, a summary, tables, figures, details.
 
-Plain Python string building with :func:`html.escape`; no template engine. A report is made of a
+The page comes from a Jinja2 template (``kinid/templates/report.html``); the same content is also written
+as one self-contained HTML file and as a PDF (:func:`write_report`). A report is made of a
 title, provenance rows (what was measured, with which files and checksums, when, by which kinid),
 a summary of a few sentences, and sections holding paragraphs, tables and figures (PNG files beside
 the page), with the full text output folded away at the end.
@@ -18,8 +19,8 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["Table", "Figure", "Section", "report_page", "file_provenance", "now_utc", "report_folder", "write_one_file",
-           "check_report_folder", "not_earlier_report"]
+__all__ = ["Table", "Figure", "Section", "report_page", "write_report", "file_provenance", "now_utc", "report_folder",
+           "write_one_file", "check_report_folder", "not_earlier_report", "ONE_FILE", "PDF_FILE"]
 
 
 @dataclass(frozen=True)
@@ -86,25 +87,9 @@ pre{background:#f6f8fa;padding:10px;font-size:12px;overflow-x:auto;line-height:1
 """
 
 
-def _table(t: Table) -> str:
-    num = set(t.numeric)
-    head = "".join(f'<th class="num">{html.escape(h)}</th>' if i in num else f"<th>{html.escape(h)}</th>"
-                   for i, h in enumerate(t.header))
-    rows = []
-    for row in t.rows:
-        rows.append("<tr>" + "".join(f'<td class="num">{html.escape(str(c))}</td>' if i in num
-                                     else f"<td>{html.escape(str(c))}</td>" for i, c in enumerate(row)) + "</tr>")
-    caption = f"<caption>{html.escape(t.caption)}</caption>" if t.caption else ""
-    return f"<table>{caption}<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
-
-
-def _figure(f: Figure) -> str:
-    return (f'<figure><img src="{html.escape(f.file)}" alt="{html.escape(f.caption)}">'
-            f"<figcaption>{html.escape(f.caption)}</figcaption></figure>")
-
-
 def report_page(title: str, subtitle: str, provenance, summary, sections) -> str:
-    """The HTML text of a report.
+    """The HTML text of a report, from the page template ``kinid/templates/report.html`` (Jinja2, every value
+    escaped).
 
     Parameters
     ----------
@@ -117,23 +102,49 @@ def report_page(title: str, subtitle: str, provenance, summary, sections) -> str
     """
     from kinid import __version__
 
-    out = [f"<h1>{html.escape(title)}</h1>", f'<p class="sub">{html.escape(subtitle)}</p>']
-    prov = list(provenance) + [("report made by", f"kinid {__version__}")]
-    out.append('<table class="prov"><tbody>' + "".join(
-        f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in prov) + "</tbody></table>")
-    if summary:
-        out.append('<div class="summary">' + "".join(f"<p>{html.escape(s)}</p>" for s in summary) + "</div>")
-    for s in sections:
-        out.append(f"<h2>{html.escape(s.heading)}</h2>")
-        out += [f"<p>{html.escape(p)}</p>" for p in s.paragraphs]
-        out += [_table(t) for t in s.tables]
-        out += [_figure(f) for f in s.figures]
-        if s.details:
-            out.append(f"<details><summary>{html.escape(s.details_title)}</summary><pre>{html.escape(s.details)}</pre>"
-                       f"</details>")
-    return (f"<!doctype html><html lang='en'><head><meta charset='utf-8'>{_GENERATOR}{html.escape(__version__)}'>"
-            f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title><style>{_STYLE}</style>"
-            f"</head><body>{''.join(out)}</body></html>\n")
+    prov = [(k, str(v)) for k, v in provenance] + [("report made by", f"kinid {__version__}")]
+    tables = [[Table(t.header, tuple(tuple(str(c) for c in row) for row in t.rows), t.numeric, t.caption)
+               for t in s.tables] for s in sections]
+    return _template().render(version=__version__, title=title, subtitle=subtitle, provenance=prov,
+                              summary=list(summary or ()), style=_STYLE,
+                              sections=[{**s.__dict__, "tables": t} for s, t in zip(sections, tables)])
+
+
+def _template():
+    """The page template, loaded once."""
+    global _TEMPLATE
+    if _TEMPLATE is None:
+        from importlib.resources import files
+
+        import jinja2
+
+        text = (files("kinid") / "templates" / "report.html").read_text(encoding="utf-8")
+        env = jinja2.Environment(autoescape=True, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
+                                 undefined=jinja2.StrictUndefined)
+        _TEMPLATE = env.from_string(text)
+    return _TEMPLATE
+
+
+_TEMPLATE = None
+
+
+def write_report(folder, title: str, subtitle: str, provenance, summary, sections) -> Path:
+    """Write a report's pages into ``folder``, whose figures and linked files are already there; returns
+    the path of ``index.html``.
+
+    Three forms of the same report: ``index.html`` (:func:`report_page`, figures beside it),
+    :data:`ONE_FILE` (the page with its figures inside, :func:`write_one_file`) and :data:`PDF_FILE`
+    (A4 pages, :func:`kinid.report_pdf.write_pdf`): one file to send, to open or to print.
+    """
+    from .files import write_text
+    from .report_pdf import write_pdf
+
+    folder = Path(folder)
+    page = folder / "index.html"
+    write_text(page, report_page(title, subtitle, provenance, summary, sections))
+    write_one_file(folder)
+    write_pdf(folder / PDF_FILE, title, subtitle, provenance, summary, sections, folder=folder)
+    return page
 
 
 #: The mark of a page kinid wrote (in its head), and the list of the report folder's files that
@@ -149,9 +160,8 @@ _MAX_PAGE_BYTES = 64 * 1024 * 1024
 def report_folder(path):
     """Write a report folder whole or not at all: yield a new folder that replaces ``path`` at the end.
 
-    The body writes ``index.html`` (:func:`report_page`) and the report's other files into the yielded
-    folder; when it ends, the page is also written as one file to send (:data:`ONE_FILE`, figures inside),
-    the page is given the list of the folder's files and the folder takes the place
+    The body writes the report's figures and files and then its pages (:func:`write_report`) into the
+    yielded folder; when it ends, the page is given the list of the folder's files and the folder takes the place
     of ``path`` in one step (:func:`kinid.folders.staged_folder`). A run killed or interrupted (Ctrl-C)
     at any moment leaves at ``path`` the earlier report or the new one, whole. ``path`` is replaced only
     if it does not exist, is empty or holds an earlier kinid report and nothing else
@@ -166,13 +176,12 @@ def report_folder(path):
     Examples
     --------
     >>> with report_folder("report") as d:   # doctest: +SKIP
-    ...     write_text(d / "index.html", report_page(...))
+    ...     write_report(d, "Title", "kinid verb", provenance, summary, sections)
     """
     from .folders import staged_folder
 
     with staged_folder(path, foreign=not_earlier_report) as stage:
         yield stage
-        write_one_file(stage)
         _list_files(stage)
 
 
@@ -247,6 +256,9 @@ def not_earlier_report(folder) -> list:
 #: The report as one file to send (``--report DIR`` writes it beside ``index.html``): the same page with its
 #: figures and the files it links inside it, so that it opens anywhere without the folder.
 ONE_FILE = "report.html"
+
+#: The report as A4 pages to print or send (:mod:`kinid.report_pdf`).
+PDF_FILE = "report.pdf"
 
 #: The media types of the files a report page shows or links, put inside :data:`ONE_FILE`.
 _INLINE = {".png": "image/png", ".svg": "image/svg+xml", ".csv": "text/csv"}

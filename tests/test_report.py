@@ -48,7 +48,9 @@ def test_identified_errors_table(report):
     cells = [[html.unescape(c) for c in re.findall(r"<td[^>]*>(.*?)</td>", r)] for r in rows]
     by_name = {c[0]: c for c in cells if c}
     sin = by_name["EXX:periodic:10[sin]"]
-    assert sin[1] == "positioning error of X" and sin[2] == "periodic in X, period 10 mm" and sin[5] == "µm"
+    assert sin[1] == "positioning error of X, sin term" and sin[5] == "µm"
+    assert sin[2].startswith("periodic in X, period 10 mm; measured over X ")
+    assert by_name["EXX:periodic:10[cos]"][1:3] == ["positioning error of X, cos term", "as above"]
     assert float(sin[3]) == pytest.approx(2.0, abs=0.5) and 0 < float(sin[4]) < 0.6  # U = 2σ
     assert by_name["EX0C"][1] == "position of the C axis line in X"
     assert by_name["EX0T"][3] == "held"
@@ -79,3 +81,41 @@ def test_one_unit_style(report):
 ])
 def test_plain_names(code, name):
     assert plain_name(code) == name
+
+
+def test_each_position_dependent_error_says_what_part_of_its_travel_was_measured(report):
+    """The range is read back against the data file and the URDF's limits, parsed here with the standard library."""
+    import csv
+    import xml.etree.ElementTree as ET
+
+    d, page = report
+    xs = [float(r["x_mm"]) for r in csv.DictReader(open(d / "obs.csv", encoding="utf-8"))]
+    limit = next(j.find("limit") for j in ET.parse(MACHINE).getroot().iter("joint") if j.get("name") == "X")
+    lo, hi = 1e3 * float(limit.get("lower")), 1e3 * float(limit.get("upper"))
+    how = html.unescape(re.search(r"periodic in X, period 10 mm; (measured over [^<]*)<", page).group(1))
+    m = re.fullmatch(r"measured over X (\S+) to (\S+) mm of its travel (\S+) to (\S+) mm \((\d+) %\)", how)
+    assert m, how
+    got = [float(v.replace("−", "-")) for v in m.groups()[:4]]
+    assert got == pytest.approx([min(xs), max(xs), lo, hi], rel=1e-3, abs=0.05)
+    assert int(m.group(5)) == round(100 * (max(xs) - min(xs)) / (hi - lo))
+
+
+def test_the_report_is_also_one_pdf_of_a4_pages_holding_every_figure(report):
+    d, page = report
+    pdf = (d / "rep" / "report.pdf").read_bytes()
+    assert pdf.startswith(b"%PDF-") and pdf.rstrip().endswith(b"%%EOF")
+    boxes = re.findall(rb"/MediaBox \[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf)
+    pages = len(re.findall(rb"/Type /Page\b", pdf))
+    assert pages >= 3 and len(boxes) == pages
+    assert all(abs(float(w) - 595.276) < 0.01 and abs(float(h) - 841.89) < 0.01 for w, h in boxes)  # A4
+    shown = len(re.findall(r'<img src="([^"]+)"', page))
+    assert len(re.findall(rb"/Subtype /Image", pdf)) >= shown > 0
+
+
+def test_the_page_template_escapes_every_value_and_keeps_its_style():
+    from kinid.report_html import Section, Table, report_page
+
+    page = report_page("a <b>", "s", [("file", "x<script>alert(1)</script>.csv")], ["it's \"quoted\""],
+                       [Section("h&h", tables=(Table(("c",), (("<i>",),)),))])
+    assert "<script>" not in page and "&lt;script&gt;" in page and "&lt;i&gt;" in page and "h&amp;h" in page
+    assert 'font-family:-apple-system,"Segoe UI"' in page  # the style sheet is not escaped

@@ -223,15 +223,15 @@ def test_report_replaces_an_earlier_report_whole(tmp_path, capsys):
     with report_folder(rep) as stage:  # an earlier report with a figure the next one does not make
         (stage / "old_figure.png").write_bytes(b"\x89PNG old")
         write_text(stage / "index.html", report_page("Earlier test report", "kinid test", [], [], []))
-    assert sorted(os.listdir(rep)) == ["index.html", "old_figure.png", "report.html"]
+    assert sorted(os.listdir(rep)) == ["index.html", "old_figure.png"]
     assert main([*UVW, "--report", str(rep)]) == 0
-    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html", "report.html"]
+    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html", "report.html", "report.pdf"]
     page = (rep / "index.html").read_text()
     assert "<h1>UVW stage: actuator error models</h1>" in page and "Earlier test report" not in page
     assert not _leftovers(rep)
     # and an earlier report of this command, again
     assert main([*UVW, "--report", str(rep)]) == 0
-    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html", "report.html"] and not _leftovers(rep)
+    assert sorted(os.listdir(rep)) == ["actuators.png", "index.html", "report.html", "report.pdf"] and not _leftovers(rep)
 
 
 def test_interrupted_report_leaves_the_earlier_one_byte_for_byte(tmp_path, monkeypatch, capsys):
@@ -283,7 +283,7 @@ def test_backlash_and_contour_reports_are_written_whole(tmp_path, capsys):
         rep = tmp_path / argv[0]
         for _ in range(2):  # the second replaces the first
             assert main([*argv, "--report", str(rep)]) == 0
-            assert sorted(os.listdir(rep)) == [figure, "index.html", "report.html"] and not _leftovers(rep)
+            assert sorted(os.listdir(rep)) == [figure, "index.html", "report.html", "report.pdf"] and not _leftovers(rep)
         assert "kinid-report-files" in (rep / "index.html").read_text()
 
 
@@ -350,7 +350,7 @@ def test_verify_report_refused_early_replaced_and_interrupted(run, tmp_path, mon
     rep = tmp_path / "rep"
     assert main([*argv, str(rep)]) == 0
     first = _snapshot(rep)
-    assert set(first) == {"index.html", "before_after.png", "report.html"}
+    assert set(first) == {"index.html", "before_after.png", "report.html", "report.pdf"}
 
     def interrupted(v, path):
         Path(path).write_bytes(b"half")

@@ -11,8 +11,8 @@ __all__ = ["plot_result", "write_report", "gaps_um"]
 
 def write_report(res, args, truth, after, source) -> None:
     """The HTML report of a backlash calibration (kinid.report_html)."""
-    from kinid.files import write_text
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc
+    from kinid.report_html import write_report as write_pages
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -28,11 +28,11 @@ def write_report(res, args, truth, after, source) -> None:
              str(res.reversals_y_mm.size)),
             ("backlash of θ", f"{m['backlash_theta_deg']:.5f}", u(m["spread_theta_deg"], res.reversals_theta_deg.size),
              "deg", str(res.reversals_theta_deg.size)),
-            ("pixel equivalent along X", f"{m['pixel_um_x']:.5f}", "", "µm/px", ""),
-            ("pixel equivalent along Y", f"{m['pixel_um_y']:.5f}", "", "µm/px", ""),
-            ("camera rotation", f"{m['camera_rotation_deg']:.3f}", "", "deg", ""),
-            ("ISO 230-2 reversal value B of X", f"{m['iso_reversal_x_um']:.3f}", "", "µm", ""),
-            ("ISO 230-2 reversal value B of Y", f"{m['iso_reversal_y_um']:.3f}", "", "µm", "")]
+            ("pixel equivalent along X", f"{m['pixel_um_x']:.5f}", "—", "µm/px", "—"),
+            ("pixel equivalent along Y", f"{m['pixel_um_y']:.5f}", "—", "µm/px", "—"),
+            ("camera rotation", f"{m['camera_rotation_deg']:.3f}", "—", "deg", "—"),
+            ("ISO 230-2 reversal value B of X", f"{m['iso_reversal_x_um']:.3f}", "—", "µm", "—"),
+            ("ISO 230-2 reversal value B of Y", f"{m['iso_reversal_y_um']:.3f}", "—", "µm", "—")]
     if truth is not None:
         rows = [r + (f"{truth[k]:.5g}" if k in truth else "",) for r, k in zip(rows, (
             "backlash_x_um", "backlash_y_um", "backlash_theta_deg", "pixel_um_x", "pixel_um_y", "camera_rotation_deg",
@@ -40,7 +40,9 @@ def write_report(res, args, truth, after, source) -> None:
     header = ("quantity", "measured", "U (k = 2)", "unit", "reversals") + (("simulated",) if truth is not None else ())
     table = Table(header, tuple(rows), numeric=tuple(range(1, len(header))),
                   caption="U: expanded uncertainty of the mean of the single reversals (k = 2); one reversal gives "
-                          "none — run the plan with --repeats 3 or more")
+                          "none — run the plan with --repeats 3 or more. The pixel equivalents and the camera rotation "
+                          "come from the non-reversal moves together (their spread move by move is in the right-hand "
+                          "panel below); the ISO 230-2 reversal value is the backlash of the same reversals.")
     summary = [f"The stage loses {m['backlash_x_um']:.3g} µm on X, {m['backlash_y_um']:.3g} µm on Y and "
                f"{m['backlash_theta_deg']:.3g}° on θ at each reversal.",
                "Next: load the bidirectional tables (kinid backlash --tables DIR) or the controller's backlash "
@@ -55,7 +57,7 @@ def write_report(res, args, truth, after, source) -> None:
                                                         "gap along its axis, before"
                                         + (" and after compensation" if after is not None else "")
                                         + ". Right: the pixel equivalent of each non-reversal move."),))]
-    write_text(folder / "index.html", report_page("Stage backlash calibration", "kinid backlash", prov, summary, sections))
+    write_pages(folder, "Stage backlash calibration", "kinid backlash", prov, summary, sections)
 
 
 def gaps_um(res):

@@ -46,8 +46,8 @@ def plot_contour(measurement, out_png, *, magnification=None):
     if isinstance(m.contour.path, CirclePath):
         c = m.contour.path.centre_mm
         ax = fig.add_subplot(1, 2, 1, projection="polar")
-        # image axes are y down: angle measured clockwise as seen, draw it that way
-        ang = np.arctan2(xy[ok, 1] - c[1], xy[ok, 0] - c[0])
+        # angle from +x, counter-clockwise with y up (the machine's convention; the image's y points down)
+        ang = np.arctan2(-(xy[ok, 1] - c[1]), xy[ok, 0] - c[0])
         e = err[ok]
         emax = float(np.max(np.abs(e))) if e.size else 1.0
         span = emax if magnification is None else float(magnification)
@@ -59,7 +59,6 @@ def plot_contour(measurement, out_png, *, magnification=None):
         if turned >= 2 * np.pi * 0.97:  # a full turn: close the trace
             a_plot, r_plot = np.r_[ang, ang[:1]], np.r_[r, r[:1]]
         ax.plot(a_plot, r_plot, "b.-", lw=1, ms=3, label="measured")
-        ax.set_theta_direction(-1)
         ax.set_ylim(0, 1.5)
         # radial scale in µm of deviation: the nominal circle is 0
         step = _nice(span / 2)
@@ -68,9 +67,9 @@ def plot_contour(measurement, out_png, *, magnification=None):
         ax.set_yticks(1.0 + 0.4 * devs / span)
         ax.set_yticklabels([f"{d:+.3g} µm" if d else "0" for d in devs], fontsize=8)
         ax.set_rlabel_position(112.5)
-        title = f"radial deviation ({span:.3g} µm = 0.4 R)"
+        title = f"radial deviation from the nominal circle, magnified\n(rings every {step:.3g} µm; angle from +x, y up)"
         if m.circular is not None:
-            title += f"\nG {m.circular.G_um:.2f} µm"
+            title += f", G {m.circular.G_um:.2f} µm"
             if np.isfinite(m.circular.H_um):
                 title += f", H {m.circular.H_um:.2f} µm"
         ax.set_title(title, fontsize=10)
@@ -102,8 +101,8 @@ def write_report(m, args, *, frames, board, scale, simulated=False) -> None:
     """The HTML report of a contour measurement (kinid.report_html)."""
     from pathlib import Path
 
-    from kinid.files import write_text
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc
+    from kinid.report_html import write_report as write_pages
     from .report import plot_contour
 
     folder = Path(args.report)
@@ -127,9 +126,46 @@ def write_report(m, args, *, frames, board, scale, simulated=False) -> None:
             ("scale", scale if isinstance(scale, str) else f"camera {file_provenance(scale)}"),
             ("made", now_utc())]
     sections = [Section("Results", tables=(Table(("quantity", "value", "unit"), tuple(rows), numeric=(1,)),)),
+                Section("Test conditions (ISO 230-4)", tables=(_conditions(m, args, simulated),)),
                 Section("Radial deviation and track", figures=(Figure("contour.png", "Left: the deviation from the "
                         "path, magnified (circle) or along the path. Right: the reference mark's track."),))]
-    write_text(folder / "index.html", report_page("Contour error", "kinid contour", prov, summary, sections))
+    write_pages(folder, "Contour error", "kinid contour", prov, summary, sections)
+
+
+def _conditions(m, args, simulated):
+    """What ISO 230-4 asks a circular test report to state, as far as the run knows it; the rest named as
+    to be stated by whoever ran the test."""
+    from kinid.report_html import Table
+
+    tr, c = m.track, m.circular
+    n = len(tr.located)
+    rows = []
+    if c is not None:
+        given = getattr(args, "radius", None) is not None
+        rows += [("nominal radius R0", f"{c.nominal_radius_mm:.4f} mm" + ("" if given else " (fitted: no --radius "
+                  "given, so F is against the least-squares circle)")),
+                 ("least-squares circle", f"centre ({c.centre_mm[0]:.4f}, {c.centre_mm[1]:.4f}) mm, "
+                                          f"radius {c.radius_mm:.4f} mm"),
+                 ("direction of contouring", ", ".join({"+": "counter-clockwise (x right, y up)",
+                                                        "-": "clockwise (x right, y up)"}.get(d, d)
+                                                       for d in c.G_by_direction_um))]
+    if m.fps:
+        t = np.asarray(m.t_s, float)
+        located = tr.located & np.isfinite(t)
+        xy = tr.xy_mm[located]
+        if xy.shape[0] > 2 and np.ptp(t[located]) > 0:
+            length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+            rows.append(("contouring feed (measured)", f"{60 * length / np.ptp(t[located]):.1f} mm/min"))
+        rows.append(("data acquisition", f"{n} frames at {m.fps:g} frames/s"))
+    else:
+        rows += [("contouring feed", "not known: give --fps (or a video) and the feed follows from the track"),
+                 ("data acquisition", f"{n} frames, no frame rate")]
+    rows += [("measuring instrument", "camera and ring-coded board (kinid contour)"
+              + ("; images rendered by kinid contour --simulate" if simulated else "")),
+             ("plane, axes, position in the working zone", "to be stated by the tester (not in the images)"),
+             ("compensation, temperature, warm-up", "to be stated by the tester (not in the images)")]
+    return Table(("item", "value"), tuple(rows), caption="ISO 230-4:2005 asks a circular test to state these; "
+                 "items the images cannot tell are left for the tester to fill in.")
 
 
 def report_text(m, settings) -> str:

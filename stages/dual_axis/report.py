@@ -2,6 +2,8 @@
 rounds), the text report and the HTML report."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["plot_simulation", "simulation_text", "write_measured_report", "plot_measured"]
@@ -71,8 +73,7 @@ def write_measured_report(args, table, smooth) -> None:
     """The HTML report of one measured round (kinid.report_html)."""
     from pathlib import Path
 
-    from kinid.files import write_text
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, write_report
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -82,13 +83,20 @@ def write_measured_report(args, table, smooth) -> None:
     summary = [f"Between the two Y axes the head is off by up to {big:.3g} µm along the travel; parallelism "
                f"{smooth.parallelism_urad:.3g} µrad, scale {smooth.scale_um_per_m:.3g} µm/m.",
                f"{table.message[0].upper() + table.message[1:]}."]
-    prov = [("measured", file_provenance(args.data)), ("pixel to mm", " ".join(f"{v:g}" for v in args.pixel_to_mm)),
-            ("made", now_utc())]
+    a, b, c, d = (float(v) for v in args.pixel_to_mm)
+    pixel = (f"[[{a:g}, {b:g}], [{c:g}, {d:g}]] mm per pixel (x = {a:g}·u + {b:g}·v, y = {c:g}·u + {d:g}·v for a "
+             f"shift of u, v pixels): pixel size {1e3 * abs(a * d - b * c) ** 0.5:.4g} µm, camera turned "
+             f"{math.degrees(math.atan2(c, a)):.3g}° from the machine axes")
+    prov = [("measured", file_provenance(args.data)), ("pixel to mm", pixel), ("made", now_utc())]
+    caption = ("One measurement per point, so one round cannot tell its uncertainty; the points scatter about the "
+               f"smooth model by {smooth.rms_um[0]:.3g} µm RMS in x and {smooth.rms_um[1]:.3g} µm in y (an upper "
+               "bound of their repeatability, k = 1). Measure a second round: the difference of the two tables "
+               "gives it.")
     sections = [Section("Offset table", tables=(Table(("camera Y (mm)", "head dx (µm)", "head dy (µm)"), rows,
-                                                      numeric=(0, 1, 2)),)),
+                                                      numeric=(0, 1, 2), caption=caption),)),
                 Section("Table and smooth model", figures=(Figure("offset_table.png", "The measured table and the "
                         f"smooth model (degree {smooth.degree}) fitted to it"),))]
-    write_text(folder / "index.html", report_page("Dual-axis offset table", "kinid dual-axis", prov, summary, sections))
+    write_report(folder, "Dual-axis offset table", "kinid dual-axis", prov, summary, sections)
 
 
 def plot_measured(path, table, smooth) -> None:

@@ -20,8 +20,7 @@ def write_measured_report(models, args) -> None:
 
     import numpy as np
 
-    from kinid.files import write_text
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_page
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, write_report
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -30,23 +29,39 @@ def write_measured_report(models, args) -> None:
     for a, m in models.items():
         for n, v, s in zip(m.names, m.values, m.std):
             stem, _, unit = n.rpartition("_")
-            rows.append((a, stem, f"{v:.3f}", f"{2 * s:.3f}", {"um": "µm"}.get(unit, unit)))
+            rows.append((a, _parameter_words(stem), f"{v:.3f}", f"{2 * s:.3f}", {"um": "µm"}.get(unit, unit)))
     table = Table(("actuator", "parameter", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(2, 3),
-                  caption="measured = command + offset + scale·c − d·B/2 (+ bow) + lead harmonics s_h, k_h; "
-                          "U: expanded uncertainty, k = 2")
+                  caption="The error of each actuator, measured − commanded position at command c (µm), approached "
+                          "in direction d = ±1: offset + scale·c − d·B/2 + Σ_h (s_h sin 2πhc/L + k_h cos 2πhc/L), "
+                          "B the backlash, L the screw lead, s_h and k_h the sine and cosine parts of the h-th "
+                          "harmonic of the lead error (and a bow, polynomial terms q_p, when the data ask for one). "
+                          "U: expanded uncertainty, k = 2.")
     before = {a: float(np.max(np.abs(m.error_um(m.commands_um, m.directions) + m.residuals_um))) for a, m in models.items()}
     worst = max(before, key=before.get)
     summary = [f"Uncompensated, the actuators miss their commands by up to {before[worst]:.3g} µm ({worst}); the "
                f"fitted models leave {max(m.rms_um for m in models.values()):.3g} µm RMS at most.",
-               "Next: load the actuator tables (kinid uvw --moves ... --tables DIR) or the models into the "
-               "alignment's compensation, and check with new moves."]
+               f"Next: write the actuator tables (kinid uvw --moves {args.moves} --lead-um {args.lead_um:g} --tables "
+               "tables), load them or the models into the alignment's compensation, and check with new moves."]
     prov = [("measured", file_provenance(args.moves)), ("lead", f"{args.lead_um:g} µm"), ("made", now_utc())]
     sections = [Section("Actuator models", tables=(table,)),
                 Section("Errors before and after", figures=(Figure("actuators.png", "Top: measured − commanded "
                         "position per actuator, each approach direction, with the model. Bottom: what the model "
                         "leaves (the error after compensation)."),))]
-    write_text(folder / "index.html", report_page("UVW stage: actuator error models", "kinid uvw", prov, summary,
-                                                  sections))
+    write_report(folder, "UVW stage: actuator error models", "kinid uvw", prov, summary, sections)
+
+
+def _parameter_words(stem: str) -> str:
+    """``s1`` → ``lead error, 1st harmonic, sine part (s1)``: a model parameter in words and symbol."""
+    import re
+
+    m = re.fullmatch(r"([sk])(\d+)|poly(\d+)", stem)
+    if not m:
+        return {"backlash": "backlash (B)"}.get(stem, stem)
+    if m.group(3):
+        return f"bow, term of degree {m.group(3)} (q{m.group(3)})"
+    h = int(m.group(2))
+    nth = {1: "1st", 2: "2nd", 3: "3rd"}.get(h, f"{h}th")
+    return f"lead error, {nth} harmonic, {'sine' if m.group(1) == 's' else 'cosine'} part ({stem})"
 
 
 def plot_measured(models, path) -> None:

@@ -1,0 +1,257 @@
+"""A report as A4 pages (PDF), drawn with matplotlib's PDF backend from the same content as the HTML page.
+
+Why matplotlib: it is already how kinid draws, its PDF backend embeds subsets of the fonts (µ, σ, ±, ² and
+the rest print as on screen) and writes the same bytes for the same report, and an HTML-to-PDF converter
+(WeasyPrint, a headless browser) would add a large dependency for one file.
+
+The page flows top to bottom: title, provenance, summary, then each section's paragraphs, tables (split
+over pages with the header repeated), figures (the report's PNGs, scaled to the text width) and the folded
+text output in a fixed-width font. Every page carries the report's title and ``page n of N``.
+"""
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+__all__ = ["write_pdf", "A4_MM"]
+
+#: Page size, millimetres (ISO 216 A4, portrait).
+A4_MM = (210.0, 297.0)
+
+_PT_PER_MM = 72 / 25.4
+_MARGIN_MM = 18.0
+_GREY = "#57606a"
+_RULE = "#d0d7de"
+
+
+def write_pdf(path, title: str, subtitle: str, provenance, summary, sections, *, folder) -> None:
+    """Write the report to ``path`` as A4 pages; figures are read from ``folder`` (files missing are skipped)."""
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from kinid import __version__
+
+    from .files import atomic_write
+
+    flow = _Flow()
+    flow.text(title, 17, weight="bold")
+    flow.text(subtitle, 10, color=_GREY, after=8)
+    for label, value in list(provenance) + [("report made by", f"kinid {__version__}")]:
+        flow.labelled(label, str(value))
+    flow.space(8)
+    for sentence in summary or ():
+        flow.text(sentence, 10, bar="#2f6fbf", after=4)
+    for s in sections:
+        flow.heading(s.heading)
+        for p in s.paragraphs:
+            flow.text(p, 9.5, after=5)
+        for t in s.tables:
+            flow.table(t)
+        for f in s.figures:
+            flow.figure(Path(folder) / f.file, f.caption)
+        if s.details:
+            flow.text(s.details_title, 9, weight="bold", after=3)
+            flow.preformatted(s.details)
+    buf = io.BytesIO()
+    with PdfPages(buf, metadata={"Title": title, "Creator": f"kinid {__version__}", "CreationDate": None}) as pdf:
+        for n, page in enumerate(flow.pages, 1):
+            page.text(_MARGIN_MM / A4_MM[0], 9 / A4_MM[1], f"{title} — page {n} of {len(flow.pages)}", fontsize=7.5,
+                      color=_GREY, parse_math=False)
+            pdf.savefig(page)
+    with atomic_write(path, "wb") as out:
+        out.write(buf.getvalue())
+
+
+class _Flow:
+    """Pages being filled top to bottom; positions in points from the page's top-left corner."""
+
+    def __init__(self):
+        from matplotlib.backends.backend_agg import RendererAgg
+
+        self.width_pt, self.height_pt = A4_MM[0] * _PT_PER_MM, A4_MM[1] * _PT_PER_MM
+        self.left = self.top = _MARGIN_MM * _PT_PER_MM
+        self.right = self.width_pt - self.left
+        self.bottom = self.height_pt - 16 * _PT_PER_MM
+        self.pages = []
+        self.y = self.bottom  # no page yet: the first draw opens one
+        self._measure = RendererAgg(1, 1, 72)
+
+    # -- geometry -------------------------------------------------------------------------------------
+    def _new_page(self):
+        from matplotlib.figure import Figure
+
+        self.pages.append(Figure(figsize=(A4_MM[0] / 25.4, A4_MM[1] / 25.4)))
+        self.y = self.top
+
+    def _room(self, height_pt: float) -> None:
+        """Start a new page unless ``height_pt`` fits below the cursor."""
+        if not self.pages or self.y + height_pt > self.bottom:
+            self._new_page()
+
+    def space(self, pt: float) -> None:
+        self.y += pt
+
+    def _xy(self, x_pt, y_pt):
+        return x_pt / self.width_pt, 1 - y_pt / self.height_pt
+
+    def _put(self, x_pt, y_pt, s, size, **kw):
+        self.pages[-1].text(*self._xy(x_pt, y_pt), s, fontsize=size, va="top", parse_math=False, **kw)
+
+    def _line(self, x0, x1, y, color=_RULE, lw=0.6):
+        from matplotlib.lines import Line2D
+
+        page = self.pages[-1]
+        (a, b), (c, _) = self._xy(x0, y), self._xy(x1, y)
+        page.add_artist(Line2D([a, c], [b, b], transform=page.transFigure, color=color, lw=lw))
+
+    def _box(self, x0, y0, x1, y1, color):
+        from matplotlib.patches import Rectangle
+
+        page = self.pages[-1]
+        (a, b), (c, d) = self._xy(x0, y1), self._xy(x1, y0)
+        page.add_artist(Rectangle((a, b), c - a, d - b, transform=page.transFigure, color=color, lw=0, zorder=-1))
+
+    # -- text -----------------------------------------------------------------------------------------
+    def _width(self, s: str, size: float, weight="normal", family="sans-serif") -> float:
+        from matplotlib.font_manager import FontProperties
+
+        prop = FontProperties(size=size, weight=weight, family=family)
+        return self._measure.get_text_width_height_descent(s, prop, ismath=False)[0]
+
+    def wrap(self, text: str, size: float, width_pt: float, weight="normal", family="sans-serif") -> list:
+        """Lines of ``text`` no wider than ``width_pt`` (words kept whole unless one alone is wider)."""
+        lines = []
+        for paragraph in str(text).split("\n"):
+            line = ""
+            for word in paragraph.split(" "):
+                trial = f"{line} {word}" if line else word
+                if self._width(trial, size, weight, family) <= width_pt:
+                    line = trial
+                    continue
+                if line:
+                    lines.append(line)
+                while self._width(word, size, weight, family) > width_pt and len(word) > 1:  # a hash, a path
+                    cut = max(1, int(len(word) * width_pt / self._width(word, size, weight, family)) - 1)
+                    lines.append(word[:cut])
+                    word = word[cut:]
+                line = word
+            lines.append(line)
+        return lines
+
+    def text(self, s: str, size: float, *, weight="normal", color="black", after=2.0, bar=None) -> None:
+        indent = 8 if bar else 0
+        lines = self.wrap(s, size, self.right - self.left - indent, weight)
+        step = size * 1.35
+        for line in lines:
+            self._room(step)
+            if bar:
+                self._box(self.left, self.y - 1, self.left + 2.5, self.y + step - 1, bar)
+            self._put(self.left + indent, self.y, line, size, weight=weight, color=color)
+            self.y += step
+        self.y += after
+
+    def labelled(self, label: str, value: str) -> None:
+        size, label_w = 8, 34 * _PT_PER_MM
+        lines = self.wrap(value, size, self.right - self.left - label_w)
+        step = size * 1.35
+        self._room(step * len(lines))
+        self._put(self.left, self.y, label, size, color=_GREY)
+        for line in lines:
+            self._put(self.left + label_w, self.y, line, size)
+            self.y += step
+
+    def heading(self, s: str) -> None:
+        self.space(10)
+        self._room(13 * 1.4 + 150)  # keep a heading with the start of what follows it
+        self._put(self.left, self.y, s, 13, weight="bold")
+        self.y += 13 * 1.35
+        self._line(self.left, self.right, self.y)
+        self.y += 6
+
+    def preformatted(self, s: str) -> None:
+        size = 6.5
+        step = size * 1.3
+        for line in self.wrap(s.replace(" ", "\u00a0"), size, self.right - self.left, family="monospace"):
+            self._room(step)
+            self._put(self.left, self.y, line, size, family="monospace")
+            self.y += step
+        self.y += 6
+
+    # -- tables and figures ---------------------------------------------------------------------------
+    def table(self, t) -> None:
+        size, pad = 7.5, 4.0
+        cells = [list(map(str, t.header))] + [list(map(str, row)) for row in t.rows]
+        n = len(t.header)
+        natural = [max(self._width(row[i], size, "bold" if r == 0 else "normal") for r, row in enumerate(cells))
+                   + 2 * pad for i in range(n)]
+        widths = _fit_widths(natural, self.right - self.left)
+        wrapped = [[self.wrap(row[i], size, widths[i] - 2 * pad, "bold" if r == 0 else "normal") for i in range(n)]
+                   for r, row in enumerate(cells)]
+        step = size * 1.3
+        xs = [self.left + sum(widths[:i]) for i in range(n + 1)]
+
+        def draw(row_lines, header=False):
+            h = max(len(c) for c in row_lines) * step + 3
+            if header:
+                self._box(xs[0], self.y, xs[-1], self.y + h, "#f4f6f8")
+            for i, lines in enumerate(row_lines):
+                for k, line in enumerate(lines):
+                    right = i in t.numeric
+                    x = xs[i + 1] - pad if right else xs[i] + pad
+                    self._put(x, self.y + 1.5 + k * step, line, size, ha="right" if right else "left",
+                              weight="bold" if header else "normal")
+            self.y += h
+            self._line(xs[0], xs[-1], self.y, color="#e5e8eb")
+
+        header_h = max(len(c) for c in wrapped[0]) * step + 3
+        self._room(header_h + step * 2)
+        draw(wrapped[0], header=True)
+        for row in wrapped[1:]:
+            h = max(len(c) for c in row) * step + 3
+            if self.y + h > self.bottom:
+                self._new_page()
+                draw(wrapped[0], header=True)
+            draw(row)
+        if t.caption:
+            self.y += 3
+            self.text(t.caption, 7.5, color=_GREY)
+        self.y += 8
+
+    def figure(self, png: Path, caption: str) -> None:
+        from matplotlib.image import imread
+
+        try:
+            image = imread(png)
+        except (OSError, ValueError, SyntaxError):
+            return
+        h_px, w_px = image.shape[:2]
+        width = min(self.right - self.left, w_px / 110 * 72)  # never larger than drawn (110 dpi)
+        height = width * h_px / w_px
+        most = self.bottom - self.top - 30
+        if height > most:
+            width, height = width * most / height, most
+        self._room(height + 20)
+        page = self.pages[-1]
+        x0, y1 = self._xy(self.left, self.y + height)
+        ax = page.add_axes((x0, y1, width / self.width_pt, height / self.height_pt))
+        ax.imshow(image, interpolation="none")
+        ax.set_axis_off()
+        self.y += height + 3
+        self.text(caption, 7.5, color=_GREY, after=10)
+
+
+def _fit_widths(natural, total) -> list:
+    """Column widths: each its natural width if all fit, else the narrow ones whole and the wide ones
+    sharing what is left equally (their text wraps)."""
+    if sum(natural) <= total:
+        return list(natural)
+    widths = list(natural)
+    wide = set(range(len(natural)))
+    while wide:
+        share = (total - sum(widths[i] for i in range(len(widths)) if i not in wide)) / len(wide)
+        narrow = {i for i in wide if natural[i] <= share}
+        if not narrow:
+            for i in wide:
+                widths[i] = share
+            break
+        wide -= narrow
+    return widths
