@@ -277,9 +277,10 @@ def selection_report(steps, obs, folder, *, held_out=None, provenance=(), whole:
 
     Parameters
     ----------
-    held_out : (sequence of float, str), optional
-        Each step's 3-D RMS error of the tool point at poses the fit did not see (µm), and how those were
-        measured: a column of the step table and its caption.
+    held_out : (str, sequence of float, str), optional
+        A column of the step table: its header, each step's held-out error (µm) and, for the caption, how it
+        was measured (the demo: the tool point's error at poses the fit did not see, against the truth).
+        By default the blocks of the data the selection's held-out check left out (when it ran).
     whole : bool
         Write the folder whole or not at all, replacing only an empty folder or an earlier report
         (:func:`kinid.report_html.report_folder`), or (False) write the report's files into ``folder``
@@ -294,6 +295,17 @@ def selection_report(steps, obs, folder, *, held_out=None, provenance=(), whole:
     return Path(folder) / "index.html"
 
 
+def _blocks_held_out(steps):
+    """The selection's own held-out check as a column of the step table: the RMS of the blocks left out, before
+    the first effect and after each one added; None if the check did not run before every step."""
+    checks = [s.held_out for s in steps[:-1]]
+    if not checks or any(c is None for c in checks):
+        return None
+    values = [checks[0].rms_without_um] + [c.rms_with_um for c in checks]
+    return ("held-out RMS (µm)", values, f"residual RMS per coordinate of the blocks of the data left out of the fit "
+                                         f"in turn ({checks[0].folds}-fold), the check each effect passed to be added")
+
+
 def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=None) -> Path:
     machine = steps[0].fit.machine
     plot_selection(steps, folder / "rms_steps.png")
@@ -304,9 +316,10 @@ def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=N
     rows = [[str(i), "default model" if i == 0 else f"+ {s.added}", f"{s.diagnosis.rms_um:.3f}",
              f"{s.diagnosis.noise_um:.3f}", s.diagnosis.verdict] for i, s in enumerate(steps)]
     caption = "Residual RMS per coordinate of each step's fit, against the noise σ it used."
+    held_out = held_out or _blocks_held_out(steps)
     if held_out is not None:
-        values, how = held_out
-        header.insert(3, "held-out 3-D RMS (µm)")
+        name, values, how = held_out
+        header.insert(3, name)
         for row, v in zip(rows, values):
             row.insert(3, f"{v:.3f}")
         caption += f" Held-out: {how}."

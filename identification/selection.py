@@ -45,7 +45,9 @@ class SelectionStep:
 
     ``stopped`` is empty but on the last step, where it says in words why the
     selection ended there. ``data`` are the alignments the step used (gross
-    errors set aside).
+    errors set aside). ``held_out`` is the held-out check of the best candidate
+    against this step's model (:class:`~kinid.identification.crossval.CrossValidation`),
+    if it was run: the next step's effect passed it, the last step's failed it.
     """
 
     added: str | None
@@ -53,6 +55,7 @@ class SelectionStep:
     diagnosis: Diagnosis
     stopped: str = ""
     data: Observations | None = None
+    held_out: object = None
 
 
 @blas_single_threaded
@@ -128,6 +131,7 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
             cv = cross_validate(machine, obs, effects, _parse(best.effect, machine), folds=folds, noise_um=noise_um,
                                 theta0=dg.fit.theta)
             progress.say(f"  {'':<28} next: {best.effect}, p = {best.p_value:.2g}, {cv}")
+            steps[-1] = replace(steps[-1], held_out=cv)
             if not cv.improves:
                 stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
                         f"data better: {cv}")
@@ -141,7 +145,7 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
                     dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,
                                   theta0=dg.fit.theta)
                     dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
-            steps[-1] = SelectionStep(added, dg.fit, dg, stopped=stop, data=obs)
+            steps[-1] = replace(steps[-1], fit=dg.fit, diagnosis=dg, stopped=stop, data=obs)
             progress.say(f"  stopped: {stop}")
             break
         from .effects import parse_effect

@@ -119,3 +119,22 @@ def test_the_page_template_escapes_every_value_and_keeps_its_style():
                        [Section("h&h", tables=(Table(("c",), (("<i>",),)),))])
     assert "<script>" not in page and "&lt;script&gt;" in page and "&lt;i&gt;" in page and "h&amp;h" in page
     assert 'font-family:-apple-system,"Segoe UI"' in page  # the style sheet is not escaped
+
+
+def test_the_auto_report_shows_the_held_out_check_each_effect_passed(report, tmp_path, capsys):
+    """identify --auto: the step table's held-out column is the selection's own check, before and after each
+    effect, read back against the line the selection printed for it."""
+    d, _ = report
+    capsys.readouterr()
+    assert main(["identify", "--machine", MACHINE, "--data", str(d / "obs.csv"), "--auto", "--noise-um", "1",
+                 "--out", str(tmp_path / "auto.json"), "--report", str(tmp_path / "auto")]) == 0
+    log = "".join(capsys.readouterr())
+    said = re.findall(r"next: (\S+), p = \S+, held-out blocks \S+ \((\d+\.\d+) → (\d+\.\d+) µm", log)
+    page = (tmp_path / "auto" / "index.html").read_text()
+    table = page[page.index("The error falls"):page.index("Identified errors")]
+    rows = [[html.unescape(c) for c in re.findall(r"<td[^>]*>(.*?)</td>", r)] for r in re.findall(r"<tr>(.*?)</tr>", table)]
+    rows = [r for r in rows if r]
+    assert "held-out RMS (µm)" in table and len(rows) >= 2 and len(said) >= len(rows) - 1, log
+    assert rows[0][3] == said[0][1]  # the default model, before the first effect
+    for row, (effect, _, after) in zip(rows[1:], said):
+        assert row[1] == f"+ {effect}" and row[3] == after
