@@ -55,6 +55,16 @@ class CircleResult:
     reason: str = ""
 
 
+def _det2(M):
+    """Determinant of a 2 x 2 matrix (closed form: far cheaper than ``np.linalg.det`` on a tiny matrix)."""
+    return float(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0])
+
+
+def _inv2(M):
+    """Inverse of a 2 x 2 matrix with a non-zero determinant (closed form)."""
+    return np.array([[M[1, 1], -M[0, 1]], [-M[1, 0], M[0, 0]]]) / _det2(M)
+
+
 def _not_found(reason):
     return CircleResult(False, float("nan"), float("nan"), float("nan"), float("nan"), reason)
 
@@ -195,7 +205,7 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     from scipy.special import erfc
 
     M0 = np.asarray(M0, float)
-    det = np.linalg.det(M0)
+    det = _det2(M0)
     if not det > 0:
         return {"ok": False, "message": "degenerate initial ellipse"}
     R0 = det ** -0.25
@@ -203,7 +213,7 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
         window_px = max(4.0, min(0.6 * R0, 12.0))
     rho_out = 1.0 + window_px / R0
     # bounding box of the outer ellipse
-    Minv = np.linalg.inv(M0)
+    Minv = _inv2(M0)
     ex, ey = rho_out * np.sqrt(Minv[0, 0]), rho_out * np.sqrt(Minv[1, 1])
     h, w = img.shape
     xa, xb = int(np.floor(x0 - ex)), int(np.ceil(x0 + ex)) + 1
@@ -211,13 +221,15 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     if xa < 0 or ya < 0 or xb > w or yb > h:
         return {"ok": False, "message": "mark too close to the image border"}
     sub = img[ya:yb, xa:xb]
-    ys, xs = np.mgrid[ya:yb, xa:xb]
-    qx, qy = xs - x0, ys - y0
-    rho0 = np.sqrt(M0[0, 0] * qx * qx + 2 * M0[0, 1] * qx * qy + M0[1, 1] * qy * qy)
+    qx = np.arange(xa, xb) - x0  # a row and a column broadcast over the box: no coordinate grids
+    qy = (np.arange(ya, yb) - y0)[:, None]
+    rho0 = (M0[0, 0] * qx * qx) + (2 * M0[0, 1] * qx) * qy
+    rho0 += M0[1, 1] * qy * qy
+    rho0 = np.sqrt(rho0, out=rho0)
     rho_in = max(0.0, 1.0 - 1.5 * window_px / R0)  # interior far from the edge carries no centre information
-    sel = (rho0 <= rho_out) & (rho0 >= rho_in)
-    X, Y, I = xs[sel].astype(float), ys[sel].astype(float), sub[sel].astype(float)
-    rs = rho0[sel]
+    iy, ix = np.nonzero((rho0 <= rho_out) & (rho0 >= rho_in))
+    I = sub[iy, ix].astype(float)
+    rs = rho0[iy, ix]
     inner = I[rs < 1.0 - 0.6 * (1.0 - rho_in)]
     outer = I[rs > 1.0 + 0.6 * (rho_out - 1.0)]
     if inner.size < 1 or outer.size < 4:
@@ -226,80 +238,130 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     amp0 = float(np.median(inner)) - bg0
     sq2 = np.sqrt(2.0)
     rsqpi = 1.0 / np.sqrt(np.pi)
-
-    Xr, Yr = (X - x0) / R0, (Y - y0) / R0  # for the illumination gradient
-
-    def evaluate(p, with_jac):
-        cx, cy, a11, a12, a22, bg, amp, ls, gx, gy = p
-        s = np.exp(ls)
-        qx, qy = X - cx, Y - cy
-        rho = np.sqrt(np.maximum(a11 * qx * qx + 2 * a12 * qx * qy + a22 * qy * qy, 1e-12))
-        u = (R0 / (s * sq2)) * (rho - 1.0)
-        g = 0.5 * erfc(u)
-        L = 1.0 + gx * Xr + gy * Yr  # multiplicative illumination (vignetting, uneven lighting)
-        base = bg + amp * g
-        r = base * L - I
-        if not with_jac:
-            return r, None
-        dgdu = np.exp(-u * u) * (-rsqpi)
-        k = (amp * R0 / (s * sq2)) * dgdu * L / rho  # dI/drho / rho
-        J = np.empty((X.size, 10))
-        J[:, 0] = -k * (a11 * qx + a12 * qy)
-        J[:, 1] = -k * (a12 * qx + a22 * qy)
-        J[:, 2] = (0.5 * k) * qx * qx
-        J[:, 3] = k * qx * qy
-        J[:, 4] = (0.5 * k) * qy * qy
-        J[:, 5] = L
-        J[:, 6] = g * L
-        J[:, 7] = -amp * dgdu * u * L  # d/d(log s)
-        J[:, 8] = base * Xr
-        J[:, 9] = base * Yr
-        return r, J[:, :npar]
-
-    p = np.array([x0, y0, M0[0, 0], M0[0, 1], M0[1, 1], bg0, amp0, np.log(1.0), 0.0, 0.0])
     if gradient is None:
         gradient = R0 >= 8.0
-    if not gradient:
-        Xr, Yr = np.zeros_like(Xr), np.zeros_like(Yr)
     npar = 10 if gradient else 8
+    X = ix + (xa - x0)  # coordinates relative to the start
+    Y = iy + (ya - y0)
+    Xr, Yr = X / R0, Y / R0  # for the illumination gradient
+    N = X.size
+    # the Jacobian, one row per parameter (contiguous rows: fast to fill and multiply); two buffers, the
+    # current point's and a trial step's
+    J, J_new = np.empty((npar, N)), np.empty((npar, N))
+    buf = np.empty((8, N))  # work arrays of evaluate (no new arrays per call)
+
+    def evaluate(p, J):
+        """Residuals at ``p``, the Jacobian written into ``J``."""
+        cx, cy, a11, a12, a22, bg, amp, ls, gx, gy = p.tolist()
+        qx, qy, ax, ay, rho, u, g, e = buf
+        c = R0 / (np.exp(ls) * sq2)
+        np.subtract(X, cx - x0, out=qx)
+        np.subtract(Y, cy - y0, out=qy)
+        np.multiply(qx, a11, out=ax)
+        np.multiply(qy, a12, out=e)
+        np.add(ax, e, out=ax)  # (M q)_x
+        np.multiply(qx, a12, out=ay)
+        np.multiply(qy, a22, out=e)
+        np.add(ay, e, out=ay)  # (M q)_y
+        np.multiply(qx, ax, out=rho)
+        np.multiply(qy, ay, out=e)
+        np.add(rho, e, out=rho)  # q^T M q
+        np.maximum(rho, 1e-12, out=rho)
+        np.sqrt(rho, out=rho)
+        np.subtract(rho, 1.0, out=u)
+        np.multiply(u, c, out=u)
+        erfc(u, out=g)
+        np.multiply(g, 0.5, out=g)
+        base = g * amp
+        base += bg
+        if gradient:  # multiplicative illumination (vignetting, uneven lighting)
+            L = gx * Xr
+            L += gy * Yr
+            L += 1.0
+            r = base * L
+        else:
+            L = 1.0
+            r = base.copy()
+        r -= I
+        np.square(u, out=e)
+        np.negative(e, out=e)
+        np.exp(e, out=e)  # exp(-u^2); dg/du = -exp(-u^2) / sqrt(pi)
+        nk = J[5]  # -(dI/drho) / rho, kept in the row of d/d(bg) until that is written
+        np.multiply(e, amp * c * rsqpi, out=nk)
+        if gradient:
+            np.multiply(nk, L, out=nk)
+        np.divide(nk, rho, out=nk)
+        np.multiply(nk, ax, out=J[0])  # d/d(cx) = -(dI/drho) (M q)_x / rho
+        np.multiply(nk, ay, out=J[1])
+        np.multiply(nk, -0.5, out=rho)  # k / 2 (rho is no longer needed)
+        np.multiply(rho, qx, out=J[3])
+        np.multiply(J[3], qx, out=J[2])  # d/d(a11) = k qx^2 / 2
+        np.multiply(J[3], qy, out=J[3])
+        np.multiply(J[3], 2.0, out=J[3])  # d/d(a12) = k qx qy
+        np.multiply(rho, qy, out=J[4])
+        np.multiply(J[4], qy, out=J[4])  # d/d(a22) = k qy^2 / 2
+        J[5] = L  # d/d(bg)
+        np.multiply(g, L, out=J[6])  # d/d(amp)
+        np.multiply(e, u, out=J[7])
+        np.multiply(J[7], amp * rsqpi, out=J[7])  # d/d(log s)
+        if gradient:
+            np.multiply(J[7], L, out=J[7])
+            np.multiply(base, Xr, out=J[8])
+            np.multiply(base, Yr, out=J[9])
+        return r
+
+    def normal(J, r):  # the normal matrix and the gradient
+        return J @ J.T, J @ r
+
+    def sumsq(r):
+        return float(r @ r)
+
+    p = np.array([x0, y0, M0[0, 0], M0[0, 1], M0[1, 1], bg0, amp0, np.log(1.0), 0.0, 0.0])
     # Levenberg-Marquardt (small dense problem: a plain loop beats a general solver's overhead)
-    r, J = evaluate(p, True)
-    cost = float(r @ r)
+    r = evaluate(p, J)
+    cost = sumsq(r)
+    A, gv = normal(J, r)
     lam = 1e-3
     converged = False
     message = "iteration limit reached"
     for _ in range(int(max_nfev)):
-        A = J.T @ J
-        g = J.T @ r
         D = np.diag(np.maximum(np.diag(A), 1e-12))
         try:
-            step = -np.linalg.solve(A + lam * D, g)
+            step = -np.linalg.solve(A + lam * D, gv)
         except np.linalg.LinAlgError:
             lam *= 10.0
             continue
         p_new = p.copy()
         p_new[:npar] += step
-        r_new, J_new = evaluate(p_new, True)
-        cost_new = float(r_new @ r_new)
+        if lam <= 1e-2 and abs(step[0]) < tol_px and abs(step[1]) < tol_px:
+            # a Gauss-Newton step (little damping) that moves the centre by less than the tolerance:
+            # converged; the step is taken without evaluating the model once more
+            p = p_new
+            converged, message = True, ""
+            break
+        r_new = evaluate(p_new, J_new)
+        cost_new = sumsq(r_new)
         if np.isfinite(cost_new) and cost_new <= cost:
-            p, r, J, cost = p_new, r_new, J_new, cost_new
+            p, r, cost = p_new, r_new, cost_new
+            J, J_new = J_new, J
+            A, gv = normal(J, r)
             lam = max(lam / 3.0, 1e-9)
-            if abs(step[0]) < tol_px and abs(step[1]) < tol_px:
-                converged, message = True, ""
-                break
         else:
             lam *= 4.0
             if lam > 1e8:  # no further decrease possible: at a minimum to numerical precision
                 converged, message = True, ""
                 break
     M = np.array([[p[2], p[3]], [p[3], p[4]]])
-    detM = np.linalg.det(M)
+    detM = _det2(M)
     if not (detM > 0 and M[0, 0] > 0):
         return {"ok": False, "message": "fit diverged (ellipse not positive definite)"}
-    dof = max(X.size - npar, 1)
+    dof = max(N - npar, 1)
     s2 = cost / dof
     try:
-        cov = np.linalg.pinv(J.T @ J) * s2
+        try:  # the centre's two columns of the inverse normal matrix
+            cov = np.linalg.solve(A, np.eye(npar)[:, :2]) * s2
+        except np.linalg.LinAlgError:  # singular: the pseudo-inverse
+            cov = np.linalg.pinv(A) * s2
         sigma = float(np.sqrt(max(0.5 * (cov[0, 0] + cov[1, 1]), 0.0)))
     except np.linalg.LinAlgError:  # pragma: no cover
         sigma = float("nan")

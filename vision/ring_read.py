@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .circles import fit_disk_model, weighted_centroid
+from .circles import _det2, _inv2, fit_disk_model, weighted_centroid
 
 __all__ = ["Marker", "canonical_code", "decode_from_segments", "read_ring"]
 
@@ -115,8 +115,15 @@ _RHO_MIN, _RHO_MAX = 1.2, 3.2
 
 def _sqrt_inv(M):
     """Symmetric M^(-1/2) of a 2x2 symmetric positive definite matrix."""
-    w, V = np.linalg.eigh(M)
-    return (V / np.sqrt(w)) @ V.T
+    a, b, c = float(M[0, 0]), float(M[0, 1]), float(M[1, 1])
+    dm = a * c - b * b
+    if not (dm > 0 and a > 0):  # not positive definite: as the eigen-decomposition gives it
+        w, V = np.linalg.eigh(M)
+        return (V / np.sqrt(w)) @ V.T
+    # sqrt(M) = (M + sqrt(det M) I) / sqrt(tr M + 2 sqrt(det M)), whose determinant is sqrt(det M)
+    sd = np.sqrt(dm)
+    k = 1.0 / (np.sqrt(a + c + 2.0 * sd) * sd)
+    return np.array([[(c + sd) * k, -b * k], [-b * k, (a + sd) * k]])
 
 
 def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
@@ -152,28 +159,39 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     if n_angles is None:
         n_angles = max(360, 30 * n)
     A = _sqrt_inv(np.asarray(M, float))  # unit circle -> centre ellipse
-    R = np.linalg.det(A) ** 0.5
+    R = _det2(A) ** 0.5
     if band is None:
         step = max(0.5 / R, 0.04)  # half-pixel radial steps, at most 50 rows
         rho = np.arange(_RHO_MIN, _RHO_MAX, step)
     else:
         rho = np.linspace(band[0], band[1], min(16, max(5, int(np.ceil((band[1] - band[0]) * R)) + 1)))
-    th = (np.arange(n_angles) + 0.5) * (2 * np.pi / n_angles)
-    u = np.stack([np.cos(th), np.sin(th)])  # (2, n_angles)
-    d = A @ u  # (2, n_angles)
+    d = A @ _unit_rays(n_angles)  # (2, n_angles)
     mx = (x + rho[:, None] * d[0][None, :]).astype(np.float32)
     my = (y + rho[:, None] * d[1][None, :]).astype(np.float32)
     P = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
     h, w = img.shape
-    outside = ~((mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1))
-    P[outside] = np.nan
+    # every sample (and its interpolation neighbours) inside the image and a number: none is missing
+    # (the samples' extent bounded first from the ellipse: no pass over them when far from the border)
+    rmax = max(abs(rho[0]), abs(rho[-1]))
+    ex, ey = rmax * np.abs(d[0]).max() + 0.01, rmax * np.abs(d[1]).max() + 0.01
+    if ex <= x <= w - 2 - ex and ey <= y <= h - 2 - ey:
+        all_in = not np.isnan(P).any()
+    else:
+        all_in = (mx.min() >= 0 and my.min() >= 0 and mx.max() <= w - 2 and my.max() <= h - 2
+                  and not np.isnan(P).any())
+    if not all_in:
+        outside = ~((mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1))
+        P[outside] = np.nan
     W = (P - bg) / (ink - bg)  # ink fraction, (n_rho, n_angles)
-    valid = ~np.isnan(W)
+    valid = None if all_in else ~np.isnan(W)
     if band is not None:
-        if not valid.all():
+        if not (all_in or valid.all()):
             return None, "ring cut by the image border", None
         return (*_read_profile(_band_profile(W), n, n_angles), tuple(band))
-    f = (np.nan_to_num(W, nan=0.0) > 0.5).sum(axis=1) / np.maximum(valid.sum(axis=1), 1)
+    if all_in:
+        f = (W > 0.5).sum(axis=1) / n_angles
+    else:
+        f = (np.nan_to_num(W, nan=0.0) > 0.5).sum(axis=1) / np.maximum(valid.sum(axis=1), 1)
     fmax = f.max()
     if fmax < 0.5 / n:
         return None, "no ring around the centre circle", None
@@ -188,7 +206,7 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     r_in, r_out = rho[i0], rho[i1]
     if not (1.4 < r_in < 2.3 and 2.1 < r_out < 3.2 and r_out - r_in > 0.35):
         return None, f"ring band {r_in:.2f}-{r_out:.2f} (centre radii) is not where a ring belongs", None
-    if not valid[rho <= r_out + 2.0 / R].all():
+    if not (all_in or valid[rho <= r_out + 2.0 / R].all()):
         return None, "ring cut by the image border", None
     # the gap between centre circle and ring must be empty
     # (away from both blurred edges; at least one clean circle must separate them)
@@ -199,6 +217,19 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     in_band = (rho >= r_in) & (rho <= r_out)
     value, reason = _read_profile(_band_profile(W[in_band]), n, n_angles)
     return value, reason, ((float(r_in), float(r_out)) if value is not None else None)
+
+
+_RAYS = {}
+
+
+def _unit_rays(n_angles):
+    """Unit vectors (2, n_angles) at the angles (k + 0.5) 2 pi / n_angles (cached)."""
+    u = _RAYS.get(n_angles)
+    if u is None:
+        th = (np.arange(n_angles) + 0.5) * (2 * np.pi / n_angles)
+        u = _RAYS[n_angles] = np.stack([np.cos(th), np.sin(th)])
+        u.flags.writeable = False
+    return u
 
 
 def _band_profile(Wb):
@@ -216,11 +247,14 @@ def _read_profile(prof, n, n_angles):
     """Bits from an angular ink profile (clockwise as seen in the image): ``(value, "")`` or ``(None, reason)``."""
     # element phase from the edges of the profile
     b = prof > 0.5
-    edges = np.flatnonzero(b != np.roll(b, 1))
+    change = np.empty(b.size, bool)  # b differs from its predecessor (cyclic)
+    np.not_equal(b[1:], b[:-1], out=change[1:])
+    change[0] = b[0] != b[-1]
+    edges = np.flatnonzero(change)
     if edges.size == 0:
         return None, "ring has no element boundaries"
     # sub-sample edge position: linear interpolation of the 0.5 crossing
-    p0, p1 = np.roll(prof, 1)[edges], prof[edges]
+    p0, p1 = prof[edges - 1], prof[edges]  # index -1: the last sample
     frac = np.clip((0.5 - p0) / np.where(p1 != p0, p1 - p0, 1.0), 0.0, 1.0)
     t_edge = (edges - 1 + frac + 0.5) * (2 * np.pi / n_angles)  # angle of the crossing
     z = np.exp(1j * n * t_edge)
@@ -249,55 +283,54 @@ def _refine_moments(img, X, Y, M, bg, ink, iterations=2):
     result is far better than the moments of a thresholded, downsampled blob. Returns
     ``(x, y, M)`` or None when the window leaves the image or holds no ink.
     """
+    import cv2
+
     h, w = img.shape
     for _ in range(iterations):
-        Minv = np.linalg.inv(M)
+        Minv = _inv2(M)
         ex, ey = 1.4 * np.sqrt(Minv[0, 0]) + 1, 1.4 * np.sqrt(Minv[1, 1]) + 1
         xa, xb = int(np.floor(X - ex)), int(np.ceil(X + ex)) + 1
         ya, yb = int(np.floor(Y - ey)), int(np.ceil(Y + ey)) + 1
         if xa < 0 or ya < 0 or xb > w or yb > h:
             return None
-        ys, xs = np.mgrid[ya:yb, xa:xb]
-        qx, qy = xs - X, ys - Y
-        inwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.96
-        wgt = np.clip((img[ya:yb, xa:xb] - bg) / (ink - bg), 0.0, 1.0) * inwin
-        tot = wgt.sum()
+        qx = (np.arange(xa, xb) - X)[None, :]  # broadcast over the window: no coordinate grids
+        qy = (np.arange(ya, yb) - Y)[:, None]
+        outwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) > 1.96
+        wgt = np.clip((img[ya:yb, xa:xb] - bg) * (1.0 / (ink - bg)), 0.0, 1.0).astype(np.float32)
+        wgt[outwin] = 0.0
+        mo = cv2.moments(wgt)  # sums in double precision
+        tot = mo["m00"]
         if not tot > 3:
             return None
-        X = float((wgt * xs).sum() / tot)
-        Y = float((wgt * ys).sum() / tot)
-        dx, dy = xs - X, ys - Y
-        cov = np.array([[(wgt * dx * dx).sum(), (wgt * dx * dy).sum()],
-                        [(wgt * dx * dy).sum(), (wgt * dy * dy).sum()]]) / tot
-        if not np.linalg.det(cov) > 0:
+        X = xa + mo["m10"] / tot
+        Y = ya + mo["m01"] / tot
+        cov = np.array([[mo["mu20"], mo["mu11"]], [mo["mu11"], mo["mu02"]]]) / tot
+        if not _det2(cov) > 0:
             return None
-        M = np.linalg.inv(4 * cov)
+        M = _inv2(4 * cov)
     return X, Y, M
 
 
 def _local_levels(img, X, Y, M, sign):
     """Background and ink grey levels around one candidate (robust medians)."""
     A = _sqrt_inv(M)
-    R = np.sqrt(np.linalg.det(A))
+    R = np.sqrt(_det2(A))
     h, w = img.shape
-    th = np.linspace(0, 2 * np.pi, 64, endpoint=False)
-    u = np.stack([np.cos(th), np.sin(th)])
-    d = A @ u
-    inner = [(X + r * d[0], Y + r * d[1]) for r in (0.0, 0.3, 0.5)]
-    outer = [(X + r * d[0], Y + r * d[1]) for r in (1.4, 1.5)]
-
-    def sample(pts):
-        xs = np.concatenate([p[0] for p in pts])
-        ys = np.concatenate([p[1] for p in pts])
-        xi = np.clip(np.rint(xs).astype(int), 0, w - 1)
-        yi = np.clip(np.rint(ys).astype(int), 0, h - 1)
-        return img[yi, xi]
-
-    ink = float(np.median(sample(inner)))
-    bg = float(np.median(sample(outer)))
+    d = A @ _UNIT_64
+    # pixels at 0, 0.3, 0.5 radii (ink) and 1.4, 1.5 radii (background) on 64 rays
+    xi = np.clip(np.rint(X + _LEVEL_RADII[:, None] * d[0]).astype(int), 0, w - 1)
+    yi = np.clip(np.rint(Y + _LEVEL_RADII[:, None] * d[1]).astype(int), 0, h - 1)
+    v = img[yi, xi]
+    ink = float(np.median(v[:3]))
+    bg = float(np.median(v[3:]))
     if R < 1 or (ink - bg) * sign <= 0:
         return None
     return bg, ink
+
+
+_UNIT_64 = np.stack([np.cos(np.linspace(0, 2 * np.pi, 64, endpoint=False)),
+                     np.sin(np.linspace(0, 2 * np.pi, 64, endpoint=False))])
+_LEVEL_RADII = np.array([0.0, 0.3, 0.5, 1.4, 1.5])
 
 
 #: Marks are decoded and refined on a box-filtered copy in which the centre radius is about this (px).
@@ -305,6 +338,11 @@ _WORK_RADIUS_PX = 30.0
 
 #: Outer half-width of the edge band used by the centre refinement, work pixels.
 _WINDOW_PX = 6.0
+
+#: Convergence of the centre refinement: a centre step under this, work pixels (the fit converges
+#: about linearly near its end, ~0.15 per step: the centre is then within ~2e-4 px of the limit, a
+#: tenth of the noise-limited accuracy, at one model evaluation less than 1e-5 needs).
+_FIT_TOL_PX = 1e-4
 
 
 def _decode_one(img, X, Y, M, sign, n, refine, scale=1, clockwise=True):
@@ -315,11 +353,11 @@ def _decode_one(img, X, Y, M, sign, n, refine, scale=1, clockwise=True):
     """
     import cv2
 
-    R_full = np.linalg.det(M) ** -0.25
+    R_full = _det2(M) ** -0.25
     f = max(1, int(R_full // _WORK_RADIUS_PX))
     # crop around the mark, aligned to the box size f; box filtering keeps the centre unbiased. The
     # margin allows for a candidate ellipse up to 20 % small (a blob thresholded on a coarse level).
-    ext = 1.2 * _RHO_MAX * np.sqrt(np.linalg.inv(M).diagonal()) + 2 * f + 2
+    ext = 1.2 * _RHO_MAX * np.sqrt(_inv2(M).diagonal()) + 2 * f + 2
     h, w = img.shape
     x0, y0 = max(0, int(X - ext[0])), max(0, int(Y - ext[1]))
     x1, y1 = min(w, int(np.ceil(X + ext[0])) + 1), min(h, int(np.ceil(Y + ext[1])) + 1)
@@ -327,8 +365,17 @@ def _decode_one(img, X, Y, M, sign, n, refine, scale=1, clockwise=True):
     y1 -= (y1 - y0) % f
     if x1 - x0 < 3 * f or y1 - y0 < 3 * f:
         return None
-    crop = img[y0:y1, x0:x1].astype(np.float32)
-    work = cv2.resize(crop, ((x1 - x0) // f, (y1 - y0) // f), interpolation=cv2.INTER_AREA) if f > 1 else crop
+    crop = img[y0:y1, x0:x1]
+    if f == 2 and crop.dtype == np.uint8:
+        # the 2 x 2 box average straight from 8 bits (sums of integers: exact, as INTER_AREA gives it),
+        # without a float copy of the whole crop
+        work = np.add(crop[0::2], crop[1::2], dtype=np.float32)
+        work = np.add(work[:, 0::2], work[:, 1::2])
+        work *= np.float32(0.25)
+    elif f > 1:
+        work = cv2.resize(crop.astype(np.float32), ((x1 - x0) // f, (y1 - y0) // f), interpolation=cv2.INTER_AREA)
+    else:
+        work = crop.astype(np.float32)
     Xw, Yw, Mw = (X - x0 + 0.5) / f - 0.5, (Y - y0 + 0.5) / f - 0.5, M * (f * f)
     # a crop clipped by the image border must still look like the border to read_ring: it does,
     # because the crop only ever stops short of the ring where the image itself ends.
@@ -347,11 +394,11 @@ def _decode_one(img, X, Y, M, sign, n, refine, scale=1, clockwise=True):
     if first[0] is None:
         return None
     value, band = first[0], first[2]
-    R0 = np.linalg.det(Mw) ** -0.25
+    R0 = _det2(Mw) ** -0.25
     # the ring's inner edge is at ~1.8 R: keep the window clear of it
     win = max(2.0, min(0.45 * R0, _WINDOW_PX))
     if refine == "fit":
-        r = fit_disk_model(work, Xw, Yw, Mw, window_px=win)
+        r = fit_disk_model(work, Xw, Yw, Mw, window_px=win, tol_px=_FIT_TOL_PX)
         if not r["ok"]:
             return None
         x, y, Mf = r["x"], r["y"], r["M"]

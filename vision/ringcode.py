@@ -31,38 +31,96 @@ from __future__ import annotations
 
 import numpy as np
 
-from .circles import as_gray, noise_sigma
+from .circles import _det2, _inv2, as_gray, noise_sigma
 from .ring_read import Marker, _RHO_MAX, _decode_one, canonical_code, decode_from_segments, read_ring  # noqa: F401 (re-exported)
 
 __all__ = ["Marker", "canonical_code", "decode_from_segments", "detect_markers", "read_ring"]
 
 
-def _blobs(mask, scale, min_area, d_range=(0.0, np.inf), fill_holes=True, offset=(0, 0)):
+def _components(mask, min_area, d_range, inside=None):
+    """The 8-connected components of ``mask`` whose bounding box allows a round blob of ``d_range``.
+
+    Returns ``[(labels, stats, k, (x0, y0))]`` in raster order of the components' first pixels:
+    component ``k`` of ``connectedComponentsWithStats`` run on the box ``labels`` covers (from
+    (x0, y0) in ``mask``). The outlines (``findContours``, far cheaper than labelling the whole
+    mask) give every component's box; only the boxes that can hold a blob passing the tests of
+    :func:`_blobs` (area at least ``min_area`` and the equivalent diameter in ``d_range``, filling
+    50-95 % of the box, the box inside the mask and at most 3 times longer than wide) are labelled.
+
+    ``inside``: ``(scale, (x0, y0), marks)`` with ``marks`` (k, 3) the decoded marks (x, y, radius;
+    full-resolution pixels) and the mask's scale and offset in the level: a component whose box lies
+    so deep inside the ring of a mark that its centre and any blob near it (as :func:`_detect_pyramid`
+    compares candidates) are inside the ring too is left out (the search would skip it anyway).
+    """
+    import cv2
+
+    contours, hier = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
+    if not contours:
+        return []
+    outer = np.flatnonzero(hier[0][:, 3] < 0)  # outer outlines: one per component
+    lens = np.fromiter((len(contours[i]) for i in outer), np.int64, outer.size)
+    pts = np.concatenate([contours[i] for i in outer]).reshape(-1, 2)
+    starts = np.concatenate([[0], np.cumsum(lens)[:-1]])
+    xa, xb = np.minimum.reduceat(pts[:, 0], starts), np.maximum.reduceat(pts[:, 0], starts)
+    ya, yb = np.minimum.reduceat(pts[:, 1], starts), np.maximum.reduceat(pts[:, 1], starts)
+    bw, bh = xb - xa + 1, yb - ya + 1
+    h, w = mask.shape
+    box = (bw * bh).astype(float)
+    a_min = max(float(min_area), 0.25 * np.pi * d_range[0] ** 2)
+    a_max = 0.25 * np.pi * d_range[1] ** 2
+    ok = ((xa > 0) & (ya > 0) & (xb < w - 1) & (yb < h - 1)
+          & (np.maximum(bw, bh) <= 3 * np.minimum(bw, bh))
+          & (0.95 * box >= a_min * (1 - 1e-9)) & (0.5 * box <= a_max * (1 + 1e-9)))
+    if inside is not None and len(inside[2]) and ok.any():
+        s, (ox, oy), marks = inside
+        # the blob's centre lies in the box of its pixel centres, its radius is at most
+        # s sqrt(bw bh) (moment ellipse of pixels spread over the box)
+        x_lo, x_hi = (xa + ox + 0.5) * s - 0.5, (xb + ox + 0.5) * s - 0.5
+        y_lo, y_hi = (ya + oy + 0.5) * s - 0.5, (yb + oy + 0.5) * s - 0.5
+        r_bound = s * np.sqrt(box)
+        mx, my, mr = (marks[:, c][None, :] for c in range(3))
+        far = np.hypot(np.maximum(np.abs(x_lo[:, None] - mx), np.abs(x_hi[:, None] - mx)),
+                       np.maximum(np.abs(y_lo[:, None] - my), np.abs(y_hi[:, None] - my)))
+        ok &= ~np.any(far <= _RHO_MAX * mr - 0.5 * r_bound[:, None] - 1e-6, axis=1)
+    found = []
+    for j in np.flatnonzero(ok):
+        c = contours[outer[j]].reshape(-1, 2)
+        top = c[c[:, 1] == ya[j]]
+        found.append((int(ya[j]), int(top[:, 0].min()), j))
+    out = []
+    for y_first, x_first, j in sorted(found):
+        x0, y0 = int(xa[j]), int(ya[j])
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(
+            mask[y0:y0 + int(bh[j]), x0:x0 + int(bw[j])], connectivity=8)
+        out.append((labels, stats, int(labels[y_first - y0, x_first - x0]), (x0, y0)))
+    return out
+
+
+def _blobs(mask, scale, min_area, d_range=(0.0, np.inf), fill_holes=True, offset=(0, 0), marks=None):
     """Round blobs of a binary mask: list of (x, y, M, area) in full-resolution pixels.
 
     ``mask`` is an image ``scale`` times smaller than the full-resolution one. A blob is kept when
     its equivalent diameter (mask pixels) lies in ``d_range``, it does not touch the border, and
     its shape matches its own moment ellipse (holes in it filled first with ``fill_holes``). ``offset``:
-    the position of the mask's top-left pixel in the level.
+    the position of the mask's top-left pixel in the level. ``marks``: decoded marks (x, y, radius) whose
+    ring interior need not be searched (:func:`_components`).
     """
     import cv2
 
-    nlab, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    if nlab <= 1:
-        return []
+    comps = _components(mask, min_area, d_range, None if marks is None else (scale, offset, marks))
     h, w = mask.shape
-    st = stats[1:].astype(np.int64)
-    x, y, bw, bh, area = st.T
-    d = np.sqrt(4.0 * area / np.pi)
-    # the cheap tests on all components at once (noise and texture of a photo give many)
-    ok = ((area >= min_area) & (d >= d_range[0]) & (d < d_range[1])
-          & (x > 0) & (y > 0) & (x + bw < w) & (y + bh < h)
-          & (np.maximum(bw, bh) <= 3 * np.minimum(bw, bh)) & (area >= 0.5 * bw * bh)
-          & (area <= 0.95 * bw * bh))  # a filled rectangle (e.g. a cut-off corner of something): not a circle
     out = []
-    for k in np.flatnonzero(ok) + 1:
+    for labels, stats, k, (ox, oy) in comps:
         x, y, bw, bh, area = (int(v) for v in stats[k])
-        sub = (labels[y:y + bh, x:x + bw] == k).astype(np.uint8)
+        # the cheap tests, exact on the component (noise and texture of a photo give many)
+        d = np.sqrt(4.0 * area / np.pi)
+        x, y = x + ox, y + oy
+        if not ((area >= min_area) and (d_range[0] <= d < d_range[1])
+                and x > 0 and y > 0 and x + bw < w and y + bh < h
+                and max(bw, bh) <= 3 * min(bw, bh) and area >= 0.5 * bw * bh
+                and area <= 0.95 * bw * bh):  # a filled rectangle (e.g. a cut-off corner of something): not a circle
+            continue
+        sub = (labels[y - oy:y - oy + bh, x - ox:x - ox + bw] == k).astype(np.uint8)
         if fill_holes:
             # a hole (a dot printed in the centre circle, a reflection) does not make it less round
             outside = cv2.copyMakeBorder(1 - sub, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=1)
@@ -71,21 +129,23 @@ def _blobs(mask, scale, min_area, d_range=(0.0, np.inf), fill_holes=True, offset
             area = int(np.count_nonzero(sub))
         mo = cv2.moments(sub, binaryImage=True)
         cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]  # relative to the bbox corner
-        cov = np.array([[mo["mu20"], mo["mu11"]], [mo["mu11"], mo["mu02"]]]) / mo["m00"] + np.eye(2) / 12.0
-        det = np.linalg.det(cov)
+        # moment covariance (+ 1/12: the pixel's own extent) and the ellipse q^T M q <= 1 of equal moments
+        c00 = mo["mu20"] / mo["m00"] + 1.0 / 12.0
+        c01 = mo["mu11"] / mo["m00"]
+        c11 = mo["mu02"] / mo["m00"] + 1.0 / 12.0
+        det = c00 * c11 - c01 * c01
         if not det > 0:
             continue
-        M = np.linalg.inv(4 * cov)
+        M = np.array([[c11, -c01], [-c01, c00]]) / (4.0 * det)
         # overlap of the blob with its moment ellipse (a disk: ~1; a bar or an arc: clearly less),
         # on a grid of at most ~48 x 48 points
         stp = max(1, max(bw, bh) // 48)
-        gy, gx = np.mgrid[0:bh:stp, 0:bw:stp]
-        qx = gx - cx
-        qy = gy - cy
-        ell = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) <= 1.0
+        qx = np.arange(0, bw, stp) - cx  # a row and a column, broadcast over the grid
+        qy = (np.arange(0, bh, stp) - cy)[:, None]
+        ell = ((M[0, 0] * qx * qx) + (2 * M[0, 1] * qx) * qy + (M[1, 1] * qy * qy)) <= 1.0
         inb = sub[::stp, ::stp].astype(bool)
         inter = np.count_nonzero(ell & inb) * stp * stp
-        ell_area = np.pi / np.sqrt(np.linalg.det(M))  # the ellipse may extend past the bbox
+        ell_area = np.pi / np.sqrt(_det2(M))  # the ellipse may extend past the bbox
         union = area + ell_area - inter
         if inter / union < 0.85:
             continue
@@ -177,6 +237,47 @@ def _pyramid(img8):
     return levels
 
 
+def _noise_sigma_u8(img):
+    """:func:`vision.circles.noise_sigma` of a uint8 image, the same value from histograms (integer differences)."""
+    d = np.diff(img[:: max(1, img.shape[0] // 256)].astype(np.int16), axis=1).ravel()
+    if d.size == 0:
+        return 0.0
+    lo, hi = (d.size - 1) // 2, d.size // 2  # the two middle ranks (equal for an odd count)
+
+    def middle_sum(values, offset):  # the sum of the values of ranks lo and hi
+        cum = np.cumsum(np.bincount(values + offset))
+        return int(np.searchsorted(cum, lo + 1)) + int(np.searchsorted(cum, hi + 1)) - 2 * offset
+
+    med2 = middle_sum(d, 255)  # twice the median
+    mad = np.float32(middle_sum(np.abs(2 * d.astype(np.int32) - med2), 0) / 4.0)
+    return float(mad / 0.6745 / np.sqrt(2.0))
+
+
+def _nearest_spans(n_dst, n_src):
+    """Start of each source cell's footprint in a nearest-neighbour upscale of ``n_src`` cells to ``n_dst``
+    pixels (as ``cv2.resize`` with ``INTER_NEAREST`` maps pixel x to cell ``floor(x n_src / n_dst)``), and
+    ``n_dst`` at the end: cell j covers pixels ``[spans[j], spans[j + 1])``."""
+    src = np.minimum(np.floor(np.arange(n_dst) * (1.0 / (n_dst / n_src))).astype(np.int64), n_src - 1)
+    return np.searchsorted(src, np.arange(n_src + 1))
+
+
+_TILE_BINS = {}
+
+
+def _tile_bins(ny, nx, t):
+    """(ny t, nx t) int64: 256 times the index of each pixel's tile (of t x t pixels), cached."""
+    key = (ny, nx, t)
+    bins = _TILE_BINS.get(key)
+    if bins is None:
+        if len(_TILE_BINS) >= 8:
+            _TILE_BINS.clear()
+        bins = ((np.arange(ny * t, dtype=np.int64) // t * (nx * 256))[:, None]
+                + (np.arange(nx * t, dtype=np.int64) // t * 256)[None, :])
+        bins.flags.writeable = False
+        _TILE_BINS[key] = bins
+    return bins
+
+
 def _local_masks(level, coarse, polarity):
     """Binary masks ``[(sign, mask, (x0, y0))]`` of ``level`` thresholded midway between the local background and
     ink; each mask covers the box of the level from (x0, y0) that holds tiles with contrast.
@@ -196,18 +297,20 @@ def _local_masks(level, coarse, polarity):
     ch, cw = coarse.shape
     ny, nx = -(-ch // t), -(-cw // t)
     pad = cv2.copyMakeBorder(coarse, 0, ny * t - ch, 0, nx * t - cw, cv2.BORDER_REFLECT_101)
-    blocks = pad.reshape(ny, t, nx, t).transpose(0, 2, 1, 3).reshape(ny, nx, t * t)
     n = t * t
     k = max(4, n // 200)
-    part = np.partition(blocks, (k, n // 2, n - 1 - k), axis=2)
-    lo_t, bg_t, hi_t = part[..., k], part[..., n // 2], part[..., n - 1 - k]
+    # the k-th darkest, the median and the k-th lightest grey level of every tile, from the tiles'
+    # histograms (one bincount; a partition of each tile's pixels takes several times longer)
+    cum = np.cumsum(np.bincount((_tile_bins(ny, nx, t) + pad).ravel(), minlength=ny * nx * 256)
+                    .reshape(ny, nx, 256), axis=2)
+    lo_t, bg_t, hi_t = ((cum <= q).sum(axis=2).astype(np.uint8) for q in (k, n // 2, n - 1 - k))
     kernel = np.ones((3, 3), np.uint8)
 
     def spread(a, sign):  # the darkest (sign -1) or lightest (+1) over the tile and its neighbours
         op = cv2.erode if sign < 0 else cv2.dilate
         return op(a, kernel, borderType=cv2.BORDER_REPLICATE).astype(np.float32)
 
-    need = max(10.0, 6.0 * noise_sigma(level[:: max(1, h // 64)].astype(np.float32)))  # from ~64 rows
+    need = max(10.0, 6.0 * _noise_sigma_u8(level[:: max(1, h // 64)]))  # from ~64 rows
     wanted = {"dark": (-1,), "light": (1,)}.get(polarity, (-1, 1))
     out = []
     for sign in wanted:
@@ -223,7 +326,10 @@ def _local_masks(level, coarse, polarity):
         # nothing passes (0 for dark marks, 255 for light ones)
         thr = cv2.resize(np.clip(np.rint(0.5 * (bg + ink)), 1, 254).astype(np.uint8), (w, h),
                          interpolation=cv2.INTER_LINEAR)
-        vmap = cv2.resize(valid.astype(np.uint8) * 255, (w, h), interpolation=cv2.INTER_NEAREST)
+        if valid.all():  # contrast everywhere: the threshold map alone
+            mask = cv2.compare(level, thr, cv2.CMP_LT if sign < 0 else cv2.CMP_GT)
+            out.append((sign, mask, (0, 0)))
+            continue
         # only the box around the tiles with contrast is searched (with a blank border, so that a blob
         # cut by the box is one cut by the tiles without contrast, not by the image border)
         ty, tx = np.nonzero(valid)
@@ -231,21 +337,31 @@ def _local_masks(level, coarse, polarity):
         xa, xb = int(tx.min() * w // nx), int(min(w, -(-(tx.max() + 1) * w // nx)))
         ya, xa = max(0, ya - 1), max(0, xa - 1)
         yb, xb = min(h, yb + 1), min(w, xb + 1)
+        # the pixels of a tile without contrast (the tile's nearest-neighbour footprint) get the
+        # threshold nothing passes
+        rows, cols = _nearest_spans(h, ny), _nearest_spans(w, nx)
+        never = 0 if sign < 0 else 255
+        for i in range(ny):
+            bad = np.flatnonzero(~valid[i])
+            if bad.size == 0 or rows[i + 1] <= ya or rows[i] >= yb:
+                continue
+            # runs of consecutive tiles without contrast: one slice each
+            cut = np.flatnonzero(np.diff(bad) > 1)
+            for j0, j1 in zip(bad[np.r_[0, cut + 1]], bad[np.r_[cut, bad.size - 1]]):
+                thr[rows[i]:rows[i + 1], cols[j0]:cols[j1 + 1]] = never
         sub = (slice(ya, yb), slice(xa, xb))
-        if sign < 0:
-            mask = cv2.compare(level[sub], cv2.min(thr[sub], vmap[sub]), cv2.CMP_LT)
-        else:
-            mask = cv2.compare(level[sub], cv2.max(thr[sub], 255 - vmap[sub]), cv2.CMP_GT)
+        mask = cv2.compare(level[sub], thr[sub], cv2.CMP_LT if sign < 0 else cv2.CMP_GT)
         out.append((sign, mask, (xa, ya)))
     return out
 
 
-def _level_candidates(levels, i, polarity):
+def _level_candidates(levels, i, polarity, marks=None):
     """Candidate centre circles of level ``i`` of ``levels``: ``[(x, y, M, sign)]``, full-resolution pixels.
 
     The level searches the sizes it resolves (``_LEVEL_D``; the finest also smaller, the coarsest all
     larger ones) with local thresholds (:func:`_local_masks`; the coarsest level, the whole image at
-    once, with the global ones).
+    once, with the global ones). ``marks``: the decoded marks (x, y, radius), whose ring interiors are
+    not searched.
     """
     s, lv = levels[i]
     last = i == len(levels) - 1
@@ -259,7 +375,7 @@ def _level_candidates(levels, i, polarity):
     out = []
     for sign, mask, off in masks:
         out.extend((X, Y, M, sign) for X, Y, M, _area in
-                   _blobs(mask, s, min_area=12, d_range=(d_lo, d_hi), offset=off))
+                   _blobs(mask, s, min_area=12, d_range=(d_lo, d_hi), offset=off, marks=marks))
     return out
 
 
@@ -276,8 +392,8 @@ def _detect_pyramid(img, img8, n, polarity, refine, clockwise):
     tried = np.empty((0, 3))  # candidates of coarser levels: x, y, radius
     for i in range(len(levels) - 1, -1, -1):
         s = levels[i][0]
-        cands = [(X, Y, M, sign, float(np.linalg.det(M) ** -0.25)) for X, Y, M, sign in
-                 _level_candidates(levels, i, polarity)]
+        cands = [(X, Y, M, sign, float(_det2(M) ** -0.25)) for X, Y, M, sign in
+                 _level_candidates(levels, i, polarity, mk)]
         cands.sort(key=lambda c: -c[4])
         this = []
         for X, Y, M, sign, r in cands:
