@@ -101,8 +101,14 @@ def _losses(Js, Minv, W, index):
     At = A.transpose(0, 2, 1)
     G = np.eye(3) - Jc @ At
     H = (A @ W) @ At
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = np.trace(np.linalg.solve(G + 1e-12 * np.eye(3), H), axis1=1, axis2=2)
+    # a candidate whose removal leaves the rest unable to determine every parameter (G singular) costs infinitely
+    # much; solving with it would spread NaN into the next step
+    fine = np.all(np.isfinite(G), axis=(1, 2))
+    fine[fine] = np.linalg.eigvalsh(0.5 * (G[fine] + G[fine].transpose(0, 2, 1)))[:, 0] > 1e-9
+    out = np.full(len(index), np.inf)
+    if fine.any():
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[fine] = np.trace(np.linalg.solve(G[fine], H[fine]), axis1=1, axis2=2)
     return np.where(np.isfinite(out) & (out >= 0), out, np.inf)
 
 
