@@ -85,11 +85,11 @@ def plot_contour(measurement, out_png, *, magnification=None):
     if isinstance(m.contour.path, CirclePath) and len(track) > 2 and \
             np.hypot(*(track[0] - track[-1])) < 3 * np.median(np.hypot(*np.diff(track, axis=0).T)):
         track = np.r_[track, track[:1]]  # a closed circle
-    ax2.plot(track[:, 0], track[:, 1], "b.-", ms=2, lw=0.8)
+    # y up, as in the polar plot beside it (the image's rows run down)
+    ax2.plot(track[:, 0], -track[:, 1], "b.-", ms=2, lw=0.8)
     ax2.set_aspect("equal")
-    ax2.invert_yaxis()
     ax2.set_xlabel("x, mm (image right)")
-    ax2.set_ylabel("y, mm (image down)")
+    ax2.set_ylabel("y, mm (image up)")
     ax2.set_title(f"track of mark {m.track.reference_code}, {int(ok.sum())}/{len(ok)} frames located",
                   fontsize=9)
     ax2.grid(True, alpha=0.3)
