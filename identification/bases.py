@@ -355,12 +355,45 @@ def _map_values(e, q, t, s):
     return out
 
 
+def _bsplines(q, centres, step):
+    """Cubic B-splines of knot spacing ``step`` centred at ``centres``, at readings ``q``: (N, len(centres))."""
+    r = np.abs(q[:, None] - centres[None, :]) / step
+    out = np.zeros_like(r)
+    near, mid = r < 1, (r >= 1) & (r < 2)
+    out[near] = 2 / 3 - r[near] ** 2 + r[near] ** 3 / 2
+    out[mid] = (2 - r[mid]) ** 3 / 6
+    return out
+
+
+#: The B-splines of one knot grid at the readings last asked for, shared by every window on that grid
+#: (the diagnosis scores hundreds of windows on the same readings): (step, phase) -> (readings, first
+#: centre, values).
+_LOCAL_GRIDS: dict = {}
+
+
 def _local_values(e, q, t, s):
     """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside."""
     knots = np.asarray(e.knots)
-    step = knots[1] - knots[0]
-    r = np.abs(q[:, None] - knots[None, 2:-2]) / step
-    return np.where(r < 1, 2 / 3 - r ** 2 + r ** 3 / 2, np.where(r < 2, (2 - r) ** 3 / 6, 0.0))
+    step = float(knots[1] - knots[0])
+    centres = knots[2:-2]
+    q = np.asarray(q, float)
+    if q.size == 0 or not np.all(np.isfinite(q)):
+        return _bsplines(q, centres, step)
+    phase = round(float(knots[0] - step * np.round(knots[0] / step)), 9)
+    key = (step, phase)
+    grid = _LOCAL_GRIDS.get(key)
+    if grid is None or grid[0].shape != q.shape or not np.array_equal(grid[0], q):
+        first = phase + step * (np.floor((q.min() - phase) / step) - 2)
+        count = int(np.ceil((q.max() + 2 * step - first) / step)) + 1
+        if len(_LOCAL_GRIDS) >= 16:
+            _LOCAL_GRIDS.clear()
+        grid = _LOCAL_GRIDS[key] = (q.copy(), first, _bsplines(q, first + step * np.arange(count), step))
+    _, first, values = grid
+    out = np.zeros((q.size, centres.size))
+    index = np.round((centres - first) / step).astype(int)
+    inside = (index >= 0) & (index < values.shape[1])  # a B-spline off the grid is zero at every reading
+    out[:, inside] = values[:, index[inside]]
+    return out
 
 
 def _peak(e, beta, cov):

@@ -105,6 +105,9 @@ class Diagnosis:
         (:mod:`~kinid.identification.ambiguity`): which periods fit as well, and what to measure.
     twins : tuple of float
         Those periods (the best candidate's unit).
+    inseparable : str
+        When time follows an axis and the best candidate is a drift or warm-up while an error of that axis
+        explains the data about as well (or the reverse): the two, and the plan's order as the cause.
     """
 
     fit: FitResult
@@ -124,6 +127,7 @@ class Diagnosis:
     time_follows: tuple = ()
     undetermined: str = ""
     twins: tuple = ()
+    inseparable: str = ""
 
     @property
     def noise_um(self) -> float:
@@ -165,6 +169,7 @@ class Diagnosis:
             "noise_um": float(self.noise_um),
             "note": self.note,
             **({"undetermined": self.undetermined} if self.undetermined else {}),
+            **({"inseparable": self.inseparable} if self.inseparable else {}),
             "candidates": [{"effect": c.effect, "rms_after_um": float(c.rms_after_um), "p_value": float(c.p_value)} for c in self.live],
             "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": float(a.residual_um), "sigmas": float(a.sigmas)}
                           for a in self.fit.set_aside],
@@ -246,6 +251,9 @@ class Diagnosis:
                          "can describe their position-dependent errors:")
             lines += [f"  - {axis}: add {', '.join(codes)} directly after joint {axis} (docs/machines.md)"
                       for axis, codes in missing]
+        if self.inseparable:
+            lines.append("")
+            lines.append(f"inseparable: {self.inseparable}")
         if self.time_follows:
             lines.append("")
             axes = ", ".join(f"{a} (correlation {rho:+.2f})" for a, rho in self.time_follows)
@@ -352,11 +360,19 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
             verdict = "missing-effect"
             note = f"an effect no candidate describes remains: {structure.describe()}"
         elif not f_passes:
-            verdict = "noise"
-            note = (f"the residual looks like noise of about {np.sqrt(rss / dof) * sigma:.2g} µm, not "
-                    f"{sigma:.2g} µm as given: no candidate explains more than white noise would, and "
-                    f"neighbouring alignments do not agree more than noise would")
+            # the residual exceeds the σ given, and nothing found describes it: not a clean bill of health.
+            # Either an effect remains below what a candidate or the neighbour test can single out, or σ is larger
+            # than given; the data alone cannot tell, so the verdict stays missing-effect and says both.
+            verdict = "missing-effect"
+            apparent = np.sqrt(rss / dof) * sigma
+            where = (f", most structured along {'time' if structure.axis == 'time' else structure.axis}"
+                     if structure is not None and structure.axis else "")
+            note = (f"the residual exceeds the noise σ given (χ² p = {chi2_p:.2g}) and no candidate or neighbour "
+                    f"test explains it: an effect remains that the data cannot single out{where}, or the noise is "
+                    f"about {apparent:.2g} µm, not {sigma:.2g} µm as given (if so, give --noise-um {apparent:.2g})")
     undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0) if significant else ("", ())
+    follows = time_follows(obs, machine)
+    inseparable = _inseparable(machine, live, follows) if significant else ""
     stud, lev = studentized(result, q0, sigma)
     bound = chi2_isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
@@ -365,7 +381,45 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), structure=structure,
-                     time_follows=time_follows(obs, machine), undetermined=undetermined, twins=twins)
+                     time_follows=follows, undetermined=undetermined, twins=twins, inseparable=inseparable)
+
+
+#: Two candidates whose χ² drops differ by less than this explain the data alike (χ²₂ at 1 %).
+ALIKE_CHI2 = 9.21
+
+
+def _inseparable(machine, live, follows) -> str:
+    """When time follows an axis: the best candidate and the best of the other kind (an error driven by time against
+    one driven by that axis's position) if they explain the data alike; "" otherwise."""
+    from .bases import basis_of
+    from .effects import parse_effect
+
+    if not follows or not live:
+        return ""
+    axes = {a for a, _ in follows}
+
+    def kind(c):
+        e = parse_effect(c.effect, machine)
+        driver = basis_of(e).driver
+        if driver == "time":
+            return "time"
+        if driver in ("position", "positions") and (e.axis in axes or set(e.args) & axes):
+            return "axis"
+        return ""
+
+    best = live[0]
+    mine = kind(best)
+    if not mine:
+        return ""
+    other = next((c for c in live[1:] if kind(c) not in ("", mine)), None)
+    if other is None or best.statistic - other.statistic >= ALIKE_CHI2:
+        return ""
+    axis = ", ".join(sorted(axes))
+    return (f"{best.effect} and {other.effect} explain these data alike (χ² drops {best.statistic:.1f} and "
+            f"{other.statistic:.1f}): time follows {axis} in the order of these alignments, so an error that grows with "
+            f"time and one of {axis}'s position cannot be told apart; --auto adds the better, {best.effect} — measure "
+            f"in another order (serpentine or random over {axis}, or a reference pose repeated through the run) to "
+            f"tell them apart")
 
 
 def _undetermined(machine, obs, result, best, sigma, d_errors, q0):

@@ -4,11 +4,12 @@ An alignment whose externally studentized residual is beyond the Bonferroni
 bound of χ²₃ at ``alpha`` (10⁻⁵ over all alignments: about 6.1 σ for 336
 alignments) is a gross error, not noise: it is set aside and the model
 refitted, until no alignment is beyond the bound (a few rounds at most). σ is
-the given one, or else a robust estimate from the residuals (1.4826 × the
-median absolute residual coordinate), so that the misread itself does not
-inflate the σ it is judged against; when the model is still incomplete and
-the robust scale exceeds the given σ, the larger is used, so that structure
-is not taken for misreads.
+a robust estimate from the residuals (1.4826 × the median absolute residual
+coordinate), whatever σ was given: the misread itself does not inflate the σ
+it is judged against, a σ given too large does not hide misreads (10 µm is
+3.6 σ of a σ given as 2.7 µm where the noise is 1 µm), and with the model
+still incomplete, structure raises the robust scale with the residuals, so
+that it is not taken for misreads.
 
 Only misreads go, not structure. Up to ``free_fraction`` of the alignments
 (2 %) may be set aside on the bound alone. Beyond that, up to ``max_fraction``
@@ -55,10 +56,9 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
     for _ in range(rounds):
         result = fit(machine, kept, effects, noise_um=noise_um)
         r = result.residuals_um
-        robust_um = 1.4826 * float(np.median(np.abs(r)))
-        # the larger of the given σ and the robust scale: with the model still incomplete, structure
-        # (not a misread) raises the residuals of many rows, and must not set them aside
-        sigma = robust_um if noise_um is None else max(float(noise_um), robust_um)
+        # the scale of these residuals, not the σ given: a σ given too large would hide the misreads; structure
+        # left by an incomplete model raises this scale with the residuals of many rows
+        sigma = 1.4826 * float(np.median(np.abs(r)))
         if not sigma > 0:
             break
         stud, _ = studentized(result, None, sigma, h=leverages(machine, kept, result))

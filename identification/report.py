@@ -219,7 +219,8 @@ def _summary(diagnosis, obs, fit_file=None) -> list:
                       f"kinid identify ... --add {best.effect}.")
         else:
             second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate) exceeds the noise "
-                      f"(σ {diagnosis.noise_um:.3g} µm) but no candidate explains it; look at the binned residuals "
+                      f"(σ {diagnosis.noise_um:.3g} µm) but no candidate explains it"
+                      f"{': ' + diagnosis.note if diagnosis.note else ''}; look at the binned residuals "
                       f"below, or check the URDF for missing error joints.")
     return [first, second]
 
@@ -342,6 +343,11 @@ def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=N
                                 details=steps[-1].diagnosis.text(top=5) + "\n\n" + final.table()))
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     page = folder / "index.html"
+    from .selection import what_is_left
+
+    summary = _summary(steps[-1].diagnosis, last, fit_file)
+    left = what_is_left(steps)
+    summary.insert(1, left[0].upper() + left[1:] + ".")
     write_report(folder, "Machine calibration: compare, diagnose, add", f"kinid: {Path(machine.path).name}",
-                 _provenance(final, last, provenance), _summary(steps[-1].diagnosis, last, fit_file), sections)
+                 _provenance(final, last, provenance), summary, sections)
     return page

@@ -375,9 +375,8 @@ def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
     inside one, as a candidate.
 
     It competes with the parametric candidates on its p-value, so a map wins only where no parametric
-    effect describes the structure. Local errors are tried inside the best maps, and where the readings
-    leave gaps that rule out every whole map, on the joints of the best candidates of any kind (windows
-    whose knots all rest on readings).
+    effect describes the structure. Local errors are tried inside the best maps and on the joints of the
+    best candidates of any kind (windows whose knots all rest on readings).
     """
     from dataclasses import replace
 
@@ -389,7 +388,8 @@ def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
     for code, axis in axis_dependent_joints(machine):
         q = obs.axes[:, machine.axis_names.index(axis)]
         lo, hi = float(np.min(q)), float(np.max(q))
-        positions = np.unique(np.round(q, 9)).size
+        distinct = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
+        positions = distinct.size
         if not hi > lo or positions < LOCAL_MIN_POSITIONS:
             continue
         step = _nice_step(hi - lo)
@@ -400,7 +400,7 @@ def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
             whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
         except DataError:
             continue
-        grids[code] = (whole, support)
+        grids[code] = (whole, q, distinct)
         # a whole map needs readings at every knot; else they cluster at a few positions and a knot is a guess
         if positions >= 2 * MAP_INTERVALS and support.min() >= MAP_MIN_SUPPORT:
             maps.append(whole)
@@ -409,9 +409,10 @@ def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> 
     live = sorted((c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
                                                q0=q0) if c.status == "live"), key=lambda c: c.log10_p)
     best = live[0] if live else None
-    # where to look for a local error: inside the best maps; where the readings rule out every map, on the
-    # joints of the best candidates
-    codes = [c.effect.split(":")[0] for c in live[:LOCAL_MAPS]] or [
+    # where to look for a local error: inside the best maps, and on the joints of the best candidates of any
+    # kind (a local error of an axis read at too few positions for a whole map shows first as a long period
+    # or a polynomial of its joint)
+    codes = [c.effect.split(":")[0] for c in live[:LOCAL_MAPS]] + [
         c.effect.split(":")[0] for c in sorted((c for c in scored if c.status == "live"), key=lambda c: c.log10_p)[:LOCAL_MAPS]]
     codes = [c for c in dict.fromkeys(codes) if c in grids]
     windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
@@ -449,22 +450,48 @@ LOCAL_MAPS = 3
 LOCAL_TIE = 10.0
 #: Local windows need the axis read at this many distinct positions at least.
 LOCAL_MIN_POSITIONS = 12
+#: Knot steps of the local windows, in steps of the whole map (a local error narrower or wider than its knots
+#: is described by many of them, or none).
+LOCAL_STEPS = (0.5, 1.0, 2.0)
+#: A local window holds at least this many distinct positions more than it has parameters.
+LOCAL_SPARE_POSITIONS = 2
 
 
-def _local_windows(whole, support, machine) -> list:
-    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the map ``whole``, those
-    whose knots all have ``support`` (readings, hat-weighted) of at least MAP_MIN_SUPPORT."""
+def _hat_support(q, first: float, step: float, count: int) -> np.ndarray:
+    """Σ over readings ``q`` of each knot's hat function (1 at the knot, 0 a step away), for ``count`` knots every
+    ``step`` from ``first``: each reading shares itself between the two knots around it (O(N), no N × knots array)."""
+    x = (np.asarray(q, float) - first) / step
+    i = np.floor(x).astype(np.int64)
+    frac = x - i
+    out = np.zeros(count)
+    for index, weight in ((i, 1.0 - frac), (i + 1, frac)):
+        inside = (index >= 0) & (index < count)
+        out += np.bincount(index[inside], weights=weight[inside], minlength=count)
+    return out
+
+
+def _local_windows(whole, q, distinct, machine) -> list:
+    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the range of the map
+    ``whole``, with knots every ``LOCAL_STEPS`` times its step: those whose knots all have a support (readings
+    ``q``, hat-weighted) of at least MAP_MIN_SUPPORT and that hold more ``distinct`` positions of the axis than
+    the window has parameters (else the spline between the positions is a guess: coefficients of any size fit
+    the same values)."""
     from kinid.errors import DataError
 
     from .effects import parse_effect
 
     out = []
-    coarse = whole.knots[1] - whole.knots[0]
-    for step in (coarse,):
-        knots = np.arange(whole.knots[0], whole.knots[-1] + step / 2, step)
+    lo, hi = whole.knots[0], whole.knots[-1]
+    for factor in LOCAL_STEPS:
+        step = float(f"{(whole.knots[1] - whole.knots[0]) * factor:.6g}")
+        knots = np.arange(math.floor(lo / step) * step, hi + step / 2, step)
+        support = _hat_support(q, knots[0], step, len(knots))
         for width in LOCAL_WIDTHS:
             for i in range(0, len(knots) - width):
-                if len(support) == len(knots) and np.min(support[i:i + width + 1]) < MAP_MIN_SUPPORT:
+                if np.min(support[i:i + width + 1]) < MAP_MIN_SUPPORT:
+                    continue
+                inside = np.count_nonzero((distinct > knots[i]) & (distinct < knots[i + width]))
+                if inside < width - 3 + LOCAL_SPARE_POSITIONS:  # width − 3 cubic B-splines lie in the window
                     continue
                 try:
                     out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))

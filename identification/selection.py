@@ -17,7 +17,7 @@ from .machine import Machine, check_machine
 from .observations import Observations, check_observations
 from .plausibility import implausible_effects
 
-__all__ = ["SelectionStep", "forward_select"]
+__all__ = ["SelectionStep", "forward_select", "what_is_left"]
 
 
 #: A warm-started refit taking more iterations than this is redone from a cold start.
@@ -69,7 +69,9 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
         Where to say one line per step (the RMS falling against σ); see :func:`kinid.progress.as_progress`.
     robust : bool
         Set gross errors aside (:func:`~kinid.identification.outliers.set_aside_outliers`)
-        with the starting model and again with the final one.
+        with the starting model and again with the final one. Misreads that stand out only once the
+        model is complete (the residual of a missing effect hid them) may have steered what was added:
+        the selection is then run once more from the starting model without them.
     folds : int
         An effect is added only if it also lowers the held-out RMS of this many
         blocks of the data (:func:`~kinid.identification.crossval.cross_validate`); 0 skips the check.
@@ -88,6 +90,42 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     aside = ()
     if robust:
         obs, aside = _set_aside(machine, obs, effects, noise_um, progress, aside)
+    settings = dict(noise_um=noise_um, alpha=alpha, max_steps=max_steps, progress=progress, robust=robust, folds=folds)
+    steps = _select(machine, obs, list(effects), aside, **settings)
+    last = steps[-1]
+    if robust and len(steps) > 1 and len(last.fit.set_aside) > len(aside):
+        progress.say(f"  {len(last.fit.set_aside) - len(aside)} gross errors stood out only at the end; "
+                     f"the selection runs again without them")
+        steps = _select(machine, last.data, list(effects), last.fit.set_aside, **settings)
+    progress.say(f"  {what_is_left(steps)}")
+    return steps
+
+
+def what_is_left(steps) -> str:
+    """For the final model of a selection: what share of the starting model's residual it explains, and whether
+    anything structured remains (a significant candidate, the neighbour test, the residual against σ)."""
+    first, final = steps[0].diagnosis, steps[-1].diagnosis
+    ss0, ss1 = first.rms_um ** 2, final.rms_um ** 2
+    share = f"{1.0 - ss1 / ss0:.0%}" if ss0 > 0 else "all"
+    text = (f"the final model explains {share} of the starting model's residual sum of squares (RMS "
+            f"{first.rms_um:#.3g} → {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)"
+            if len(steps) > 1 else
+            f"no effect was added (RMS {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)")
+    best = final.live[0] if final.live else None
+    st = final.structure
+    if best is not None and best.p_value < final.threshold:
+        return text + (f"; structure remains: {best.effect} is significant (p = {best.p_value:.2g}) but was not "
+                       f"added ({steps[-1].stopped.split(':')[0]})")
+    if final.verdict == "missing-effect":
+        return text + f"; structure remains: {final.note}" if final.note else text + "; structure remains"
+    if st is not None:
+        return text + (f"; nothing structured remains: no candidate is significant and neighbouring alignments "
+                       f"agree no more than noise would (p = {st.p_value:.2g})")
+    return text + "; nothing structured remains: no candidate is significant"
+
+
+def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progress, robust, folds) -> list:
+    """The selection loop of :func:`forward_select` from ``effects`` on ``obs`` (``aside``: set aside so far)."""
     added = None
     steps = []
     theta0 = None
@@ -113,6 +151,8 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
         best = _first_determined(dg, undetermined)
+        if dg.inseparable and best is not None and dg.inseparable.startswith(best.effect + " "):
+            undetermined[f"time {best.effect}"] = dg.inseparable  # said when the selection stops
         stop = ""
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"

@@ -8,6 +8,7 @@ docs/identification.md.
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -147,3 +148,122 @@ def test_structure_left_with_sigma_given_is_a_missing_effect_not_noise(monkeypat
     _, machine, obs = _data(4, "five_axis_ac", [], plan_kind="patent", misread_share=0.0)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
     assert dg.verdict == "noise" and dg.structure.p_value > 0.01
+
+
+def test_the_oracle_is_the_true_structure():
+    """The oracle floor fits the default model and each hidden effect's exact shape (its size free): on rows
+    without noise it reproduces the truth, whatever the effects' forms, to within 0.01 µm (set-up errors of
+    millimetres held at zero where the data cannot tell them apart leave a few nm of second-order residual)."""
+    from kinid.identification import default_model, fit
+
+    for seed, layout, kinds in ((3, "five_axis_bhead_c", ["bump", "warm-up"]), (4, "gantry_dual_y", ["sag", "drift"]),
+                                (5, "arm6", ["gear"])):
+        sc, machine, obs = _data(seed, layout, kinds, misread_share=0.0)
+        assert len(sc.hidden) == len(kinds), (layout, kinds)
+        sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(seed, layout, kinds, misread_share=0.0)
+        values = dict(errors)
+        for h in sc.hidden:
+            values[h.joint] = values.get(h.joint, 0.0) + h(readings, t_s)
+        exact = replace(obs, w_mm=truth.tool_point_mm(tm, readings, values, len(t_s)))
+        effects = list(default_model(machine)) + pg._truth_effects(machine, sc.hidden, readings, t_s)
+        result = fit(machine, exact, effects)
+        assert np.sqrt(np.mean(result.residuals_um**2)) < 0.01, (layout, kinds)
+        without = fit(machine, exact, default_model(machine))
+        assert np.sqrt(np.mean(without.residuals_um**2)) > 0.1, (layout, kinds)
+
+
+def test_a_local_error_is_proposed_where_no_whole_map_fits():
+    """Class 6: a bump of Z (3–6 µm, FWHM 8–20 mm) on the B/C machine, where Z is read at positions too few for a
+    whole map and spaced wider than the map's knots. It was described by a stack of periods (held-out 1.8× the
+    oracle's); it is now proposed as a local error on the joint of the best candidates, with knots no closer than
+    the readings resolve."""
+    sc = pg.run(5, "five_axis_bc", ["bump"], plan_kind="patent", misread_share=0.0, sigma=1.0)
+    print(_line(sc))
+    assert sc.hidden[0].joint == "EZZ"
+    assert [a.split(":")[:2] for a in sc.result["added"]] == [["EZZ", "local"]]
+    assert sc.result["held_out_um"] <= 1.5 * sc.result["oracle_um"]
+
+
+def test_misreads_are_judged_against_the_residuals_scale_not_a_sigma_given_too_large():
+    """Class 4: 5 % misreads of 10–40 µm with σ given as 2.7 µm where the noise is 1 µm. Judged against the given σ,
+    a misread of 10 µm is 3.6 σ and stayed in (9 of 13 set aside); against the residuals' robust scale all go."""
+    sc = pg.run(1, "gantry_dual_y", [], plan_kind="patent", misread_share=0.05, sigma=2.7)
+    print(_line(sc), sc.result["misreads"], sc.result["set_aside"])
+    assert sc.result["misreads"] >= 10
+    assert sc.result["set_aside"] == sc.result["misreads"]
+
+
+def test_the_held_out_check_asks_for_a_gain_beyond_its_scatter():
+    """The best candidate on pure noise, chosen on all the data, lowers the held-out sum of squares of the blocks
+    left out almost always (11 of 12 seeds here): a bare fall is no evidence. It must fall by two standard errors."""
+    from kinid.identification import default_model, diagnose, parse_effect
+    from kinid.identification.crossval import cross_validate
+
+    falls = improves = 0
+    for seed in range(12):
+        _, machine, obs = _data(300 + seed, "five_axis_ac", [], plan_kind="patent", misread_share=0.0)
+        effects = list(default_model(machine))
+        dg = diagnose(machine, obs, effects, noise_um=1.0)
+        cv = cross_validate(machine, obs, effects, parse_effect(dg.live[0].effect, machine), noise_um=1.0,
+                            theta0=dg.fit.theta)
+        falls += cv.rms_with_um < cv.rms_without_um
+        improves += cv.improves
+    print(f"falls {falls}, improves {improves} of 12")
+    assert falls >= 9 and improves <= 1
+    # a real effect passes by far: the gear error of the arm (class 1)
+    sc, machine, obs = _data(3, "arm6", ["gear"])
+    effects = list(default_model(machine))
+    dg = diagnose(machine, obs, effects, noise_um=1.0)
+    cv = cross_validate(machine, obs, effects, parse_effect(dg.live[0].effect, machine), noise_um=1.0,
+                        theta0=dg.fit.theta)
+    assert cv.improves and cv.gain_se > 5, cv
+
+
+def test_misreads_that_stand_out_only_at_the_end_do_not_steer_the_selection():
+    """Class 4: a sag and a straightness error of the gantry with 5 % misreads. The two effects' residual hides
+    the misreads at the start, they steered the selection to a cross-axis term and a yaw (held-out 3.5× the
+    oracle's), and were set aside only at the end. The selection now runs again without them and finds both."""
+    sc = pg.run(11 * 100003 + 184)  # a scenario of the full run (seed 11), drawn whole
+    print(_line(sc))
+    assert (sc.layout, sc.kinds, sc.misread_share) == ("gantry_dual_y", "sag+straightness", 0.05)
+    assert sc.result["set_aside"] == sc.result["misreads"]
+    assert sorted(sc.result["added"]) == sorted(f"{h.joint}:poly{3 if h.kind == 'straightness' else 2}"
+                                                 for h in sc.hidden)
+    assert sc.result["held_out_um"] <= 1.2 * sc.result["oracle_um"]
+
+
+def test_the_final_model_says_what_it_explains_and_whether_structure_remains():
+    """The selection's last word: the share of the starting model's residual sum of squares the final model
+    explains, computed from the two fits, and whether anything structured remains."""
+    from kinid.identification import default_model, forward_select
+    from kinid.identification.selection import what_is_left
+
+    _, machine, obs = _data(3, "arm6", ["gear"])
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
+    text = what_is_left(steps)
+    print(text)
+    share = 1.0 - (steps[-1].diagnosis.rms_um / steps[0].diagnosis.rms_um) ** 2
+    assert len(steps) > 1 and f"explains {share:.0%} of the starting model's residual" in text and share > 0.3
+    assert steps[-1].diagnosis.verdict == "noise" and "nothing structured remains" in text
+
+
+def test_a_drift_and_an_error_of_the_axis_time_follows_are_named_inseparable():
+    """Class 2: a drift of the tool, the plan visited tilt-major (time follows B). An error of B's position explains
+    the data as well as the drift: the diagnosis names both and the plan's order as the cause, in the text, the
+    JSON and the selection's last word. Visited at random, the same drift is found without that note."""
+    from kinid.identification import default_model, diagnose, forward_select
+
+    _, machine, obs = _data(12, "five_axis_bc", ["drift"], plan_kind="patent", order="axis-major", misread_share=0.0)
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    print(dg.inseparable)
+    kinds = {":drift" in dg.live[0].effect or ":warmup:" in dg.live[0].effect}
+    assert dg.inseparable.startswith(dg.live[0].effect + " and ") and "time follows B" in dg.inseparable
+    other = dg.inseparable.split(" and ")[1].split(" ")[0]
+    kinds.add(":drift" in other or ":warmup:" in other)
+    assert kinds == {True, False}  # one driven by time, the other by B's position
+    assert "inseparable: " in dg.text() and dg.summary()["inseparable"] == dg.inseparable
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
+    assert "time follows B" in steps[-1].stopped
+    _, machine, obs = _data(12, "five_axis_bc", ["drift"], plan_kind="patent", order="random", misread_share=0.0)
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    assert ":drift" in dg.live[0].effect and not dg.inseparable
