@@ -34,6 +34,7 @@ from .leverage import axis_residuals, model_pass, noise_from_replicates, student
 from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
+from .local_errors import proposed_maps
 from .scoring import Candidate, _f_log10_p, score_all
 from .structure import structure_left
 
@@ -335,6 +336,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     # a σ given too small would make every candidate look significant by χ² (and one given too large, none).
     # The given σ still judges the residual as a whole (χ² below) and sizes the uncertainties.
     scored = score_all(machine, obs, result, sigma, False, d_errors, q0)
+    scored += proposed_maps(machine, obs, result, scored, sigma, False, d_errors, q0)
     location = {j.code for j in machine.error_joints if j.location}
     # best first; exact ties (identical columns) go to the location error, the more physical reading
     live = sorted([c for c in scored if c.status == "live"], key=lambda c: (round(c.log10_p, 6), c.effect.split(":")[0] not in location, c.rms_after_um))

@@ -10,8 +10,9 @@ candidates' blocks come from one Pinocchio pass: a candidate's column is its
 error joint's column times the basis value.
 
 Beyond the library (:func:`score_all`): free periods found by the period search
-(:mod:`~kinid.identification.periods`), non-parametric maps where no parametric
-candidate explains the residual, and local errors in windows of the best map.
+(:mod:`~kinid.identification.periods`) and time constants; the diagnosis adds
+non-parametric maps and local errors where no parametric candidate explains the
+residual (:mod:`~kinid.identification.local_errors`).
 
 References
 ----------
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinid.stats import chi2_isf, chi2_logsf, f_logsf
+from kinid.stats import chi2_logsf, f_logsf
 from kinid.threads import blas_single_threaded
 
 from .bases import basis_of
@@ -347,159 +348,6 @@ def _axis_unit(machine, axis: str) -> str:
     return "mm" if machine.axis(axis).kind == "prismatic" else "deg"
 
 
-#: A proposed map must gain over the best parametric candidate more χ² than its extra parameters would
-#: at this level.
-MAP_GAIN_ALPHA = 1e-3
-
-
-#: Readings (weighted by the knot's hat function) every knot of a proposed map must rest on.
-MAP_MIN_SUPPORT = 3.0
-
-
-#: Knot intervals over the measured range of an axis in a proposed map.
-MAP_INTERVALS = 40
-
-
-def _nice_step(span: float) -> float:
-    """A round step (1, 2 or 5 × 10^k) close to span / MAP_INTERVALS."""
-    raw = span / MAP_INTERVALS
-    k = math.floor(math.log10(raw))
-    for m in (1, 2, 5, 10):
-        if m * 10**k >= raw:
-            return m * 10**k
-    return 10 ** (k + 1)  # pragma: no cover
-
-
-def _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
-    """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range), or a local error
-    inside one, as a candidate.
-
-    It competes with the parametric candidates on its p-value, so a map wins only where no parametric
-    effect describes the structure. Local errors are tried inside the best maps and on the joints of the
-    best candidates of any kind (windows whose knots all rest on readings).
-    """
-    from dataclasses import replace
-
-    from kinid.errors import DataError
-
-    from .effects import axis_dependent_joints, parse_effect
-
-    maps, grids = [], {}
-    for code, axis in axis_dependent_joints(machine):
-        q = obs.axes[:, machine.axis_names.index(axis)]
-        lo, hi = float(np.min(q)), float(np.max(q))
-        distinct = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
-        positions = distinct.size
-        if not hi > lo or positions < LOCAL_MIN_POSITIONS:
-            continue
-        step = _nice_step(hi - lo)
-        lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
-        knots = np.arange(lo, hi + step / 2, step)
-        support = np.clip(1.0 - np.abs(q[:, None] - knots[None, :]) / step, 0.0, None).sum(axis=0)
-        try:
-            whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
-        except DataError:
-            continue
-        grids[code] = (whole, q, distinct)
-        # a whole map needs readings at every knot; else they cluster at a few positions and a knot is a guess
-        if positions >= 2 * MAP_INTERVALS and support.min() >= MAP_MIN_SUPPORT:
-            maps.append(whole)
-    have = {c.effect for c in scored}
-    fresh = [m for m in maps if m.name not in have]
-    live = sorted((c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
-                                               q0=q0) if c.status == "live"), key=lambda c: c.log10_p)
-    best = live[0] if live else None
-    # where to look for a local error: inside the best maps, and on the joints of the best candidates of any
-    # kind (a local error of an axis read at too few positions for a whole map shows first as a long period
-    # or a polynomial of its joint)
-    codes = [c.effect.split(":")[0] for c in live[:LOCAL_MAPS]] + [
-        c.effect.split(":")[0] for c in sorted((c for c in scored if c.status == "live"), key=lambda c: c.log10_p)[:LOCAL_MAPS]]
-    codes = [c for c in dict.fromkeys(codes) if c in grids]
-    windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
-    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
-                                         d_errors=d_errors, q0=q0) if c.status == "live"] if windows else []
-    if local:
-        # near ties (within a factor LOCAL_TIE in p) go to the joint of the best map, where the structure was seen
-        home = codes[0]
-        best_local = min(local, key=lambda c: c.log10_p - (math.log10(LOCAL_TIE) if c.effect.startswith(home + ":") else 0.0))
-        trials = float(len(windows))
-        log10_local = best_local.log10_p + math.log10(trials)
-        if best is None or log10_local < best.log10_p + math.log10(len(fresh)):
-            return [replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
-                            trials=trials)] if _beats_parametric(best_local, scored) else []
-    if best is None or not _beats_parametric(best, scored):
-        return []
-    log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
-    return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
-
-
-def _beats_parametric(candidate, scored) -> bool:
-    """A map must beat the best parametric candidate by more than its extra parameters gain by chance."""
-
-    parametric = [c for c in scored if c.status == "live"]
-    top = max(parametric, key=lambda c: c.statistic, default=None)
-    return not (top is not None and candidate.k > top.k and
-                candidate.statistic - top.statistic < chi2_isf(MAP_GAIN_ALPHA, candidate.k - top.k))
-
-
-#: Knot intervals of the local windows tried inside a proposed map (each zero at its ends).
-LOCAL_WIDTHS = (5, 6, 7, 8, 10)
-#: Local windows are tried inside this many of the best maps, and on the joints of as many best candidates.
-LOCAL_MAPS = 3
-#: A local error on the best map's joint is preferred to one this many times likelier elsewhere.
-LOCAL_TIE = 10.0
-#: Local windows need the axis read at this many distinct positions at least.
-LOCAL_MIN_POSITIONS = 12
-#: Knot steps of the local windows, in steps of the whole map (a local error narrower or wider than its knots
-#: is described by many of them, or none).
-LOCAL_STEPS = (0.5, 1.0, 2.0)
-#: A local window holds at least this many distinct positions more than it has parameters.
-LOCAL_SPARE_POSITIONS = 2
-
-
-def _hat_support(q, first: float, step: float, count: int) -> np.ndarray:
-    """Σ over readings ``q`` of each knot's hat function (1 at the knot, 0 a step away), for ``count`` knots every
-    ``step`` from ``first``: each reading shares itself between the two knots around it (O(N), no N × knots array)."""
-    x = (np.asarray(q, float) - first) / step
-    i = np.floor(x).astype(np.int64)
-    frac = x - i
-    out = np.zeros(count)
-    for index, weight in ((i, 1.0 - frac), (i + 1, frac)):
-        inside = (index >= 0) & (index < count)
-        out += np.bincount(index[inside], weights=weight[inside], minlength=count)
-    return out
-
-
-def _local_windows(whole, q, distinct, machine) -> list:
-    """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the range of the map
-    ``whole``, with knots every ``LOCAL_STEPS`` times its step: those whose knots all have a support (readings
-    ``q``, hat-weighted) of at least MAP_MIN_SUPPORT and that hold more ``distinct`` positions of the axis than
-    the window has parameters (else the spline between the positions is a guess: coefficients of any size fit
-    the same values)."""
-    from kinid.errors import DataError
-
-    from .effects import parse_effect
-
-    out = []
-    lo, hi = whole.knots[0], whole.knots[-1]
-    for factor in LOCAL_STEPS:
-        step = float(f"{(whole.knots[1] - whole.knots[0]) * factor:.6g}")
-        knots = np.arange(math.floor(lo / step) * step, hi + step / 2, step)
-        support = _hat_support(q, knots[0], step, len(knots))
-        for width in LOCAL_WIDTHS:
-            for i in range(0, len(knots) - width):
-                if np.min(support[i:i + width + 1]) < MAP_MIN_SUPPORT:
-                    continue
-                inside = np.count_nonzero((distinct > knots[i]) & (distinct < knots[i + width]))
-                if inside < width - 3 + LOCAL_SPARE_POSITIONS:  # width − 3 cubic B-splines lie in the window
-                    continue
-                try:
-                    out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
-                except DataError:
-                    continue
-    return out
-
-
 def _f_log10_p(c: Candidate, rss: float, dof: int) -> float:
     """log10 p of candidate ``c`` by the F test, σ estimated from the residuals (whitened rss, dof)."""
     dof2 = max(dof - c.k, 1)
@@ -515,10 +363,10 @@ _chi2_logsf = chi2_logsf
 
 
 def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0) -> list:
-    """Every candidate scored at ``result``: the library's, the free periods found, the proposed maps."""
+    """The candidates scored at ``result``: the library's, and the free periods and time constants found (the
+    diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.local_errors`)."""
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
     scored += _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
     scored += _found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0)
-    scored += _proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0)
     return scored
