@@ -13,6 +13,12 @@ Prints, side by side in one run, with one BLAS thread for everything
   with the FASTEST configuration that reaches kinid's cost; the chosen peer is
   named beside the ratio. Timings are interleaved (one kinid fit, then one run of
   each scipy configuration, repeated) so machine load hits all alike;
+- kinid's floor: the bare Pinocchio ``computeJointJacobians`` calls for the same
+  poses, one per pose for every pass of the model over the data the fit makes
+  (counted during the fit), timed in the same interleaved rounds; for reference
+  also the bare ``forwardKinematics`` calls, which is what kinid asks of
+  Pinocchio per pose (it forms the Jacobian columns it needs from the joint
+  placements, in numpy);
 - the same comparison at 3 360 alignments (the plan repeated 10 times with fresh
   noise);
 - at 336 alignments, finite differences for reference, ``kinid identify``
@@ -38,13 +44,15 @@ from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import pinocchio as pin  # noqa: E402
 import scipy  # noqa: E402
 import scipy.optimize  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
 from kinid.identification.effects import default_model  # noqa: E402
 from kinid.identification.fit import fit  # noqa: E402
-from kinid.identification.machine import evaluate, load_machine  # noqa: E402
+from kinid.identification import machine as machine_module  # noqa: E402
+from kinid.identification.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
 from kinid.identification.observations import write_observations  # noqa: E402
 from kinid.identification.residuals import design, residuals  # noqa: E402
 from kinid.identification.simulate import SECONDS_PER_ALIGNMENT, errors_from_mapping, patent_plan, simulate  # noqa: E402
@@ -98,7 +106,19 @@ def compare(m, obs, repeat):
         return J.reshape(-1, d.n_params)[:, free]
 
     x0 = np.zeros(free.sum())
-    runs = {"kinid": lambda: fit(m, obs, noise_um=1.0)}
+    passes = pinocchio_passes(m, obs)
+    qs = _configurations(m, axes_to_si(m, obs.axes), np.zeros((len(obs), len(m.error_joints))))
+    model, data = m.model, m.model.createData()
+
+    def floor(kinematics):
+        def run():
+            for _ in range(passes):
+                for q in qs:
+                    kinematics(model, data, q)
+        return run
+
+    floors = {"floor": floor(pin.computeJointJacobians), "floor_fk": floor(pin.forwardKinematics)}
+    runs = {"kinid": lambda: fit(m, obs, noise_um=1.0), **floors}
     for method, xs in CONFIGS:
         # scipy's default tolerances (1e-8): it stops as soon as the sum of squares settles, like kinid's LM
         runs[(method, xs)] = (lambda method=method, xs=xs:
@@ -119,9 +139,13 @@ def compare(m, obs, repeat):
     ss_kinid = float(np.sum(fun(res.values[free]) ** 2))
     print(f"kinid fit (in-process):                      median {med['kinid']*1e3:8.1f} ms, best {best['kinid']*1e3:8.1f} ms, "
           f"{res.iterations} iterations, sum of squares {ss_kinid:.9g} µm², RMS {res.rms_um:.4f} µm")
+    print(f"floor: {passes} passes x {len(obs)} bare computeJointJacobians calls: median {med['floor']*1e3:8.1f} ms, "
+          f"best {best['floor']*1e3:8.1f} ms -> kinid {med['kinid']/med['floor']:.2f}x its floor (median), "
+          f"{best['kinid']/best['floor']:.2f}x (best); the same count of forwardKinematics calls (what kinid calls): "
+          f"median {med['floor_fk']*1e3:.1f} ms")
     same = []
     for key in runs:
-        if key == "kinid":
+        if key == "kinid" or key in floors:
             continue
         sol = out[key]
         ss = float(np.sum(fun(sol.x) ** 2))
@@ -143,9 +167,32 @@ def compare(m, obs, repeat):
     verdict = "kinid faster" if ratio < 1 else "kinid SLOWER"
     print(f"  -> fastest scipy configuration reaching kinid's cost: {label(*peer)} ({med[peer]*1e3:.1f} ms median); "
           f"kinid / that peer time ratio {ratio:.2f} ({verdict}); "
-          f"kinid {med['kinid']*1e3:.1f} ms vs scipy " + ", ".join(f"{k[0]}/{k[1]} {med[k]*1e3:.1f}" for k in runs if k != "kinid")
+          f"kinid {med['kinid']*1e3:.1f} ms vs scipy " + ", ".join(f"{k[0]}/{k[1]} {med[k]*1e3:.1f}" for k in runs
+                                                                   if k != "kinid" and k not in floors)
           + " ms")
     return res, fun, free
+
+
+def pinocchio_passes(m, obs) -> int:
+    """How many passes of the model over ``obs`` one kinid fit makes (Pinocchio calls counted, / N)."""
+    calls = 0
+    originals = {name: getattr(pin, name) for name in ("forwardKinematics", "computeJointJacobians")}
+
+    def counting(f):
+        def wrapper(*args, **kwargs):
+            nonlocal calls
+            calls += 1
+            return f(*args, **kwargs)
+        return wrapper
+
+    try:
+        for name, f in originals.items():
+            setattr(machine_module.pin, name, counting(f))
+        fit(m, obs, noise_um=1.0)
+    finally:
+        for name, f in originals.items():
+            setattr(machine_module.pin, name, f)
+    return max(1, round(calls / len(obs)))
 
 
 def main():

@@ -20,12 +20,12 @@ from kinid.errors import DataError
 from kinid.threads import blas_single_threaded
 
 from .effects import check_effects, default_model, model_effects  # noqa: F401 (model_effects re-exported)
-from .identifiability import RANK_TOL, analyse
+from .identifiability import RANK_TOL, analyse, identifiable_columns, observability
 from .lm_step import lm_step as _lm_step
 from .machine import Machine, check_machine
 from .noise import Noise
 from .observations import Observations, check_observations
-from .fit_pass import model_pass_qr, residuals_chunked
+from .fit_pass import model_pass_qr
 from .residuals import design, residuals
 
 __all__ = ["FitResult", "Noise", "fit", "model_effects", "FIT_FORMAT"]
@@ -298,14 +298,16 @@ def fit(
             break
         trial = theta.copy()
         trial[free] += delta / D
-        r_new = residuals_chunked(machine, d, obs, trial)
-        cost_new = 0.5 * float(np.sum(r_new**2)) + prior_cost(trial)
+        # the residuals and the Jacobian at the trial point in one pass: most steps are taken, and the
+        # Jacobian then is the next step's (a step not taken costs the Jacobian's share of one pass)
+        ps_new = model_pass_qr(machine, d, obs, trial)
+        cost_new = 0.5 * float(np.sum(ps_new.r**2)) + prior_cost(trial)
         if cost_new <= cost:
             small = np.linalg.norm(delta) <= xtol * (1 + np.linalg.norm(xs))
             flat = cost - cost_new <= 1e-13 * cost
             theta, cost = trial, cost_new
             lam = max(lam / 10, 1e-12)
-            ps = model_pass_qr(machine, d, obs, theta)
+            ps = ps_new
             r = ps.r
             if small or flat:
                 success, message = True, f"converged in {it} iterations"
@@ -335,18 +337,21 @@ def fit(
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
     shared = _shared_std(machine, d, obs, theta, free)
     std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
-    final = analyse(_with_prior(ps.R, w_prior) / sigma, names, tol=rank_tol, rows=rows)
-    stats = final  # observability at the solution
-    if not np.array_equal(final.identifiable, free):
+    # observability at the solution: the singular values just computed are those of the unit-column Jacobian
+    # of the identifiable parameters (the analysis's), as long as the rank test at the solution keeps them
+    if np.array_equal(identifiable_columns(_with_prior(ps.R, w_prior) / sigma, tol=rank_tol), free):
+        condition_number, o1, o3 = observability(s, rows)
+        singular_values = s
+    else:
         message += "; the identifiable set changed at the solution (nonlinear aliasing): check the held parameters"
-        stats = ident
+        condition_number, o1, o3, singular_values = ident.condition_number, ident.o1, ident.o3, ident.singular_values
     values = np.where(free, theta, np.nan)
     units = tuple(u for e in effects for u in e.param_units(machine))
     return FitResult(
         machine=machine, effects=effects, param_names=tuple(names), units=units, values=values, std=std,
-        identifiable=free.copy(), aliases=ident.aliases, rank=rank, condition_number=stats.condition_number,
-        o1=stats.o1, o3=stats.o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
-        iterations=it, success=success, message=message, singular_values=stats.singular_values,
+        identifiable=free.copy(), aliases=ident.aliases, rank=rank, condition_number=condition_number,
+        o1=o1, o3=o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
+        iterations=it, success=success, message=message, singular_values=singular_values,
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
         prior_std=None if prior_std is None else np.asarray(prior_std, float),
     )

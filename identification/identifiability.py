@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Alias", "Identifiability", "analyse", "RANK_TOL", "INVISIBLE_TOL"]
+__all__ = ["Alias", "Identifiability", "analyse", "identifiable_columns", "observability", "RANK_TOL", "INVISIBLE_TOL"]
 
 #: A unit column whose distance to the span of the earlier columns is below this is dependent.
 RANK_TOL = 1e-8
@@ -113,18 +113,9 @@ def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float
     """
     M, P = J.shape
     M = M if rows is None else rows
-    norms = np.linalg.norm(J, axis=0)
-    biggest = norms.max() if P else 0.0
-    visible = norms > invisible_tol * max(biggest, np.finfo(float).tiny)
-    Jn = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
-    accepted = np.zeros(P, dtype=bool)
+    norms, visible, Jn, accepted, _ = _rank_test(J, tol, invisible_tol)
     aliases = []
     if P:
-        R = np.linalg.qr(Jn, mode="r")
-        diag = np.abs(np.diag(R)) if R.shape[0] >= P else np.r_[np.abs(np.diag(R)), np.zeros(P - R.shape[0])]
-        for j in range(P):
-            if visible[j] and diag[j] > tol:
-                accepted[j] = True
         acc = np.flatnonzero(accepted)
         for j in range(P):
             if accepted[j]:
@@ -138,8 +129,36 @@ def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float
             partners = tuple((names[earlier[i]], float(c[i] * norms[j] / norms[earlier[i]])) for i in order if abs(c[i]) > 1e-3)
             aliases.append(Alias(names[j], "aliased", partners, _describe(names[j], partners)))
     s = np.linalg.svd(Jn[:, accepted], compute_uv=False) if accepted.any() else np.zeros(0)
+    cond, o1, o3 = observability(s, M)
+    return Identifiability(accepted, int(accepted.sum()), tuple(aliases), s, cond, o1, o3)
+
+
+def identifiable_columns(J: np.ndarray, *, tol: float = RANK_TOL, invisible_tol: float = INVISIBLE_TOL) -> np.ndarray:
+    """(P,) bool: the parameters :func:`analyse` finds identifiable (its rank test alone, without the aliases
+    and the singular values)."""
+    return _rank_test(J, tol, invisible_tol)[3]
+
+
+def observability(s: np.ndarray, rows: int) -> tuple:
+    """(condition number, O1, O3) from the singular values ``s`` of the unit-column Jacobian of ``rows`` rows."""
     L = len(s)
-    o1 = float(np.exp(np.mean(np.log(s))) / np.sqrt(M)) if L and s.min() > 0 else 0.0
+    o1 = float(np.exp(np.mean(np.log(s))) / np.sqrt(rows)) if L and s.min() > 0 else 0.0
     o3 = float(s.min()) if L else 0.0
     cond = float(s.max() / s.min()) if L and s.min() > 0 else float("inf")
-    return Identifiability(accepted, int(accepted.sum()), tuple(aliases), s, cond, o1, o3)
+    return cond, o1, o3
+
+
+def _rank_test(J, tol, invisible_tol):
+    """Column norms, visible, unit columns, accepted (see the module docstring) and |diag R| of their QR."""
+    P = J.shape[1]
+    norms = np.linalg.norm(J, axis=0)
+    biggest = norms.max() if P else 0.0
+    visible = norms > invisible_tol * max(biggest, np.finfo(float).tiny)
+    Jn = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
+    accepted = np.zeros(P, dtype=bool)
+    diag = np.zeros(P)
+    if P:
+        R = np.linalg.qr(Jn, mode="r")
+        diag = np.abs(np.diag(R)) if R.shape[0] >= P else np.r_[np.abs(np.diag(R)), np.zeros(P - R.shape[0])]
+        accepted = visible & (diag > tol)
+    return norms, visible, Jn, accepted, diag

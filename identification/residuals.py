@@ -61,7 +61,16 @@ def design(machine: Machine, effects, obs: Observations, axes_user: np.ndarray |
 def joint_values(machine: Machine, d: Design, theta: np.ndarray) -> np.ndarray:
     """Error-joint values (N, n_errors) in µm / µrad for parameters ``theta`` (P,)."""
     values = np.zeros((d.basis.shape[0], len(machine.error_joints)))
-    np.add.at(values.T, d.joint_index, (d.basis * theta).T)
+    if d.n_params == 0:
+        return values
+    bt = d.basis * theta
+    index = d.joint_index
+    _, first = np.unique(index, return_index=True)  # each joint's first parameter
+    values[:, index[first]] = bt[:, first]
+    more = np.ones(len(index), dtype=bool)
+    more[first] = False
+    for k in np.flatnonzero(more):  # the joint's further parameters, added in order
+        values[:, index[k]] += bt[:, k]
     return values
 
 
