@@ -524,18 +524,31 @@ def main(argv=None):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullLocator
+
         keys = [k for k in summary if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all"))]
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
+        failed_label = "failed"
         for i, key in enumerate(keys):
-            vals = [v for v in (verdict_of(sc)["ratio"] for sc in scenarios
-                                if (sc.kinds if len(sc.hidden) <= 1 else "combination") == key) if np.isfinite(v)]
-            ax.scatter(np.full(len(vals), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(vals)), vals, s=12)
-        ax.axhline(1.5, color="k", lw=0.8, ls="--", label="1.5 × oracle")
+            items = [(v["ratio"], v["pass"]) for v in (verdict_of(sc) for sc in scenarios
+                                                       if (sc.kinds if len(sc.hidden) <= 1 else "combination") == key)
+                     if np.isfinite(v["ratio"])]
+            x = np.full(len(items), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(items))
+            ratio, ok = np.array([r for r, _ in items]), np.array([p for _, p in items], bool)
+            ax.scatter(x[ok], ratio[ok], s=12, color=f"C{i % 10}")
+            if (~ok).any():
+                ax.scatter(x[~ok], ratio[~ok], s=28, marker="x", color="k", lw=1.2, label=failed_label)
+                failed_label = None
+        ax.axhline(1.5, color="k", lw=0.8, ls="--", label="1.5 × oracle (above it a scenario passes only by a\n"
+                                                          "missing-effect verdict naming the right axis)")
         ax.set_yscale("log")
+        ax.yaxis.set_major_locator(FixedLocator([0.5, 0.75, 1, 1.5, 2, 3, 5, 10]))
+        ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+        ax.yaxis.set_minor_locator(NullLocator())
         ax.set_xticks(range(len(keys)), keys, rotation=30, ha="right")
         ax.set_ylabel("held-out error / oracle's")
-        ax.set_title(f"identify --auto on {len(scenarios)} drawn scenarios")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))
+        ax.set_title(f"identify --auto on {len(scenarios)} drawn scenarios (seed {args.seed})")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=8, frameon=False)
         fig.tight_layout()
         fig.savefig(args.figure)
 

@@ -51,10 +51,12 @@ def test_rates_on_drawn_scenarios(capsys):
             print(("PASS " if pg.verdict_of(sc)["pass"] else "FAIL ") + _line(sc))
         pg.print_table(summary)
     everything = summary["all"]
-    assert everything["pass"] >= 0.75
-    assert everything["worse_than_default"] <= 0.05
+    hidden = [pg.verdict_of(sc)["pass"] for sc in scenarios if sc.hidden]
+    assert everything["pass"] >= 0.85  # 90 % when written (36 of 40)
+    assert np.mean(hidden) >= 0.80  # 84 % (21 of 25)
+    assert everything["worse_than_default"] == 0.0
     none = [sc for sc in scenarios if not sc.hidden and sc.sigma_declared == pg.NOISE_UM]
-    assert all(not sc.result["added"] for sc in none)
+    assert none and all(not sc.result["added"] for sc in none)
 
 
 def test_the_held_out_check_refits_with_the_candidate():
