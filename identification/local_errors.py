@@ -69,7 +69,7 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> l
         step = _nice_step(hi - lo)
         lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
         knots = np.arange(lo, hi + step / 2, step)
-        support = np.clip(1.0 - np.abs(q[:, None] - knots[None, :]) / step, 0.0, None).sum(axis=0)
+        support = _hat_support(q, knots[0], step, len(knots))
         try:
             whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
         except DataError:
