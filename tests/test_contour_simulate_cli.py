@@ -31,3 +31,14 @@ def test_contour_report(tmp_path, capsys):
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "<h1>Contour error</h1>" in page and "ISO 230-4 circular deviation G" in page
     assert "rendered by --simulate" in page and (tmp_path / "rep" / "contour.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_simulate_measures_against_the_radius_given(tmp_path, capsys):
+    """--radius with --simulate is the nominal circle (it was ignored, and the report then stated the fitted radius
+    as the nominal R0 without saying it was fitted); --simulate with a path other than a circle is refused."""
+    assert main(["contour", "--simulate", "--sim-frames", "16", "--radius", "8.05", "--report", str(tmp_path / "rep")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "nominal radius R0</td><td>8.0500 mm</td>" in page
+    capsys.readouterr()
+    assert main(["contour", "--simulate", "--path", "line"]) == 2
+    assert "--simulate renders a circular run" in capsys.readouterr().err

@@ -103,13 +103,16 @@ def _simulate(args) -> int:
     from kinid.folders import check_listed_folder, listed_folder
     from kinid.vision import make_board, save_board, save_camera
     from .measure import measure_contour, track_csv
-    from .paths import CirclePath, contour_error
+    from .paths import contour_error
     from .report import write_report
     from .simulate import circle_motion, render_sequence, simulation_camera
     from .track import FrameSettings
 
     if not 8 <= args.sim_frames <= 2000:
         raise DataError(f"--sim-frames must be 8 .. 2000, got {args.sim_frames}")
+    if args.path != "circle":
+        raise DataError(f"--simulate renders a circular run: --path circle, got --path {args.path}", column="--path")
+    path = _path_from_args(args)  # --radius and --centre, if given, are the nominal circle's
     check_report(args)
     board = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
     camera = simulation_camera((512, 512), 0.03, k1=-0.05)
@@ -126,7 +129,7 @@ def _simulate(args) -> int:
         seq = render_sequence(frames, board, camera, motion, noise_sigma=2.0, rng=np.random.default_rng(args.seed))
         save_board(board, folder / "board.json")
         save_camera(camera, folder / "camera.json")
-        m = measure_contour(frames, board, FrameSettings(camera=camera, bits=board.bits), CirclePath(), fps=80.0,
+        m = measure_contour(frames, board, FrameSettings(camera=camera, bits=board.bits), path, fps=80.0,
                             workers=args.workers, scheduler=args.scheduler)
     if args.keep:
         folder = Path(args.keep)
@@ -144,7 +147,7 @@ def _simulate(args) -> int:
                          simulated=True)
     ok = m.track.located
     track_err = np.sqrt(np.mean(np.sum(((m.track.xy_mm - seq.track_mm) * 1e3)[ok] ** 2, axis=1)))
-    truth = contour_error(seq.track_mm, CirclePath())
+    truth = contour_error(seq.track_mm, path)
     summary = {"frames": int(len(ok)), "located": int(ok.sum()), "track_rms_error_um": float(track_err),
                "contour_rms_um": m.contour.rms_um, "true_contour_rms_um": truth.rms_um,
                "contour_max_um": m.contour.max_um, "true_contour_max_um": truth.max_um}
