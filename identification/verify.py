@@ -9,7 +9,8 @@ that fit leaves is the error the compensation did not remove, plus noise.
   would see it on the uncompensated machine (or, given the first run, what a set-up-only fit leaves
   of it);
 - *after*: what a set-up-only fit leaves of the second run;
-- whether that is at the noise level (χ² test against σ), and a diagnosis of what remains.
+- whether that is at the noise level (χ² test against σ; an F test where σ is the fit's estimate from its own
+  residuals, itself uncertain), and a diagnosis of what remains.
 """
 from __future__ import annotations
 
@@ -17,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinid.stats import chi2_sf
+import math
+
+from kinid.stats import chi2_sf, f_logsf
 
 from .diagnose import Diagnosis, diagnose
 from .effects import default_model
@@ -51,13 +54,17 @@ class Verification:
     noise_level_3d_um : float
         The 3-D RMS noise alone would leave after the set-up fit, µm.
     chi2_p : float
-        P-value of what is left against σ (NaN where σ was estimated from these data).
+        P-value of what is left against σ (NaN where σ was estimated from these data): χ², or F where σ is the
+        fit's estimate from its own residuals (``noise_dof`` degrees of freedom).
     at_noise_level : bool
         What is left is consistent with noise (p ≥ ALPHA).
     setup_fit : FitResult
         The set-up-only fit of the second run.
     diagnosis : Diagnosis
         What remains, ranked over the candidate library.
+    noise_dof : float
+        Degrees of freedom of σ: infinite where it was given or known, the fit's where the fit estimated it
+        from its residuals.
     """
 
     n_observations: int
@@ -70,6 +77,24 @@ class Verification:
     at_noise_level: bool
     setup_fit: FitResult
     diagnosis: Diagnosis
+    noise_dof: float = math.inf
+
+    @property
+    def noise_words(self) -> str:
+        """Where σ came from and which test it makes, in words."""
+        if self.noise.source == "given":
+            return "given"
+        if self.noise.source == "residuals":
+            return "estimated from this run's residuals: no noise test"
+        if math.isfinite(self.noise_dof):
+            return (f"the fit's estimate from its own residuals, {self.noise_dof:.0f} degrees of freedom, hence an F "
+                    f"test; what the fit's model left unexplained counts as noise in it")
+        return f"known to the fit ({self.noise.source})" if self.noise.source != "fit" else "known to the fit"
+
+    @property
+    def test(self) -> str:
+        """The noise test's name: χ² against a σ known, F against the fit's estimate."""
+        return "F test" if math.isfinite(self.noise_dof) else "χ²"
 
     def summary(self) -> dict:
         """The JSON object of ``kinid verify --json`` (docs/cli.md)."""
@@ -77,6 +102,7 @@ class Verification:
         return {"n_observations": self.n_observations, "before_um": self.before_um,
                 "before_source": self.before_source, "after_um": self.after_um,
                 "noise_um": self.noise.value_um, "noise_source": self.noise.source,
+                "noise_dof": None if not math.isfinite(self.noise_dof) else float(self.noise_dof),
                 "noise_level_3d_um": self.noise_level_3d_um,
                 "chi2_p": None if not np.isfinite(self.chi2_p) else float(self.chi2_p),
                 "at_noise_level": self.at_noise_level, "remaining_verdict": self.diagnosis.verdict,
@@ -93,15 +119,15 @@ class Verification:
                  f"  {'before (' + self.before_source + ')':<46}{row(self.before_um)}",
                  f"  {'after (this run, set-up refitted)':<46}{row(self.after_um)}",
                  f"  noise alone would leave about {self.noise_level_3d_um:.3f} µm 3-D "
-                 f"(σ = {self.noise.value_um:.3g} µm per coordinate, {self.noise.source})"]
+                 f"(σ = {self.noise.value_um:.3g} µm per coordinate, {self.noise_words})"]
         removed = 1.0 - self.after_um["3d"] / self.before_um["3d"] if self.before_um["3d"] > 0 else float("nan")
         if self.at_noise_level:
             lines.append("verdict: the compensation worked — what is left is at the noise level"
-                         + (f" (χ² p = {self.chi2_p:.3g})" if np.isfinite(self.chi2_p) else "")
+                         + (f" ({self.test} p = {self.chi2_p:.3g})" if np.isfinite(self.chi2_p) else "")
                          + (f"; {removed:.0%} of the 3-D error removed" if np.isfinite(removed) else ""))
         else:
             lines.append(f"verdict: error remains — {self.after_um['3d']:.3g} µm 3-D RMS against "
-                         f"{self.noise_level_3d_um:.3g} µm from noise (χ² p = {self.chi2_p:.3g})"
+                         f"{self.noise_level_3d_um:.3g} µm from noise ({self.test} p = {self.chi2_p:.3g})"
                          + (f"; {removed:.0%} of the 3-D error removed" if np.isfinite(removed) and removed > 0.1
                             else "; the error is as large as before: check that the compensation is loaded and "
                                  "active (the axes referenced)"))
@@ -161,10 +187,14 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     """
     machine = result.machine
     effects = setup_effects(machine)
+    noise_dof = math.inf
     if noise_um is not None:
         noise = Noise(float(noise_um), "given")
     elif result.noise.known:
         noise = Noise(result.noise_um, "fit")
+    elif result.dof > 0 and math.isfinite(result.noise_um) and result.noise_um > 0:
+        # the fit estimated σ from its own residuals: an estimate with the fit's degrees of freedom, tested by F
+        noise, noise_dof = Noise(result.noise_um, "fit"), float(result.dof)
     else:
         noise = None
     after_fit = fit(machine, after, effects, noise_um=noise)
@@ -179,11 +209,16 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     dof = after_fit.dof
     if noise is None:
         noise, p = after_fit.noise, float("nan")
+    elif dof <= 0:
+        p = float("nan")
+    elif math.isfinite(noise_dof):
+        ratio = float(np.sum(after_fit.residuals_um ** 2)) / dof / noise.value_um ** 2
+        p = math.exp(f_logsf(ratio, dof, noise_dof))
     else:
-        p = chi2_sf(float(np.sum(after_fit.residuals_um ** 2)) / noise.value_um ** 2, dof) if dof > 0 else float("nan")
+        p = chi2_sf(float(np.sum(after_fit.residuals_um ** 2)) / noise.value_um ** 2, dof)
     level = noise.value_um * float(np.sqrt(max(dof, 0) / n))
     remaining = diagnose(machine, after, effects, noise_um=noise.value_um if noise.known else None)
     at_noise = bool(np.isfinite(p) and p >= ALPHA) or (not np.isfinite(p) and remaining.verdict == "noise")
     return Verification(n_observations=n, before_um=before_um, before_source=source, after_um=after_um, noise=noise,
                         noise_level_3d_um=level, chi2_p=p, at_noise_level=at_noise, setup_fit=after_fit,
-                        diagnosis=remaining)
+                        diagnosis=remaining, noise_dof=noise_dof)

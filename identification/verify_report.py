@@ -68,9 +68,9 @@ def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
     sections = [Section("Before and after", tables=(table,), figures=(Figure(
         "before_after.png", "Tool point error before and after the compensation, RMS per coordinate and 3-D, "
                             "and the level the measurement noise alone leaves"),),
-        paragraphs=(f"σ {v.noise.value_um:.3g} µm per coordinate ({v.noise.source}); "
-                    + (f"χ² test of what is left against σ: p = {v.chi2_p:.3g}." if np.isfinite(v.chi2_p)
-                       else "σ estimated from these data: no noise test."),)),
+        paragraphs=(f"σ {v.noise.value_um:.3g} µm per coordinate ({v.noise_words})"
+                    + (f"; {v.test} of what is left against σ: p = {v.chi2_p:.3g}." if np.isfinite(v.chi2_p)
+                       else "."),)),
         Section("What remains", paragraphs=(f"Verdict of the diagnosis of the remaining error: "
                                             f"{v.diagnosis.verdict}.",),
                 details=v.diagnosis.text(top=10))]

@@ -111,3 +111,32 @@ def test_verify_refuses_a_fit_that_is_not_the_compensations(compensated, tmp_pat
     (tmp_path / "comp" / "compensation.json").write_text(json.dumps(info))
     assert main(["verify", "--compensation", str(tmp_path / "comp"), "--data", str(folder / "run1.csv")]) == 2
     assert "not the fit the compensation" in capsys.readouterr().err
+
+
+def test_verify_tests_against_the_fits_own_sigma_when_it_was_estimated(compensated, capsys):
+    """A fit made without --noise-um estimated σ from its residuals; verify carries that estimate (with the fit's
+    degrees of freedom, an F test) instead of estimating σ from the run it judges, which can never fail."""
+    folder = compensated
+    assert main(["identify", "--machine", MACHINE, "--data", str(folder / "run1.csv"), "--add", "EXX:periodic:10",
+                 "--out", str(folder / "fit_est.json")]) == 0
+    fit = json.loads((folder / "fit_est.json").read_text())
+    assert fit["noise_source"] == "residuals"
+    assert main(["compensate", "--fit", str(folder / "fit_est.json"), "--out", str(folder / "comp_est")]) == 0
+    second_run(folder / "run2_est.csv", folder / "comp_est", np.random.default_rng(21))
+    second_run(folder / "run2_est_plain.csv", folder / "comp_est", np.random.default_rng(22), compensated=False)
+    capsys.readouterr()
+    verdicts = {}
+    for name in ("run2_est", "run2_est_plain"):
+        assert main(["verify", "--compensation", str(folder / "comp_est"), "--data", str(folder / f"{name}.csv"),
+                     "--json"]) == 0
+        verdicts[name] = json.loads(capsys.readouterr().out)
+    done, not_loaded = verdicts["run2_est"], verdicts["run2_est_plain"]
+    for v in verdicts.values():
+        assert v["noise_source"] == "fit" and v["noise_dof"] == fit["dof"]
+        assert v["noise_um"] == pytest.approx(fit["noise_um"])
+        assert v["chi2_p"] is not None  # a test was made
+    assert done["at_noise_level"] and done["chi2_p"] >= 0.01
+    assert not not_loaded["at_noise_level"] and not_loaded["chi2_p"] < 1e-6
+    assert main(["verify", "--compensation", str(folder / "comp_est"), "--data", str(folder / "run2_est_plain.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "the fit's estimate from its own residuals" in out and "F test p = " in out
