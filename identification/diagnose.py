@@ -182,8 +182,8 @@ class Diagnosis:
             out["structure"] = {"ratio": float(st.ratio), "p_value": float(st.p_value), "along": st.along, "axis": st.axis}
         odd = self.fit.implausible()
         if odd:  # only when the fit needs sizes no machine has (docs/cli.md)
-            out["implausible"] = [{"effect": a.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit}
-                                  for a in odd]
+            out["implausible"] = [{"effect": a.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit,
+                                   "undetermined": a.undetermined} for a in odd]
         return out
 
     def text(self, top: int = 10) -> str:
@@ -239,12 +239,18 @@ class Diagnosis:
             lines.append("")
             lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
         odd = f.implausible()
-        if odd:
+        if any(not a.undetermined for a in odd):
             lines.append("")
             lines.append("the fit needs sizes no machine has: the observations look inconsistent (a sensor offset "
                          "not in the sensor file, a camera model that does not fit the lens, a unit) — check them "
                          "before adding effects:")
-            lines += [f"  - {a.describe()}" for a in odd]
+            lines += [f"  - {a.describe()}" for a in odd if not a.undetermined]
+        if any(a.undetermined for a in odd):
+            lines.append("")
+            lines.append("errors the plan hardly determines take sizes no machine has within their uncertainty "
+                         "(the poses barely tell them from other errors): fit with --prior to hold such errors near "
+                         "zero, or choose poses that determine them (kinid plan --param NAME=U):")
+            lines += [f"  - {a.describe()}" for a in odd if a.undetermined]
         missing = joints_the_urdf_lacks(f.machine)
         if missing and self.verdict == "missing-effect":
             lines.append("")

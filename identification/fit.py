@@ -177,11 +177,9 @@ class FitResult:
             lines.append(f"WARNING: {self.message}")
         elif "; " in self.message:  # converged, with a word more (the identifiable set changed at the solution)
             lines.append(f"WARNING: {self.message.split('; ', 1)[1]}")
-        odd = self.implausible()
-        if odd:
-            lines.append("WARNING: sizes no machine has (the observations look inconsistent — a sensor offset, a "
-                         "camera model, a unit — rather than these errors being there):")
-            lines += [f"  - {a.describe()}" for a in odd]
+        from .plausibility import warning_lines
+
+        lines += warning_lines(self.implausible())
         return "\n".join(lines)
 
     def implausible(self) -> tuple:

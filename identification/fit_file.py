@@ -97,7 +97,8 @@ def fit_to_dict(result: FitResult) -> dict:
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
-        "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit}
+        "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit,
+                         "undetermined": a.undetermined}
                         for a in result.implausible()],
     }
 

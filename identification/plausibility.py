@@ -10,9 +10,15 @@ The size of an effect is its largest value over the data: the value of a constan
 |value| of a position-dependent effect over the fitted range of its axis, a drift over an hour.
 A maximum a posteriori fit (``identify --prior``) also flags a constant beyond ``PRIOR_MULTIPLE`` times
 its prior's standard deviation: the prior said such a size is all but impossible.
+
+A constant whose implausible value lies within its expanded uncertainty (k = 2) is not evidence of
+inconsistent observations: the plan hardly determines it (a direction of the parameters the poses
+barely see), and zero is as likely. It is flagged as ``undetermined``, with the remedy that fits it:
+a prior on the sizes (``--prior``) or poses that determine it (``kinid plan``).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +26,7 @@ import numpy as np
 from .bases import basis_of
 from .effects import basis_values
 
-__all__ = ["Implausible", "implausible_effects", "LIMITS", "PRIOR_MULTIPLE"]
+__all__ = ["Implausible", "implausible_effects", "warning_lines", "LIMITS", "PRIOR_MULTIPLE"]
 
 #: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
 LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
@@ -38,9 +44,37 @@ class Implausible:
     size: float
     limit: float
     unit: str
+    std: float = math.nan  # of a constant's value; NaN for an effect of several parameters
+
+    @property
+    def undetermined(self) -> bool:
+        """The size lies within the value's expanded uncertainty (k = 2): the data hardly determine it."""
+        return bool(np.isfinite(self.std) and self.size <= 2.0 * self.std)
 
     def describe(self) -> str:
+        if self.undetermined:
+            return (f"{self.effect} = {self.size:.4g} ± {2.0 * self.std:.2g} {self.unit} (k = 2), beyond "
+                    f"{self.limit:g} {self.unit}: not determined by these data (zero is within its uncertainty)")
         return f"{self.effect} = {self.size:.4g} {self.unit}, beyond {self.limit:g} {self.unit}"
+
+
+#: What :func:`implausible_effects` flags, said once above the list (fit and diagnosis texts).
+INCONSISTENT = ("sizes no machine has (the observations look inconsistent — a sensor offset, a camera model, a "
+                "unit — rather than these errors being there)")
+UNDETERMINED = ("sizes no machine has within the uncertainty of errors the plan hardly determines (its poses barely "
+                "tell them from other errors): fit with --prior to hold such errors near zero, or choose poses that "
+                "determine them (kinid plan --param NAME=U)")
+
+
+def warning_lines(odd) -> list:
+    """The warning lines for flagged effects: the inconsistent ones and the undetermined ones apart."""
+    lines = []
+    for flagged, header in (([a for a in odd if not a.undetermined], INCONSISTENT),
+                            ([a for a in odd if a.undetermined], UNDETERMINED)):
+        if flagged:
+            lines.append(f"WARNING: {header}:")
+            lines += [f"  - {a.describe()}" for a in flagged]
+    return lines
 
 
 def _size(effect, theta, machine, axis_ranges) -> float:
@@ -74,5 +108,6 @@ def implausible_effects(result, names=None) -> tuple:
             limit = min(limit, PRIOR_MULTIPLE * float(prior[k - 1]))
         size = _size(e, th, machine, result.axis_ranges)
         if size > limit:
-            out.append(Implausible(e.name, size, limit, "µm" if e.unit == "um" else "µrad"))
+            std = float(result.std[k - 1]) if e.n_params == 1 and result.identifiable[k - 1] else math.nan
+            out.append(Implausible(e.name, size, limit, "µm" if e.unit == "um" else "µrad", std))
     return tuple(out)

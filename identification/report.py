@@ -92,6 +92,7 @@ def errors_table(fit_result, *, caption="", obs=None) -> Table:
     machine = fit_result.machine
     axes = axis_directions(machine)
     limits = axis_limits(machine)
+    flagged = {a.effect: a for a in fit_result.implausible()}
     rows, k = [], 0
     for e in fit_result.effects:
         axis_unit = ""
@@ -109,11 +110,22 @@ def errors_table(fit_result, *, caption="", obs=None) -> Table:
             else:
                 v, u = "held", "—"
             term = name[name.find("[") + 1:-1] if len(names) > 1 and name.endswith("]") else ""
-            rows.append((name, f"{what}, {term} term" if term else what, how if i == 0 else "as above", v, u, unit))
+            what_text = f"{what}, {term} term" if term else what
+            if e.name in flagged and i == 0:
+                what_text += " (⚠ a size no machine has: see below the table)"
+            rows.append((name, what_text, how if i == 0 else "as above", v, u, unit))
         k += e.n_params
+    notes = []
+    for a in flagged.values():
+        notes.append(f"⚠ {a.describe()}: " + (
+            f"the plan hardly determines it — fit with --prior to hold such errors near zero, or choose poses "
+            f"that determine it (kinid plan --param {a.effect}=U)" if a.undetermined else
+            "the observations look inconsistent (a sensor offset, a camera model, a unit) rather than the machine "
+            "having it"))
     return Table(("error", "what it is", "how it varies", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(3, 4),
-                 caption=caption or "U: expanded uncertainty, k = 2 (twice the standard deviation at the σ used); "
-                                    "held: not identifiable from these data (see below)")
+                 caption=(caption or "U: expanded uncertainty, k = 2 (twice the standard deviation at the σ used); "
+                                     "held: not identifiable from these data (see below)")
+                 + "".join(f". {n}" for n in notes))
 
 
 def _coverage(axis: str, obs, machine, limits, unit: str) -> str:

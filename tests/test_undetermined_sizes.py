@@ -1,0 +1,42 @@
+"""A size no machine has within its own uncertainty is a plan that hardly determines the error, not
+inconsistent observations: the warning says which, and points to the remedy that fits.
+
+On the B-head + C table the patent plan barely tells EA0Z from EY0C: their standard deviations are of
+35 000 µrad and 350 µm with 0.8 µm noise. The machine simulated has two small location errors only, so
+every size flagged is the plan's weak direction, never the machine.
+"""
+from __future__ import annotations
+
+import json
+
+from kinid.cli import main
+from kinid.urdf import path as urdf_path
+
+
+def test_weakly_determined_error_is_not_called_inconsistent_observations(tmp_path, capsys):
+    machine = str(urdf_path("five_axis_bhead_c"))
+    (tmp_path / "errors.json").write_text(json.dumps({"EX0C": 8.0, "EA0C": 25.0}))
+    assert main(["simulate", "--machine", machine, "--errors", str(tmp_path / "errors.json"), "--noise-um", "0.8",
+                 "--seed", "1", "--out", str(tmp_path / "obs.csv")]) == 0
+    capsys.readouterr()
+    assert main(["identify", "--machine", machine, "--data", str(tmp_path / "obs.csv"),
+                 "--out", str(tmp_path / "fit.json")]) == 0
+    out = capsys.readouterr().out
+    fit = json.loads((tmp_path / "fit.json").read_text())
+    flagged = {a["effect"]: a for a in fit["implausible"]}
+    assert flagged, "the plan should leave a location error free to take a size no machine has"
+    params = {p["name"]: p for p in fit["parameters"]}
+    for name, a in flagged.items():
+        p = params[name]
+        assert a["undetermined"] == (abs(p["value"]) <= 2 * p["std"])
+        assert a["undetermined"], f"{name} = {p['value']} ± {p['std']}: only errors of the plan's weak direction"
+    assert "the observations look inconsistent" not in out
+    assert "not determined by these data" in out and "--prior" in out
+    # the remedy named works: with the prior no size is flagged
+    assert main(["identify", "--machine", machine, "--data", str(tmp_path / "obs.csv"), "--prior", "--no-check",
+                 "--out", str(tmp_path / "fit_prior.json")]) == 0
+    assert json.loads((tmp_path / "fit_prior.json").read_text())["implausible"] == []
+    capsys.readouterr()
+    assert main(["diagnose", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "obs.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "errors the plan hardly determines" in out and "look inconsistent" not in out
