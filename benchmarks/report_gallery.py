@@ -4,8 +4,8 @@ headless Chromium is at hand: what a reviewer looks at before calling a report d
     python benchmarks/report_gallery.py OUT_DIR [--chromium PATH]
 
 Writes OUT_DIR/<report>/ (index.html, report.html, report.pdf and the figures) for demo, identify, identify
---auto, diagnose, verify, backlash, uvw, dual-axis and contour, the ISO 230-2 plot, a board (SVG and PDF),
-and OUT_DIR/<report>.png (the whole page at 1200 px wide) for each report page.
+--auto, diagnose, verify, backlash, uvw, dual-axis (each measured and simulated) and contour, the ISO 230-2
+plot, a board (SVG and PDF), and OUT_DIR/<report>.png (the whole page at 1200 px wide) for each report page.
 """
 from __future__ import annotations
 
@@ -40,6 +40,10 @@ def commands(out: Path) -> dict:
         "backlash": ["backlash", "--log", str(STAGES / "backlash" / "log.csv"), "--travel-mm", "0.4",
                      "--report", str(out / "backlash")],
         "uvw": ["uvw", "--moves", str(STAGES / "uvw_moves.csv"), "--lead-um", "2000", "--report", str(out / "uvw")],
+        "uvw-simulated": ["uvw", "--simulate", "--report", str(out / "uvw-simulated")],
+        "dual-axis-simulated": ["dual-axis", "--simulate", "--random-errors", "--report",
+                                str(out / "dual-axis-simulated")],
+        "backlash-simulated": ["backlash", "--simulate", "--repeats", "3", "--report", str(out / "backlash-simulated")],
         "dual-axis": ["dual-axis", "--data", str(STAGES / "dual_axis.csv"), "--pixel-to-mm", *PIXEL_TO_MM,
                       "--report", str(out / "dual-axis")],
         "contour": ["contour", "--simulate", "--sim-frames", "40", "--workers", "1", "--report", str(out / "contour")],

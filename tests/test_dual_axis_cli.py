@@ -36,7 +36,6 @@ def test_readable_report_and_plot(tmp_path, capsys):
     (["--spec-um", "0"], "--spec-um must be a positive number"),
     (["--noise", "-1"], "--noise must be a non-negative number"),
     (["--steps", "60", "--step-mm", "10"], "outside its travel"),
-    (["--report", "rep"], "--report is not written with --simulate"),
 ])
 def test_bad_input_one_line_exit_2(argv, match, capsys):
     assert main(["dual-axis", "--simulate", *argv]) == 2
@@ -65,3 +64,22 @@ def test_offset_table_is_written_to_a_file(tmp_path, capsys):
     np.testing.assert_allclose(rows[:, 0], [0, 20, 40, 60, 80])
     assert np.all(rows[0, 1:] == 0.0)
     assert rep["rounds"] >= 1
+
+
+def test_simulated_report_states_the_held_out_check(tmp_path, capsys):
+    """--simulate --report writes the simulated method's report: the table, the held-out check against the
+    simulated truth (the figures the text output prints), the figure, the single-file HTML and PDF."""
+    import json
+
+    args = ["dual-axis", "--simulate", "--steps", "8", "--step-mm", "20", "--seed", "3", "--random-errors"]
+    assert main([*args, "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert main([*args, "--report", str(tmp_path / "rep")]) == 0
+    assert f"report written to {tmp_path / 'rep'}" in capsys.readouterr().out
+    page = (tmp_path / "rep" / "index.html").read_text()
+    h = rep["held_out"]
+    for key in ("uncompensated_truth", "table_truth", "table_measured", "smooth_truth"):
+        assert f"{h[key]['max_um']:.3f}" in page
+    assert "seed 3, random errors" in page and f"{len(rep['table']['y_mm'])}" in page
+    for name in ("dual_axis_simulated.png", "report.html", "report.pdf"):
+        assert (tmp_path / "rep" / name).stat().st_size > 1000

@@ -39,7 +39,7 @@ def test_text_report_and_plot(tmp_path, capsys):
     (["--noise-um", "-1"], "noise-um must be >= 0"),
     (["--repeats", "0"], "repeats must be a positive integer"),
     (["--plot", "/nonexistent/dir/out.png", "--validation-moves", "5"], "output folder"),
-    (["--report", "rep", "--tables", "tab"], "--tables and --report are not written with --simulate"),
+    (["--report", "rep", "--tables", "tab"], "--tables is not written with --simulate"),
 ])
 def test_bad_arguments_exit_2_with_one_line(argv, message, capsys):
     assert main(["uvw", "--simulate", *argv]) == 2
@@ -57,3 +57,22 @@ def test_a_folder_that_cannot_be_made_is_one_line(tmp_path, capsys):
     assert main(["uvw", "--moves", str(moves), "--tables", str(tmp_path / "afile" / "tables")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "afile/tables: cannot use as output folder (Not a directory)" in err, err
+
+
+def test_simulated_report_compares_the_methods_on_the_same_moves(tmp_path, capsys):
+    """--simulate --report writes the simulated story's report: fitted against simulated values with k = 2
+    uncertainties, and the patent's method and the model on the same validation moves."""
+    import json
+
+    args = ["uvw", "--simulate", "--seed", "4", "--validation-moves", "20", "--repeats", "1", "--patent-repeats", "5"]
+    assert main([*args, "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert main([*args, "--report", str(tmp_path / "rep")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    backlash = r["model"]["X1"]["parameters"]["backlash_um"]
+    assert f"{backlash['value']:.3f}" in page and f"{2 * backlash['std']:.3f}" in page and f"{backlash['truth']:.3f}" in page
+    for method in ("uncompensated", "patent", "model"):
+        assert f"{r['validation']['all'][method]['rms_um']:.3f}" in page
+    assert "U (k = 2)" in page and "seed 4" in page
+    for name in ("uvw_simulated.png", "report.html", "report.pdf"):
+        assert (tmp_path / "rep" / name).stat().st_size > 1000

@@ -100,19 +100,24 @@ def plot_result(res, path, *, truth=None, after=None) -> None:
         if recs:
             ax0.plot([r.x_px for r in recs], [r.y_px for r in recs], "o", color=col, ms=5, label=role,
                      mfc="none" if role == "down" else col)
+    spots: dict = {}  # photos at one place (within 2 px) share one label: "2, 8" rather than two labels on top
     for r in res.log:
         if r.role == "scale" or r.role == "centre":
-            ax0.annotate(str(r.index), (r.x_px, r.y_px), fontsize=8, xytext=(3, 3), textcoords="offset points")
+            key = next((k for k in spots if abs(k[0] - r.x_px) <= 2 and abs(k[1] - r.y_px) <= 2), (r.x_px, r.y_px))
+            spots.setdefault(key, []).append(str(r.index))
+    for (x, y), names in spots.items():
+        ax0.annotate(", ".join(names), (x, y), fontsize=8, xytext=(3, 3), textcoords="offset points")
     ax0.invert_yaxis()
     ax0.set_aspect("equal", adjustable="datalim")
     ax0.set_xlabel("image x (px)")
     ax0.set_ylabel("image y (px)")
     ax0.set_title(f"fiducial per photo ({res.moves} moves)")
-    ax0.legend(fontsize=8)
+    ax0.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=4, handletextpad=0.2,
+               columnspacing=0.8, frameon=False)  # below the photos: no point or label under it
 
     # reversal gaps along each axis, before and after compensation
     before = gaps_um(res)
-    labels = {"x": "X", "y": "Y", "theta": "θ (arc)"}
+    labels = {"x": "X", "y": "Y", "theta": f"θ: arc at\nr = {res.theta_radius_mm:.3g} mm"}
     for k, axis in enumerate(("x", "y", "theta")):
         g = before[axis]
         ax1.plot(np.full(g.size, k - 0.12), g, "o", color="tab:red", ms=7, label="before" if k == 0 else None)
@@ -149,6 +154,7 @@ def plot_result(res, path, *, truth=None, after=None) -> None:
         ax2.axhline(truth["pixel_um_y"], color="tab:orange", ls=":", lw=1, label="true along Y")
         ax2.legend(fontsize=8)
     ax2.set_xticks(idx)
+    ax2.set_xlim(0.5, per.size + 0.8)  # room for the last point's label inside the frame
     ax2.set_xlabel("non-reversal move")
     ax2.set_ylabel("pixel equivalent (µm/px)")
     ax2.set_title(f"pixel equivalent (µm/px)\nX {res.pixel_mm_x * 1e3:.5f}, Y {res.pixel_mm_y * 1e3:.5f}", fontsize=9)

@@ -44,7 +44,8 @@ def register(subparsers) -> None:
         p, out=("TABLE.csv", "write the offset table: camera_y_mm,head_dx_mm,head_dy_mm"),
         plot=("OUT.png", "plot of the plate offset before/after compensation"),
         json="print one JSON object instead of the report",
-        report=("DIR", "with --data: write an HTML report (with the plot) into DIR"))
+        report=("DIR", "write an HTML report (with the plot) into DIR: of the measured round, or of the "
+                               "simulated method"))
     sim = p.add_argument_group("simulated gantry (--simulate)")
     sim.add_argument("--y-start-mm", type=float, default=0.0, help="camera Y at the start, mm (default 0)")
     sim.add_argument("--step-mm", type=float, default=10.0, help="step of both Y axes, mm (default 10)")
@@ -111,12 +112,9 @@ def _run(args) -> int:
         raise DataError(f"output folder {str(Path(args.plot).parent)!r} does not exist", path=args.plot)
     if args.data:
         return _measured(args)
-    from ..outputs import refuse_unused
-
-    refuse_unused(args, ("report",), "--simulate",
-                  "it is of a measured run (--data); the simulated method writes --plot, --out and --json")
+    check_report(args)
     from .demo import run_simulation
-    from .report import plot_simulation, simulation_text
+    from .report import plot_simulation, simulation_text, write_simulated_report
 
     result = run_simulation(y_start_mm=args.y_start_mm, step_mm=args.step_mm, n_steps=args.steps,
                             spec_um=args.spec_um, max_rounds=args.max_rounds, degree=args.degree,
@@ -124,6 +122,9 @@ def _run(args) -> int:
                             repeat_um=args.repeat_um)
     if args.plot:
         plot_simulation(args.plot, result)
+    if args.report:
+        with staged_report(args) as staged:
+            write_simulated_report(staged, result)
     if args.out:
         from kinid.files import write_text
 
@@ -139,4 +140,6 @@ def _run(args) -> int:
             print(f"plot written to {args.plot}")
         if args.out:
             print(f"offset table written to {args.out}")
+        if args.report:
+            print(f"report written to {args.report}")
     return 0

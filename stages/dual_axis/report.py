@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-__all__ = ["plot_simulation", "simulation_text", "write_measured_report", "plot_measured"]
+__all__ = ["plot_simulation", "simulation_text", "write_measured_report", "write_simulated_report", "plot_measured"]
 
 
 def plot_simulation(path, result) -> None:
@@ -29,16 +29,17 @@ def plot_simulation(path, result) -> None:
         ax.plot(ys, before[:, col], "k-", label="before compensation")
         ax.plot(table.y_mm, -table.offset_mm[:, col] * 1e3, "o", ms=3, label="table vertices (negated)")
         ax.set_title(f"plate offset, {name}")
-        ax.set_ylabel("µm")
+        ax.set_ylabel("offset (µm)")
         ax = axes[1, col]
+        ax.set_title(f"left after compensation, {name}")
         ax.plot(ys, after_t[:, col], "-", label="after: table")
         ax.plot(ys, after_s[:, col], "-", label=f"after: smooth (degree {smooth.degree})")
         ax.plot(result["held_out_mm"], result["measured_um"]["table"][:, col], "x", ms=4,
                 label="held-out, table, measured by camera")
         ax.axhline(table.spec_um, color="grey", lw=0.5, ls="--")
         ax.axhline(-table.spec_um, color="grey", lw=0.5, ls="--")
-        ax.set_xlabel("camera Y, mm")
-        ax.set_ylabel("µm")
+        ax.set_xlabel("camera Y (mm)")
+        ax.set_ylabel("offset left (µm)")
     fig.suptitle(f"dual Y axes: {table.message}", fontsize=9)
     fig.tight_layout()
     legend_below(fig, list(axes.ravel()), columns=3)
@@ -69,6 +70,60 @@ def simulation_text(rep: dict) -> str:
     return "\n".join(lines)
 
 
+def _pixel_words(matrix) -> str:
+    """A 2 × 2 pixel-to-mm matrix in words: the matrix, the pixel size and the camera's turn."""
+    (a, b), (c, d) = (tuple(float(v) for v in row) for row in matrix)
+    return (f"[[{a:g}, {b:g}], [{c:g}, {d:g}]] mm per pixel (x = {a:g}·u + {b:g}·v, y = {c:g}·u + {d:g}·v for a "
+            f"shift of u, v pixels): pixel size {1e3 * abs(a * d - b * c) ** 0.5:.4g} µm, camera turned "
+            f"{math.degrees(math.atan2(c, a)):.3g}° from the machine axes")
+
+
+def write_simulated_report(args, result) -> None:
+    """The HTML report of the simulated method (``kinid dual-axis --simulate --report DIR``): the table found by
+    the rounds, and the table and the smooth model checked at held-out positions against the simulated truth."""
+    from pathlib import Path
+
+    from kinid.report_html import Figure, Section, Table, now_utc, write_report
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_simulation(folder / "dual_axis_simulated.png", result)
+    rep, table, smooth = result["report"], result["table"], result["smooth"]
+    rows = tuple((f"{y:.3f}", f"{dx:.3f}", f"{dy:.3f}") for y, (dx, dy) in zip(table.y_mm, table.offset_mm * 1e3))
+    offsets = Table(("camera Y (mm)", "head dx (µm)", "head dy (µm)"), rows, numeric=(0, 1, 2),
+                    caption=f"The offset table after {rep['rounds']} round(s) "
+                            f"({'converged' if rep['converged'] else 'NOT converged'}: the last round changed no entry "
+                            f"by more than {rep['max_change_um'][-1]:.3g} µm; spec {rep['spec_um']:g} µm).")
+    h = rep["held_out"]
+    labels = (("uncompensated_truth", "uncompensated (truth)"), ("table_truth", "with the table (truth)"),
+              ("table_measured", "with the table, measured by the camera"),
+              ("smooth_truth", f"with the smooth model, degree {smooth.degree} (truth)"),
+              ("smooth_measured", "with the smooth model, measured by the camera"))
+    held = Table(("", "max |x| (µm)", "max |y| (µm)", "max (µm)", "RMS (µm)"),
+                 tuple((label, *(f"{h[key][k]:.3f}" for k in ("max_x_um", "max_y_um", "max_um", "rms_um")))
+                       for key, label in labels), numeric=(1, 2, 3, 4),
+                 caption=f"Plate offset at {h['positions']} held-out positions (half-way between the table's), the "
+                         "simulated truth and what the camera measures there.")
+    summary = [f"The table brings the two Y axes' offset from {h['uncompensated_truth']['max_um']:.3g} µm to "
+               f"{h['table_truth']['max_um']:.3g} µm at most at positions it was not measured at; the smooth model "
+               f"to {h['smooth_truth']['max_um']:.3g} µm — the {rep['better']} is the better compensation here.",
+               "Next: measure the real gantry (kinid dual-axis --data MEAS.csv --pixel-to-mm A B C D --report DIR)."]
+    prov = [("measured", f"the simulated gantry (seed {args.seed}{', random errors' if args.random_errors else ''}, "
+                         f"image noise {args.noise:g} grey levels, axis repeatability {args.repeat_um:g} µm)"),
+            ("plan", f"{rep['steps']} steps of {rep['step_mm']:g} mm from camera Y {rep['y_start_mm']:g} mm"),
+            ("pixel to mm", _pixel_words(rep["pixel_to_mm"]) + "; simulated: "
+                            + _pixel_words(rep["true_pixel_to_mm"]).split(" mm per pixel")[0]),
+            ("made", now_utc())]
+    sections = [Section("Offset table", tables=(offsets,)),
+                Section("Checked at held-out positions", tables=(held,), figures=(Figure(
+                    "dual_axis_simulated.png", "Top: the plate offset before compensation per head axis and the "
+                    "table's vertices (negated). Bottom: what is left with the table and with the smooth model, and "
+                    "the camera's measurement at the held-out positions (dashed: the spec)."),)),
+                Section("Text output", details=simulation_text(rep))]
+    write_report(folder, "Dual-axis offset table, simulated gantry", "kinid dual-axis --simulate", prov, summary,
+                 sections)
+
+
 def write_measured_report(args, table, smooth) -> None:
     """The HTML report of one measured round (kinid.report_html)."""
     from pathlib import Path
@@ -84,9 +139,7 @@ def write_measured_report(args, table, smooth) -> None:
                f"{smooth.parallelism_urad:.3g} µrad, scale {smooth.scale_um_per_m:.3g} µm/m.",
                f"{table.message[0].upper() + table.message[1:]}."]
     a, b, c, d = (float(v) for v in args.pixel_to_mm)
-    pixel = (f"[[{a:g}, {b:g}], [{c:g}, {d:g}]] mm per pixel (x = {a:g}·u + {b:g}·v, y = {c:g}·u + {d:g}·v for a "
-             f"shift of u, v pixels): pixel size {1e3 * abs(a * d - b * c) ** 0.5:.4g} µm, camera turned "
-             f"{math.degrees(math.atan2(c, a)):.3g}° from the machine axes")
+    pixel = _pixel_words(((a, b), (c, d)))
     prov = [("measured", file_provenance(args.data)), ("pixel to mm", pixel), ("made", now_utc())]
     caption = ("One measurement per point, so one round cannot tell its uncertainty; the points scatter about the "
                f"smooth model by {smooth.rms_um[0]:.3g} µm RMS in x and {smooth.rms_um[1]:.3g} µm in y (an upper "

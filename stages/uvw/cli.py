@@ -28,7 +28,8 @@ def register(subparsers) -> None:
         tables=("DIR", "write each actuator's error table (CSV and every format of kinid.axis_tables)"),
         plot=("OUT.png", "write errors before/after and residual vs position mod lead"),
         json="print one JSON object instead of the report",
-        report=("DIR", "with --moves: write an HTML report (with the plot) into DIR"))
+        report=("DIR", "write an HTML report (with the plot) into DIR: of the measured moves, or of the "
+                               "simulated story"))
     sim = p.add_argument_group("simulated stage (--simulate)")
     sim.add_argument("--seed", type=int, default=0, help="seed of the noise and the random moves (default 0)")
     sim.add_argument("--repeats", type=int, default=3, help="bidirectional sweeps of the model's test plan (default 3)")
@@ -86,8 +87,9 @@ def _run(args) -> int:
         raise DataError(f"--lead-um must be a positive number (screw lead, µm), got {args.lead_um!r}")
     if args.moves:
         return _measured(args)
-    refuse_unused(args, ("tables", "report"), "--simulate",
-                  "they are of measured moves (--moves); the simulated story writes --plot, --out and --json")
+    refuse_unused(args, ("tables",), "--simulate",
+                  "they are of measured moves (--moves); the simulated story writes --plot, --out, --report and --json")
+    check_report(args)
     noise_um = 0.1 if args.noise_um is None else args.noise_um
     if not (noise_um >= 0 and math.isfinite(noise_um)):
         raise DataError(f"--noise-um must be >= 0, got {noise_um!r}")
@@ -102,6 +104,11 @@ def _run(args) -> int:
                       patent_repeats=args.patent_repeats, moves=args.moves_n, progress=None)
     if args.plot:
         plot_demo(result, args.plot)
+    if args.report:
+        from .report import write_simulated_report
+
+        with staged_report(args) as staged:
+            write_simulated_report(result, staged)
     public = {k: v for k, v in result.items() if not k.startswith("_")}
     if args.out:
         from kinid.files import write_json
@@ -113,6 +120,8 @@ def _run(args) -> int:
         print(strict_json(public))
         return 0
     print(demo_text(public, args.plot))
+    if args.report:
+        print(f"report written to {args.report}")
     return 0
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .kinematics import ACTUATORS
 
-__all__ = ["write_measured_report", "plot_measured", "demo_text", "quantity"]
+__all__ = ["write_measured_report", "write_simulated_report", "plot_measured", "demo_text", "quantity"]
 
 
 def quantity(name: str, value: float, std: float, truth: str = "") -> str:
@@ -48,6 +48,75 @@ def write_measured_report(models, args) -> None:
                         "position per actuator, each approach direction, with the model. Bottom: what the model "
                         "leaves (the error after compensation)."),))]
     write_report(folder, "UVW stage: actuator error models", "kinid uvw", prov, summary, sections)
+
+
+def write_simulated_report(result: dict, args) -> None:
+    """The HTML report of the simulated story (``kinid uvw --simulate --report DIR``): the fitted models against
+    the simulated truth, and the patent's method and the model on the same random alignment moves."""
+    from pathlib import Path
+
+    from kinid.report_html import Figure, Section, Table, now_utc, write_report
+
+    from .demo import plot_demo
+
+    folder = Path(args.report)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_demo(result, folder / "uvw_simulated.png")
+    rows = []
+    for a in ACTUATORS:
+        for n, v in result["model"][a]["parameters"].items():
+            stem, _, unit = n.rpartition("_")
+            truth = f"{v['truth']:.3f}" if "truth" in v else "—"
+            rows.append((a, _parameter_words(stem), f"{v['value']:.3f}", f"{2 * v['std']:.3f}", truth,
+                         {"um": "µm"}.get(unit, unit)))
+    models = Table(("actuator", "parameter", "fitted", "U (k = 2)", "simulated", "unit"), tuple(rows),
+                   numeric=(2, 3, 4),
+                   caption="The error of each actuator, measured − commanded position at command c (µm), approached "
+                           "in direction d = ±1: offset + scale·c − d·B/2 + Σ_h (s_h sin 2πhc/L + k_h cos 2πhc/L), "
+                           "B the backlash, L the screw lead, s_h and k_h the sine and cosine parts of the h-th "
+                           "harmonic of the lead error; terms chosen by BIC. —: not a term of the simulated stage "
+                           "(there it is zero). "
+                           "U: expanded uncertainty, k = 2.")
+    val = result["validation"]
+    methods = ("uncompensated", "patent", "model")
+    words = {"uncompensated": "uncompensated", "patent": "the patent's method", "model": "the fitted model"}
+    vrows = tuple((("all actuators" if a == "all" else a) if m == methods[0] else "", words[m],
+                   *(f"{(val['all'] if a == 'all' else val['per_actuator'][a])[m][k]:.3f}" for k in ("rms_um", "max_um")))
+                  for a in (*ACTUATORS, "all") for m in methods)
+    validation = Table(("actuator", "compensation", "RMS (µm)", "max (µm)"), vrows, numeric=(2, 3),
+                       caption=f"True position error after {result['moves_per_actuator']} random alignment moves of "
+                               "50–2000 µm per actuator, each compensated by the patent's method (a shortfall "
+                               "interpolated between two strokes) and by the fitted model.")
+    prows = tuple((a, *(f"{result['patent'][a][k]:.3f}" for k in ("delta_xn_um", "delta_xm_um", "delta_x_um")),
+                   f"{result['patent'][a]['slope_ppm']:.0f}") for a in ACTUATORS)
+    patent = Table(("actuator", "shortfall at stroke m (µm)", "at stroke n (µm)", "mean (µm)", "slope (ppm)"),
+                   prows, numeric=(1, 2, 3, 4),
+                   caption=f"The patent's test: {result['patent'][ACTUATORS[0]]['repeats']} measurements per stroke of "
+                           f"m = {result['patent'][ACTUATORS[0]]['m_um']:g} µm and n = "
+                           f"{result['patent'][ACTUATORS[0]]['n_um']:g} µm; the shortfall is interpolated linearly in "
+                           "the stroke.")
+    a = val["all"]
+    summary = [f"On random alignment moves the fitted model leaves {a['model']['rms_um']:.3g} µm RMS "
+               f"({a['model']['max_um']:.3g} µm at most) of the uncompensated {a['uncompensated']['rms_um']:.3g} µm; "
+               f"the patent's method leaves {a['patent']['rms_um']:.3g} µm ({a['patent']['max_um']:.3g} µm at most).",
+               f"Next: measure the real stage's moves and fit them (kinid uvw --moves MOVES.csv --lead-um "
+               f"{result['lead_um']:g} --report DIR)."]
+    prov = [("measured", f"a simulated UVW stage (seed {result['seed']}, vision noise {result['noise_um']:g} µm, "
+                         f"screw lead {result['lead_um']:g} µm)"),
+            ("plan", f"model test {result['calibration_moves']['model']} moves, patent test "
+                     f"{result['calibration_moves']['patent']} moves, {result['moves_per_actuator']} validation moves "
+                     "per actuator"),
+            ("made", now_utc())]
+    sections = [Section("Fitted models against the simulated stage", tables=(models,)),
+                Section("The patent's method and the model on the same moves", tables=(validation, patent),
+                        figures=(Figure("uvw_simulated.png", "Left: the true error after each validation move, "
+                                        "uncompensated, by the patent's method and by the model (dashed: ±0.6 µm). "
+                                        "Middle: what a scale-and-reversal model (the patent's kind) leaves, against "
+                                        "the commanded position modulo the lead. Right: what the full model leaves."),)),
+                Section("Text output", details=demo_text({k: v for k, v in result.items() if not k.startswith("_")},
+                                                         None))]
+    write_report(folder, "UVW stage, simulated: the patent's method and the actuator model", "kinid uvw --simulate",
+                 prov, summary, sections)
 
 
 def _parameter_words(stem: str) -> str:
