@@ -144,12 +144,28 @@ def _hat_support(q, first: float, step: float, count: int) -> np.ndarray:
     return out
 
 
+def _bspline_support(q, first: float, step: float, count: int) -> np.ndarray:
+    """Σ over readings ``q`` of each cubic B-spline centred every ``step`` from ``first`` (``count`` of them): the
+    readings a local error's coefficient rests on. Each reading touches four B-splines (O(N))."""
+    x = (np.asarray(q, float) - first) / step
+    i = np.floor(x).astype(np.int64)
+    f = x - i
+    out = np.zeros(count)
+    for shift, weight in ((-1, (1 - f) ** 3 / 6), (0, (4 - 6 * f**2 + 3 * f**3) / 6),
+                          (1, (1 + 3 * f + 3 * f**2 - 3 * f**3) / 6), (2, f**3 / 6)):
+        index = i + shift
+        inside = (index >= 0) & (index < count)
+        out += np.bincount(index[inside], weights=weight[inside], minlength=count)
+    return out
+
+
 def _local_windows(whole, q, distinct, machine) -> list:
     """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the range of the map
-    ``whole``, with knots every ``LOCAL_STEPS`` times its step: those whose knots all have a support (readings
-    ``q``, hat-weighted) of at least MAP_MIN_SUPPORT and that hold more ``distinct`` positions of the axis than
-    the window has parameters (else the spline between the positions is a guess: coefficients of any size fit
-    the same values)."""
+    ``whole``, with knots every ``LOCAL_STEPS`` times its step: those whose every B-spline (every coefficient)
+    rests on readings ``q`` of a support (Σ of its values) of at least MAP_MIN_SUPPORT and that hold more
+    ``distinct`` positions of the axis than the window has parameters (else the spline between the positions is
+    a guess: coefficients of any size fit the same values). The window's end knots carry no coefficient (the
+    error is zero there) and need no readings of their own."""
     from kinid.errors import DataError
 
     from .effects import parse_effect
@@ -159,10 +175,10 @@ def _local_windows(whole, q, distinct, machine) -> list:
     for factor in LOCAL_STEPS:
         step = float(f"{(whole.knots[1] - whole.knots[0]) * factor:.6g}")
         knots = np.arange(math.floor(lo / step) * step, hi + step / 2, step)
-        support = _hat_support(q, knots[0], step, len(knots))
+        support = _bspline_support(q, knots[0], step, len(knots))  # of the B-spline centred at each knot
         for width in LOCAL_WIDTHS:
             for i in range(0, len(knots) - width):
-                if np.min(support[i:i + width + 1]) < MAP_MIN_SUPPORT:
+                if np.min(support[i + 2:i + width - 1]) < MAP_MIN_SUPPORT:  # the window's B-splines' centres
                     continue
                 inside = np.count_nonzero((distinct > knots[i]) & (distinct < knots[i + width]))
                 if inside < width - 3 + LOCAL_SPARE_POSITIONS:  # width − 3 cubic B-splines lie in the window
