@@ -108,6 +108,7 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
     for ax in axs[::3]:
         ax.set_ylabel("Lomb–Scargle power (µm²)")
     fig.suptitle("Residual periodogram (red: candidate periods)")
+    fig.tight_layout()  # tick labels of one panel clear of the next
     save_figure(fig, path)
 
 
