@@ -23,8 +23,9 @@ user would give them, runs ``forward_select`` (``identify --auto``), and the fin
 and each hidden effect's exact shape with its size free (a basis registered for it here), fitted on
 the same rows with the misreads known and left out. A scenario with hidden effects passes when the
 final held-out 3-D RMS is ≤ 1.5× the oracle's, or the final verdict is "missing-effect" naming an
-axis the hidden effect involves (its best candidate's when that is significant, else the axis along
-which the neighbour test finds the residual most structured). Printed per class: pass rate, median
+axis the hidden effect involves (the axis of an error whose period the selection says the positions do not
+determine; else its best candidate's when that is significant; else the axis along which the neighbour test
+finds the residual most structured). Printed per class: pass rate, median
 and worst held-out/oracle, the share worse than the default model (by > 5 %), on no-effect
 scenarios with σ given correctly the share that added anything, and the pass rate against the
 stricter floor of earlier runs ("pass/floor": the default model fitted on rows of the machine
@@ -373,9 +374,11 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     oracle = held_out_um(oracle_fit, truth_effects)
     added = [s.added for s in steps[1:] if s.added]
     dg = final.diagnosis
-    # what the verdict names: the best candidate when it is significant, else where the neighbour test found the
-    # residual most structured
-    if dg.live and dg.live[0].p_value < dg.threshold:
+    # what the verdict names: the error joints whose period the selection says it could not determine, the best
+    # candidate when it is significant, else where the neighbour test found the residual most structured
+    if final.undetermined and dg.verdict == "missing-effect":
+        named = set().union(*(_named_axes(code, machine) for code in final.undetermined))
+    elif dg.live and dg.live[0].p_value < dg.threshold:
         named = _named_axes(dg.live[0].effect, machine)
     else:
         named = {dg.structure.axis} if dg.structure is not None and dg.structure.axis else set()

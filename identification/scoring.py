@@ -344,6 +344,42 @@ def _found_time_constants(machine, obs, result, scored, sigma, known, d_errors, 
     return out
 
 
+#: An added warm-up's time constant is refined within this factor either side of the candidate's.
+TAU_REFINE_FACTOR = 3.0
+
+
+def refined_time_constant(machine: Machine, obs: Observations, result: FitResult, name: str, sigma: float) -> str:
+    """``CODE:warmup:<τ>`` with τ refined to the one whose candidate explains most of the residuals of ``result``
+    (a log grid within TAU_REFINE_FACTOR of the candidate's τ, then a bounded search in log τ); any other name as
+    it is. A warm-up is proposed at the τ of the library's grid (a factor 3 apart) or of the search, whose trials
+    penalty may keep a better τ out; fitted at a τ off the machine's, its amplitude misses the growth between."""
+    from scipy.optimize import minimize_scalar
+
+    from .effects import parse_effect
+
+    code, kind, tau = (name.split(":") + ["", ""])[:3]
+    if kind != "warmup" or obs.t_s is None:
+        return name
+    d_errors, _, q0 = model_pass(machine, obs, result)
+
+    def named(log_tau) -> str:  # four significant digits, never in exponent notation
+        digits = np.format_float_positional(math.exp(log_tau), precision=4, unique=False, fractional=False, trim="-")
+        return f"{code}:warmup:{digits}"
+
+    def statistic(log_tau) -> float:
+        c = score_candidates(machine, obs, result, [parse_effect(named(log_tau), machine)], sigma, sigma_known=False,
+                             d_errors=d_errors, q0=q0)[0]
+        return c.statistic if c.status == "live" else -math.inf
+
+    grid = np.log(float(tau)) + np.linspace(-1.0, 1.0, 13) * math.log(TAU_REFINE_FACTOR)
+    values = [statistic(u) for u in grid]
+    k = int(np.argmax(values))
+    found = minimize_scalar(lambda u: -statistic(u), bounds=(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]),
+                            method="bounded", options={"xatol": 0.01, "maxiter": 20})
+    best_u, best = (found.x, -found.fun) if -found.fun > values[k] else (grid[k], values[k])
+    return named(best_u) if best > values[len(grid) // 2] else name  # the middle of the grid: τ as given
+
+
 def _axis_unit(machine, axis: str) -> str:
     return "mm" if machine.axis(axis).kind == "prismatic" else "deg"
 

@@ -48,6 +48,10 @@ class SelectionStep:
     errors set aside). ``held_out`` is the held-out check of the best candidate
     against this step's model (:class:`~kinid.identification.crossval.CrossValidation`),
     if it was run: the next step's effect passed it, the last step's failed it.
+    ``undetermined`` (last step): the error joints whose periodic error was added at
+    a period the positions measured do not determine; the model is then not
+    determined between those positions, and the last step's verdict is
+    ``missing-effect`` even where its residual is noise.
     """
 
     added: str | None
@@ -56,6 +60,7 @@ class SelectionStep:
     stopped: str = ""
     data: Observations | None = None
     held_out: object = None
+    undetermined: tuple = ()
 
 
 @blas_single_threaded
@@ -185,14 +190,25 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
                     dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,
                                   theta0=dg.fit.theta)
                     dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
-            steps[-1] = replace(steps[-1], fit=dg.fit, diagnosis=dg, stopped=stop, data=obs)
+            periods = tuple(code for code in undetermined
+                            if any(e.name.startswith(code + ":periodic:") for e in effects))
+            if periods and dg.verdict == "noise":
+                dg = replace(dg, verdict="missing-effect", note=(
+                    f"the period of the periodic error added for {' and '.join(periods)} is not determined by the "
+                    f"positions measured: the model is not determined between them (measure "
+                    f"{' and '.join(sorted({machine.error_joint(c).axis for c in periods}))} at more positions)"))
+            steps[-1] = replace(steps[-1], fit=dg.fit, diagnosis=dg, stopped=stop, data=obs, undetermined=periods)
             progress.say(f"  stopped: {stop}")
             break
         from .effects import parse_effect
+        from .scoring import refined_time_constant
 
-        effects.append(parse_effect(best.effect, machine))
+        name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)
+        if name != best.effect:
+            progress.say(f"  {'':<28} time constant refined: {best.effect} → {name}")
+        effects.append(parse_effect(name, machine))
         theta0 = np.r_[dg.fit.theta, np.zeros(effects[-1].n_params)]
-        added = best.effect
+        added = name
         carried = dg.noise if dg.noise.known else None
     return steps
 

@@ -333,10 +333,14 @@ def test_a_period_the_positions_cannot_determine_is_named():
     periods = [float(s.added.split(":")[2]) for s in steps[1:] if ":periodic:" in s.added]
     assert periods == [max(dg.twins + (float(dg.live[0].effect.split(":")[2]),))], [s.added for s in steps]
     assert "period is not determined" in steps[-1].stopped and "added, the longest of them" in steps[-1].stopped
+    # the model is not determined between the positions: the final verdict says so and names the axis
+    assert steps[-1].undetermined == ("EXX",)
+    assert steps[-1].diagnosis.verdict == "missing-effect" and "measure X at more positions" in steps[-1].diagnosis.note
+    assert "structure remains: the period of the periodic error added for EXX" in what_is_left(steps)
     eighteen = simulate(ac, _ac_plan(ac, 20.0), effects, theta, noise_um=0.5, rng=rng)
     dg = diagnose(ac, eighteen, default_model(ac), noise_um=0.5)
     assert not dg.undetermined
     steps = forward_select(ac, eighteen, default_model(ac), noise_um=0.5)
     leads = [float(s.added.split(":")[2]) for s in steps[1:] if s.added.startswith("EXX:periodic:")]
     assert leads and abs(leads[0] - 10.0) <= 0.1, [s.added for s in steps]
-    assert "not determined" not in steps[-1].stopped
+    assert "not determined" not in steps[-1].stopped and steps[-1].undetermined == ()
