@@ -77,7 +77,7 @@ def test_a_scheduler_that_cannot_serve_is_one_line_within_the_time_out(frames, t
         from dask.distributed import LocalCluster
 
         cluster = LocalCluster(n_workers=0, processes=False, dashboard_address=None)
-        cleanup.append(cluster.close)
+        cleanup.append(lambda: cluster.close(timeout=10))  # bounded: once hung the whole suite under load
         address = cluster.scheduler_address
     try:
         started = time.monotonic()

@@ -273,7 +273,7 @@ def _remote_client(Client, scheduler):
     try:
         client.wait_for_workers(1, timeout=SCHEDULER_TIMEOUT_S)
     except TimeoutError:
-        client.close()
+        client.close(timeout=SCHEDULER_TIMEOUT_S)  # bounded: a busy scheduler must not hold the one-line refusal
         raise TimeoutError(f"the scheduler has no worker after {SCHEDULER_TIMEOUT_S:g} s") from None
     return client
 
@@ -308,7 +308,7 @@ def map_frames_dask(source, board, settings, scheduler, *, workers=2, batch=4, p
             client = _remote_client(Client, scheduler)
     except (OSError, TimeoutError, ValueError, TypeError) as exc:
         if cluster is not None:
-            cluster.close()
+            cluster.close(timeout=SCHEDULER_TIMEOUT_S)
         hint = "; a tls:// scheduler needs Dask's TLS settings (distributed.comm.tls in a Dask config file)" if (
             isinstance(exc, TypeError)) else ""
         raise DataError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc}){hint}", parameter="scheduler") from None
