@@ -91,27 +91,61 @@ def period_name(period: float, std: float) -> str:
     return text.rstrip("0").rstrip(".") if "." in text else text
 
 
-def _delta(freq, q, w, nrm, g):
-    """Δ for each frequency in ``freq`` (1/mm or 1/deg); q, w, nrm (N,), g (N, rank)."""
-    phase = 2.0 * np.pi * np.outer(q, freq)  # (N, F)
-    S, C = np.sin(phase), np.cos(phase)
-    bs, bc = w @ S, w @ C
-    ss = nrm @ (S * S)
-    cc = nrm @ (C * C)
-    sc = nrm @ (S * C)
-    Ps, Pc = g.T @ S, g.T @ C  # (rank, F)
-    g11 = ss - np.sum(Ps * Ps, axis=0)
-    g22 = cc - np.sum(Pc * Pc, axis=0)
-    g12 = sc - np.sum(Ps * Pc, axis=0)
+def _delta(S, C, w, nrm, g):
+    """Δ (J, F) of J joints at F frequencies from the sines S and cosines C (N, F) of their phases at the
+    readings; per joint w, nrm (N, J), g (N, J, rank)."""
+    J = w.shape[1]
+    bs, bc = w.T @ S, w.T @ C
+    ss = nrm.T @ (S * S)
+    cc = nrm.T @ (C * C)
+    sc = nrm.T @ (S * C)
+    G = g.reshape(g.shape[0], -1).T
+    Ps, Pc = (G @ S).reshape(J, -1, S.shape[1]), (G @ C).reshape(J, -1, S.shape[1])  # (J, rank, F)
+    g11 = ss - np.sum(Ps * Ps, axis=1)
+    g22 = cc - np.sum(Pc * Pc, axis=1)
+    g12 = sc - np.sum(Ps * Pc, axis=1)
     det = g11 * g22 - g12 * g12
     scale = np.maximum(g11 * g22, 1e-300)
     ok = det > 1e-10 * scale
-    out = np.zeros(len(freq))
+    out = np.zeros(det.shape)
     out[ok] = (g22[ok] * bs[ok] ** 2 - 2 * g12[ok] * bs[ok] * bc[ok] + g11[ok] * bc[ok] ** 2) / det[ok]
     # where sine and cosine columns coincide after projection, one column is all the data see
     one = ~ok & (g11 + g22 > 0)
     out[one] = np.maximum(bs[one] ** 2 / np.maximum(g11[one], 1e-300), bc[one] ** 2 / np.maximum(g22[one], 1e-300))
     return out
+
+
+def _delta_at(freq, q, w, nrm, g):
+    """Δ (J, F) at the frequencies ``freq``, each phase's sine and cosine evaluated directly."""
+    phase = 2.0 * np.pi * np.outer(q, freq)  # (N, F)
+    return _delta(np.sin(phase), np.cos(phase), w, nrm, g)
+
+
+#: Frequencies of a grid whose sines and cosines are evaluated directly; the next ones follow by rotation.
+ROTATION_BLOCK = 32
+
+
+def _grid_phasors(q, freq):
+    """(S, C) = sin and cos (N, F) of 2π q f over the evenly spaced frequencies ``freq``: the first ROTATION_BLOCK
+    columns directly, each next block as the previous one rotated by the phase of ROTATION_BLOCK grid steps (a
+    recurrence in complex numbers: no sine or cosine of the full N × F matrix)."""
+    first = np.exp(2j * np.pi * np.outer(q, freq[:ROTATION_BLOCK]))
+    out = np.empty((q.size, freq.size), complex)
+    out[:, :first.shape[1]] = first
+    if freq.size > ROTATION_BLOCK:
+        turn = np.exp(2j * np.pi * q * (freq[ROTATION_BLOCK] - freq[0]))[:, None]
+        for k in range(ROTATION_BLOCK, freq.size, ROTATION_BLOCK):
+            width = min(ROTATION_BLOCK, freq.size - k)
+            np.multiply(out[:, k - ROTATION_BLOCK:k - ROTATION_BLOCK + width], turn, out=out[:, k:k + width])
+    return np.ascontiguousarray(out.imag), np.ascontiguousarray(out.real)
+
+
+def _axis_groups(joints):
+    """The searched joints (index, joint) grouped by their axis, in the order of first appearance."""
+    groups = {}
+    for j, joint in joints:
+        groups.setdefault(joint.axis, []).append((j, joint))
+    return groups
 
 
 def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, d_errors: np.ndarray,
@@ -131,8 +165,6 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
     -------
     list of PeriodEstimate, by decreasing Δ.
     """
-    from scipy.optimize import minimize_scalar
-
     n = len(obs)
     rank = q0.shape[1]
     Q = q0.reshape(n, 3, rank)
@@ -140,12 +172,12 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
     from .effects import axis_dependent_joints
 
     varying = {code for code, _ in axis_dependent_joints(machine)}
-    out = []
-    for j, joint in enumerate(machine.error_joints):
-        if joint.code not in varying:
-            continue
-        a = machine.axis(joint.axis)
-        q = obs.axes[:, machine.axis_names.index(joint.axis)]
+    found = {}
+    # the joints of one axis share its readings, so the sines and cosines of the frequency grid: one per axis
+    for axis, group in _axis_groups([(j, joint) for j, joint in enumerate(machine.error_joints)
+                                     if joint.code in varying]).items():
+        a = machine.axis(axis)
+        q = obs.axes[:, machine.axis_names.index(axis)]
         unique = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
         if unique.size < 6:
             continue
@@ -158,37 +190,51 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         p_max = 360.0 if rotary else span
         if span <= 0 or p_max <= p_min:
             continue
-        col = d_errors[:, :, j] / sigma  # (N, 3)
-        nrm = np.sum(col * col, axis=1)
-        if not np.any(nrm > 0):
+        series = {}
+        for j, joint in group:
+            col = d_errors[:, :, j] / sigma  # (N, 3)
+            nrm = np.sum(col * col, axis=1)
+            if np.any(nrm > 0):
+                series[j] = (np.sum(col * R, axis=1), nrm, np.einsum("nkr,nk->nr", Q, col))
+        if not series:
             continue
-        w = np.sum(col * R, axis=1)
-        g = np.einsum("nkr,nk->nr", Q, col)
+        w, nrm, g = (np.stack(s, axis=1) for s in zip(*series.values()))  # (N, J), (N, J), (N, J, rank)
         extent = max(span, 360.0) if rotary else span
         df = 1.0 / (OVERSAMPLE * extent)
         freq = np.arange(1.0 / p_max, 1.0 / p_min + df / 2, df)
         chunk = max(int(CHUNK_BYTES // (8 * n)), 4)
-        delta = np.concatenate([_delta(freq[k:k + chunk], q, w, nrm, g) for k in range(0, len(freq), chunk)])
-        k = int(np.argmax(delta))
-        if not delta[k] > 0:
-            continue
-        lo, hi = freq[max(k - 1, 0)], freq[min(k + 1, len(freq) - 1)]
-
-        def negative(f):
-            return -float(_delta(np.array([f]), q, w, nrm, g)[0])
-
-        f_best = minimize_scalar(negative, bounds=(lo, hi), method="bounded",
-                                 options={"xatol": df * 1e-6}).x if hi > lo else freq[k]
-        d_best = -negative(f_best)
-        if d_best < delta[k]:
-            f_best, d_best = freq[k], float(delta[k])
-        period = 1.0 / f_best
-        # curvature of Δ in the period: var P = 2 / (−Δ'')
-        h = period * 1e-4
-        d2 = (-negative(1.0 / (period + h)) - 2 * d_best - negative(1.0 / (period - h))) / h**2
-        std = math.sqrt(2.0 / -d2) if d2 < 0 else float("nan")
+        deltas = np.concatenate([_delta(*_grid_phasors(q, freq[k:k + chunk]), w, nrm, g)
+                                 for k in range(0, len(freq), chunk)], axis=1)
         trials = max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
-        out.append(PeriodEstimate(joint.code, joint.axis, float(period), std, float(d_best), float(trials),
-                                  "deg" if rotary else "mm"))
+        for i, j in enumerate(series):
+            found[j] = _refined(machine.error_joints[j], freq, deltas[i], df, q, *(s[:, i:i + 1] for s in (w, nrm, g)),
+                                trials, "deg" if rotary else "mm")
+    out = [found[j] for j in sorted(found) if found[j] is not None]  # in the joints' order (ties keep it)
     out.sort(key=lambda e: -e.statistic)
     return out
+
+
+def _refined(joint, freq, delta, df, q, w, nrm, g, trials, unit):
+    """The PeriodEstimate of ``joint`` from its Δ on the grid ``freq``: the best grid period refined by a
+    bounded scalar search, its standard deviation from the curvature of Δ; None if Δ is nowhere positive."""
+    from scipy.optimize import minimize_scalar
+
+    k = int(np.argmax(delta))
+    if not delta[k] > 0:
+        return None
+    lo, hi = freq[max(k - 1, 0)], freq[min(k + 1, len(freq) - 1)]
+
+    def negative(f):
+        return -float(_delta_at(np.array([f]), q, w, nrm, g)[0, 0])
+
+    f_best = minimize_scalar(negative, bounds=(lo, hi), method="bounded",
+                             options={"xatol": df * 1e-6}).x if hi > lo else freq[k]
+    d_best = -negative(f_best)
+    if d_best < delta[k]:
+        f_best, d_best = freq[k], float(delta[k])
+    period = 1.0 / f_best
+    # curvature of Δ in the period: var P = 2 / (−Δ'')
+    h = period * 1e-4
+    d2 = (-negative(1.0 / (period + h)) - 2 * d_best - negative(1.0 / (period - h))) / h**2
+    std = math.sqrt(2.0 / -d2) if d2 < 0 else float("nan")
+    return PeriodEstimate(joint.code, joint.axis, float(period), std, float(d_best), float(trials), unit)

@@ -92,14 +92,24 @@ class Candidate:
     trials: float = 1.0
 
 
-#: Memory for one block of candidate columns in the score test, bytes (diagnosis memory stays flat in N).
+#: Memory for one block of candidate basis values in the score test, bytes (diagnosis memory stays flat in N).
 SCORE_BLOCK_BYTES = 64 * 1024 * 1024
+
+
+#: A candidate whose projected Gram matrix (columns scaled to unit norm) has an eigenvalue below this is scored
+#: again from its explicitly projected columns: the Gram matrix from sums over alignments, CᵀC − AᵀA, loses the
+#: digits that the projection off a model which nearly explains the candidate cancels.
+EXACT_BELOW = 1e-4
 
 
 @blas_single_threaded
 def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
                      d_errors=None, q0=None):
     """Score test of each candidate effect at the fit ``result`` (see module docstring).
+
+    A candidate's column is its error joint's column times a basis value, so every sum over alignments the
+    test needs is a sum over the N alignments of basis values times a few series of its joint (computed once
+    per joint, :func:`_joint_series`), not over the 3N coordinates of each column.
 
     Parameters
     ----------
@@ -122,63 +132,22 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     Q0 = q0
     r = r - Q0 @ (Q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
     rss = float(r @ r)
-    p0 = result.rank
-    model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
     lever = np.sqrt(np.einsum("nkj,nkj->j", d_errors, d_errors) / d_errors.shape[0])  # per error joint: m/rad or 1
     visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
+    model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
+    test = _Test(machine, result, sigma, sigma_known, M, rss, J0, model_names, J0.T @ J0)
     codes = machine.error_codes
-    out = []
-    # Candidates in blocks of columns, each block streamed over chunks of alignments, so that memory
-    # stays flat in the number of alignments: only sums over alignments are kept (norms, the model
-    # projection Q0ᵀC, the Gram matrix of each candidate's projected columns and their product with r).
-    blocks, current, width = [], [], 0
-    budget = max(int(SCORE_BLOCK_BYTES // (8 * 64 * 3 * 2)), 8)  # columns per block (chunks of >= 64 rows)
-    for e in candidates:
-        if current and width + e.n_params > budget:
-            blocks.append(current)
-            current, width = [], 0
-        current.append(e)
-        width += e.n_params
-    if current:
-        blocks.append(current)
     n = len(obs)
-    G0 = J0.T @ J0
-    for block in blocks:
-        P = sum(e.n_params for e in block)
-        rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 3 * P * 2)))  # alignments per chunk
-        chunks = [np.arange(a, min(a + rows, n)) for a in range(0, n, rows)]
-
-        def columns(idx, block=block, P=P):
-            d = design(machine, block, obs.subset(idx))
-            C = d_errors[idx][:, :, d.joint_index]
-            C *= d.basis[:, None, :]
-            C /= sigma
-            return C.reshape(3 * len(idx), P)
-
-        norm2 = np.zeros(P)
-        A = np.zeros((Q0.shape[1], P))
-        BJ = np.zeros((J0.shape[1], P))
-        for idx in chunks:
-            C = columns(idx)
-            m_rows = slice(3 * idx[0], 3 * idx[-1] + 3)  # the chunk's residual coordinates, contiguous
-            norm2 += np.einsum("ij,ij->j", C, C)
-            A += Q0[m_rows].T @ C
-            BJ += J0[m_rows].T @ C
-        spans = []
+    out = []
+    for block in _blocks(candidates, n):
+        d = design(machine, block, obs)
+        # per block, so that memory stays flat in N: (N, rank) per joint of the block
+        series = {j: _joint_series(d_errors[:, :, j] / sigma, Q0, r) for j in np.unique(d.joint_index)}
+        norm2, A, bvec = _column_sums(d, series)
         start = 0
         for e in block:
-            spans.append((start, start + e.n_params))
-            start += e.n_params
-        grams = [np.zeros((b - a, b - a)) for a, b in spans]
-        bvec = np.zeros(P)
-        for idx in chunks:
-            m_rows = slice(3 * idx[0], 3 * idx[-1] + 3)
-            Cp = columns(idx)
-            Cp -= Q0[m_rows] @ A
-            bvec += Cp.T @ r[m_rows]
-            for g, (a, b) in zip(grams, spans):
-                g += Cp[:, a:b].T @ Cp[:, a:b]
-        for e, (a, b), gram in zip(block, spans, grams):
+            a, b = start, start + e.n_params
+            start = b
             k = e.n_params
             unit = e.param_units(machine)[-1]  # the unit of the size: a polynomial sizes its highest term
             norm_c = np.sqrt(norm2[a:b])
@@ -189,41 +158,147 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             # rather than blow its rounding noise up to unit length
             alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
             scale = np.where(alive, norm_c, 1.0)
-            gs = np.where(np.outer(alive, alive), gram / np.outer(scale, scale), 0.0)
-            ratio = np.where(alive, np.sqrt(np.maximum(np.diag(gs), 0.0)), 0.0)
-            w, V = np.linalg.eigh(gs)
-            sv = np.sqrt(np.maximum(w, 0.0))
-            keep = sv > ALIAS_TOL
-            if not keep.any() or ratio.max() < ALIAS_TOL:
-                coef = np.linalg.lstsq(G0, BJ[:, a:b], rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
-                weight = np.abs(coef).max(axis=1) * np.sqrt(np.diag(G0)) if coef.size else np.zeros(0)
-                order = np.argsort(-weight)
-                names = tuple(model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
-                out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names))
-                continue
-            kk = int(keep.sum())
-            Vk, sk = V[:, keep], sv[keep]
-            proj = (Vk.T @ (bvec[a:b] / scale)) / sk  # U_kᵀ r, without forming U
-            delta = float(proj @ proj)
-            if sigma_known:
-                log_sf = _chi2_logsf(delta, kk)
-            else:
-                dof2 = M - p0 - kk
-                F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
-                log_sf = f_logsf(F, kk, dof2)
-                if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
-                    log_sf = _chi2_logsf(F * kk, kk)
-            # size of the effect: least-squares coefficients of the projected block, restricted to the
-            # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
-            beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
-            cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
-            basis = basis_of(e)
-            size, size_std = basis.size(e, beta, cov)
-            rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
-            note = "" if basis.note is None else basis.note(e, beta, _axis_unit(machine, e.axis))
-            out.append(Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)),
-                                 rms_after, size, size_std, unit, note=note))
+            basis = d.basis[:, a:b]
+            nrm = series[d.joint_index[a]][0]
+            gram = (basis * nrm[:, None]).T @ basis - A[:, a:b].T @ A[:, a:b]
+            gs, w, V = _normalized(gram, alive, scale)
+            # the product with the model's columns serves only aliased candidates, all scored exactly (an aliased
+            # candidate's eigenvalues are below ALIAS_TOL² < EXACT_BELOW)
+            sums = (None, bvec[a:b])
+            if w.min() < EXACT_BELOW:
+                gram, *sums = _projected_exactly(d_errors[:, :, d.joint_index[a]] / sigma, basis, Q0, J0, r)
+                gs, w, V = _normalized(gram, alive, scale)
+            out.append(test.judge(e, unit, alive, scale, gs, w, V, *sums))
     return out
+
+
+def _blocks(candidates, n: int) -> list:
+    """``candidates`` in blocks whose basis values (N × columns) fit SCORE_BLOCK_BYTES (with room for temporaries)."""
+    budget = max(int(SCORE_BLOCK_BYTES // (8 * 4 * max(n, 1))), 8)  # columns per block
+    blocks, current, width = [], [], 0
+    for e in candidates:
+        if current and width + e.n_params > budget:
+            blocks.append(current)
+            current, width = [], 0
+        current.append(e)
+        width += e.n_params
+    if current:
+        blocks.append(current)
+    return blocks
+
+
+def _joint_series(col, Q0, r) -> tuple:
+    """Series over the N alignments of one error joint whose whitened column is ``col`` (N, 3): its squared norm,
+    its product with the residual and with the model's orthonormal basis (N, rank); and Q0ᵀ r."""
+    n = col.shape[0]
+    nrm = np.einsum("nk,nk->n", col, col)
+    rw = np.einsum("nk,nk->n", col, r.reshape(n, 3))
+    g = np.einsum("nkr,nk->nr", Q0.reshape(n, 3, -1), col)
+    return nrm, rw, g, Q0.T @ r
+
+
+def _column_sums(d, series) -> tuple:
+    """For the columns of design ``d``: squared norms (P,), products with the model's orthonormal basis
+    (rank, P), and the projected columns' product with the residual (P,)."""
+    P = d.n_params
+    norm2 = np.zeros(P)
+    A = np.zeros((next(iter(series.values()))[2].shape[1], P))
+    bvec = np.zeros(P)
+    for j in np.unique(d.joint_index):
+        cols = np.flatnonzero(d.joint_index == j)
+        nrm, rw, g, s0 = series[j]
+        B = d.basis[:, cols]
+        norm2[cols] = nrm @ (B * B)
+        A[:, cols] = g.T @ B
+        bvec[cols] = rw @ B - A[:, cols].T @ s0  # (C − Q0 A)ᵀ r, with Q0ᵀ r ≈ 0
+    return norm2, A, bvec
+
+
+#: Alignments per chunk of the explicitly projected columns (memory flat in N).
+EXACT_ROWS = 8192
+
+
+def _projected_exactly(col, basis, Q0, J0, r) -> tuple:
+    """For the columns ``col`` × ``basis`` of one joint (col (N, 3), basis (N, k)): their Gram matrix projected off
+    the model, their product with the model's columns (p0, k) and the projected columns' product with r (k,),
+    from the projected columns, in chunks of alignments."""
+    n, k = basis.shape
+    chunks = [slice(a, min(a + EXACT_ROWS, n)) for a in range(0, n, EXACT_ROWS)]
+
+    def columns(c):
+        return (col[c, :, None] * basis[c, None, :]).reshape(-1, k)
+
+    def rows(c):
+        return slice(3 * c.start, 3 * c.stop)
+
+    A = sum(Q0[rows(c)].T @ columns(c) for c in chunks)
+    BJ = sum(J0[rows(c)].T @ columns(c) for c in chunks)
+    gram, bvec = np.zeros((k, k)), np.zeros(k)
+    for c in chunks:
+        Cp = columns(c) - Q0[rows(c)] @ A
+        bvec += Cp.T @ r[rows(c)]
+        gram += Cp.T @ Cp
+    return gram, BJ, bvec
+
+
+def _normalized(gram, alive, scale) -> tuple:
+    """The Gram matrix with its live columns scaled to unit norm (dead ones zero), and its eigen-decomposition."""
+    gs = np.where(np.outer(alive, alive), gram / np.outer(scale, scale), 0.0)
+    w, V = np.linalg.eigh(gs)
+    return gs, w, V
+
+
+@dataclass(frozen=True)
+class _Test:
+    """What judging one candidate needs of the fit: the model's columns, the residual's sum of squares."""
+
+    machine: Machine
+    result: FitResult
+    sigma: float
+    sigma_known: bool
+    M: int
+    rss: float
+    J0: np.ndarray
+    model_names: list
+    G0: np.ndarray
+
+    def judge(self, e, unit, alive, scale, gs, w, V, BJ, bvec) -> Candidate:
+        """The candidate ``e`` from its projected, normalized Gram matrix ``gs`` (eigen-decomposition w, V), its
+        product with the model's columns BJ and its projected columns' product with the residual ``bvec``."""
+        result, machine, sigma, M, rss, J0 = self.result, self.machine, self.sigma, self.M, self.rss, self.J0
+        k = e.n_params
+        ratio = np.where(alive, np.sqrt(np.maximum(np.diag(gs), 0.0)), 0.0)
+        sv = np.sqrt(np.maximum(w, 0.0))
+        keep = sv > ALIAS_TOL
+        if not keep.any() or ratio.max() < ALIAS_TOL:
+            G0 = self.G0
+            coef = np.linalg.lstsq(G0, BJ, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
+            weight = np.abs(coef).max(axis=1) * np.sqrt(np.diag(G0)) if coef.size else np.zeros(0)
+            order = np.argsort(-weight)
+            names = tuple(self.model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
+            return Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names)
+        kk = int(keep.sum())
+        Vk, sk = V[:, keep], sv[keep]
+        proj = (Vk.T @ (bvec / scale)) / sk  # U_kᵀ r, without forming U
+        delta = float(proj @ proj)
+        if self.sigma_known:
+            log_sf = _chi2_logsf(delta, kk)
+        else:
+            dof2 = M - result.rank - kk
+            F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
+            log_sf = f_logsf(F, kk, dof2)
+            if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
+                log_sf = _chi2_logsf(F * kk, kk)
+        # size of the effect: least-squares coefficients of the projected block, restricted to the
+        # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
+        beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
+        cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
+        basis = basis_of(e)
+        size, size_std = basis.size(e, beta, cov)
+        rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
+        note = "" if basis.note is None else basis.note(e, beta, _axis_unit(machine, e.axis))
+        return Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)),
+                         rms_after, size, size_std, unit, note=note)
 
 
 #: Joints whose best searched period is scored as a candidate (the strongest first).
