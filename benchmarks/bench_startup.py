@@ -8,10 +8,11 @@ the wall time of
 - ``kinid --help``;
 - ``kinid VERB --help`` for every verb of :data:`kinid.cli.VERBS`;
 - ``kinid identify`` on the 336-alignment plan (``kinid simulate`` with the default plan),
+- ``kinid identify --auto`` on 3 360 alignments (the patent plan ten times over, a 13.3 mm lead of X hidden),
 
 and prints the median of each with two ratios: ``kinid VERB --help`` / ``kinid --help``
 (the parser of one verb should cost little more than the list of verbs) and
-``kinid identify`` / ``import pinocchio`` (what identify adds to the import it cannot avoid).
+``kinid identify`` (and ``--auto``) / ``import pinocchio`` (what identify adds to the import it cannot avoid).
 
 Run: ``python benchmarks/bench_startup.py [repeats]`` (default 7).
 """
@@ -59,12 +60,25 @@ def main() -> None:
         subprocess.run([*kinid, "simulate", "--machine", urdf, "--errors", str(tmp / "errors.json"),
                         "--noise-um", "1", "--out", str(tmp / "obs.csv")], check=True, capture_output=True, env=env)
         rows = len((tmp / "obs.csv").read_text().splitlines()) - 1
+        # the plan ten times over (its pose columns), simulated with a lead no library lists: what --auto searches
+        lines = (tmp / "obs.csv").read_text().splitlines()
+        keep = [i for i, c in enumerate(lines[0].split(",")) if c in ("mark", "wx_mm", "wy_mm", "wz_mm", "b_deg", "c_deg")]
+        poses = [",".join(line.split(",")[i] for i in keep) for line in lines]
+        (tmp / "plan10.csv").write_text("\n".join([poses[0]] + poses[1:] * 10) + "\n")
+        (tmp / "errors10.json").write_text('{"EX0C": 12.0, "EA0B": -25.0, "EXX:periodic:13.3": [1.5, -0.8]}')
+        subprocess.run([*kinid, "simulate", "--machine", urdf, "--errors", str(tmp / "errors10.json"), "--plan",
+                        str(tmp / "plan10.csv"), "--noise-um", "1", "--out", str(tmp / "obs10.csv")], check=True,
+                       capture_output=True, env=env)
+        rows10 = len((tmp / "obs10.csv").read_text().splitlines()) - 1
         cases = {"import pinocchio": [sys.executable, "-c", "import pinocchio"],
                  "kinid --help": [*kinid, "--help"]}
         cases.update({f"kinid {verb} --help": [*kinid, verb, "--help"] for verb in VERBS})
         identify = f"kinid identify ({rows} rows)"
         cases[identify] = [*kinid, "identify", "--machine", urdf, "--data", str(tmp / "obs.csv"),
                            "--noise-um", "1", "--out", str(tmp / "fit.json")]
+        auto = f"kinid identify --auto ({rows10} rows)"
+        cases[auto] = [*kinid, "identify", "--machine", urdf, "--data", str(tmp / "obs10.csv"), "--noise-um", "1",
+                       "--auto", "--out", str(tmp / "fit10.json")]
         times = {name: [] for name in cases}
         for _ in range(repeats):
             for name, cmd in cases.items():
@@ -76,7 +90,7 @@ def main() -> None:
     for name, m in med.items():
         if name.endswith("--help") and name != "kinid --help":
             ratio, to = f"{m / base:6.2f}x", "kinid --help"
-        elif name == identify:
+        elif name in (identify, auto):
             ratio, to = f"{m / pin:6.2f}x", "import pinocchio"
         else:
             ratio, to = "", ""
