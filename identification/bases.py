@@ -371,6 +371,58 @@ def _bsplines(q, centres, step):
 _LOCAL_GRIDS: dict = {}
 
 
+def local_grid(e) -> tuple:
+    """(step, phase) of the knot grid of the local error ``e``: windows with the same pair share their B-splines."""
+    knots = np.asarray(e.knots)
+    step = float(knots[1] - knots[0])
+    return step, round(float(knots[0] - step * np.round(knots[0] / step)), 9)
+
+
+def _grid_span(q, step: float, phase: float) -> tuple:
+    """(first centre, count) of the B-splines every ``step`` (at ``phase``) that reach readings ``q``."""
+    first = phase + step * (np.floor((q.min() - phase) / step) - 2)
+    return first, int(np.ceil((q.max() + 2 * step - first) / step)) + 1
+
+
+def _grid_bsplines(q, step: float, phase: float) -> tuple:
+    """(first centre, values (N, count)) of the B-splines every ``step`` (at ``phase``) that reach readings ``q``."""
+    first, count = _grid_span(q, step, phase)
+    return first, _bsplines(q, first + step * np.arange(count), step)
+
+
+def _grid_index(e, first: float, step: float, count: int) -> np.ndarray:
+    """Columns of the grid (from ``first``, ``count`` B-splines) that are the local error ``e``'s; ``count`` for a
+    B-spline off the grid (zero at every reading)."""
+    index = np.round((np.asarray(e.knots)[2:-2] - first) / step).astype(int)
+    return np.where((index >= 0) & (index < count), index, count)
+
+
+def local_columns(effects, q, rows=slice(None)) -> np.ndarray:
+    """The values (rows, c) at readings ``q[rows]`` of the B-splines of local errors ``effects`` on one knot grid
+    (:func:`local_grid`), computed once for all of them; :func:`local_column_index` says which are whose.
+    They are the numbers :func:`_local_values` gives at all readings ``q``, at those rows."""
+    q = np.asarray(q, float)
+    if q.size == 0 or not np.all(np.isfinite(q)):  # as _local_values: each effect's own B-splines
+        return np.concatenate([_bsplines(q[rows], np.asarray(e.knots)[2:-2], local_grid(e)[0]) for e in effects],
+                              axis=1)
+    step, phase = local_grid(effects[0])
+    first, count = _grid_span(q, step, phase)
+    values = np.zeros((q[rows].size, count + 1))  # column ``count``: a B-spline off the grid, zero at every reading
+    values[:, :count] = _bsplines(q[rows], first + step * np.arange(count), step)
+    return values
+
+
+def local_column_index(effects, q) -> list:
+    """For each of the local errors ``effects`` on one knot grid, its columns among :func:`local_columns`."""
+    q = np.asarray(q, float)
+    if q.size == 0 or not np.all(np.isfinite(q)):
+        edges = np.cumsum([0] + [e.n_params for e in effects])
+        return [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:])]
+    step, phase = local_grid(effects[0])
+    first, count = _grid_span(q, step, phase)
+    return [_grid_index(e, first, step, count) for e in effects]
+
+
 def _local_values(e, q, t, s):
     """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside."""
     knots = np.asarray(e.knots)
@@ -379,15 +431,12 @@ def _local_values(e, q, t, s):
     q = np.asarray(q, float)
     if q.size == 0 or not np.all(np.isfinite(q)):
         return _bsplines(q, centres, step)
-    phase = round(float(knots[0] - step * np.round(knots[0] / step)), 9)
-    key = (step, phase)
+    key = local_grid(e)
     grid = _LOCAL_GRIDS.get(key)
     if grid is None or grid[0].shape != q.shape or not np.array_equal(grid[0], q):
-        first = phase + step * (np.floor((q.min() - phase) / step) - 2)
-        count = int(np.ceil((q.max() + 2 * step - first) / step)) + 1
         if len(_LOCAL_GRIDS) >= 16:
             _LOCAL_GRIDS.clear()
-        grid = _LOCAL_GRIDS[key] = (q.copy(), first, _bsplines(q, first + step * np.arange(count), step))
+        grid = _LOCAL_GRIDS[key] = (q.copy(), *_grid_bsplines(q, *key))
     _, first, values = grid
     out = np.zeros((q.size, centres.size))
     index = np.round((centres - first) / step).astype(int)

@@ -101,9 +101,23 @@ def _delta(S, C, w, nrm, g):
     sc = nrm.T @ (S * C)
     G = g.reshape(g.shape[0], -1).T
     Ps, Pc = (G @ S).reshape(J, -1, S.shape[1]), (G @ C).reshape(J, -1, S.shape[1])  # (J, rank, F)
-    g11 = ss - np.sum(Ps * Ps, axis=1)
-    g22 = cc - np.sum(Pc * Pc, axis=1)
-    g12 = sc - np.sum(Ps * Pc, axis=1)
+    return _closed_form(bs, bc, ss, cc, ss - np.sum(Ps * Ps, axis=1), cc - np.sum(Pc * Pc, axis=1),
+                        sc - np.sum(Ps * Pc, axis=1))
+
+
+#: A sine or cosine column that keeps less than this share of its squared norm after the projection off the model
+#: is aliased, as in the score test (ALIAS_TOL² of :mod:`~kinid.identification.scoring`): what is left of it is
+#: rounding, and Δ from it would be noise (up to 1e270).
+DEAD_SHARE = 1e-12
+
+
+def _closed_form(bs, bc, ss, cc, g11, g22, g12):
+    """Δ = bᵀ G⁻¹ b from b = (bs, bc), the sine's and cosine's squared norms ss, cc and their projected Gram
+    matrix G = [[g11, g12], [g12, g22]], elementwise."""
+    live_s, live_c = g11 > DEAD_SHARE * ss, g22 > DEAD_SHARE * cc
+    bs, g11 = np.where(live_s, bs, 0.0), np.where(live_s, g11, 0.0)
+    bc, g22 = np.where(live_c, bc, 0.0), np.where(live_c, g22, 0.0)
+    g12 = np.where(live_s & live_c, g12, 0.0)
     det = g11 * g22 - g12 * g12
     scale = np.maximum(g11 * g22, 1e-300)
     ok = det > 1e-10 * scale
@@ -115,10 +129,16 @@ def _delta(S, C, w, nrm, g):
     return out
 
 
-def _delta_at(freq, q, w, nrm, g):
-    """Δ (J, F) at the frequencies ``freq``, each phase's sine and cosine evaluated directly."""
-    phase = 2.0 * np.pi * np.outer(q, freq)  # (N, F)
-    return _delta(np.sin(phase), np.cos(phase), w, nrm, g)
+def _delta_each(freq, q, W, NRM, G):
+    """Δ (J,) of each of J joints at its own frequency ``freq[j]``, each phase's sine and cosine evaluated directly;
+    per joint, rows of W, NRM (J, N) and G (J, rank, N)."""
+    phase = 2.0 * np.pi * (freq[:, None] * q[None, :])  # (J, N)
+    S, C = np.sin(phase), np.cos(phase)
+    Ps, Pc = np.matmul(G, S[:, :, None])[:, :, 0], np.matmul(G, C[:, :, None])[:, :, 0]  # (J, rank)
+    ss, cc = np.einsum("jn,jn->j", NRM, S * S), np.einsum("jn,jn->j", NRM, C * C)
+    return _closed_form(np.einsum("jn,jn->j", W, S), np.einsum("jn,jn->j", W, C), ss, cc,
+                        ss - np.sum(Ps * Ps, axis=1), cc - np.sum(Pc * Pc, axis=1),
+                        np.einsum("jn,jn->j", NRM, S * C) - np.sum(Ps * Pc, axis=1))
 
 
 #: Frequencies of a grid whose sines and cosines are evaluated directly; the next ones follow by rotation.
@@ -199,42 +219,144 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         if not series:
             continue
         w, nrm, g = (np.stack(s, axis=1) for s in zip(*series.values()))  # (N, J), (N, J), (N, J, rank)
+        q, w, nrm, g = _collapsed(q, w, nrm, g)
         extent = max(span, 360.0) if rotary else span
         df = 1.0 / (OVERSAMPLE * extent)
         freq = np.arange(1.0 / p_max, 1.0 / p_min + df / 2, df)
-        chunk = max(int(CHUNK_BYTES // (8 * n)), 4)
+        chunk = max(int(CHUNK_BYTES // (8 * q.size)), 4)
         deltas = np.concatenate([_delta(*_grid_phasors(q, freq[k:k + chunk]), w, nrm, g)
                                  for k in range(0, len(freq), chunk)], axis=1)
         trials = max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
-        for i, j in enumerate(series):
-            found[j] = _refined(machine.error_joints[j], freq, deltas[i], df, q, *(s[:, i:i + 1] for s in (w, nrm, g)),
-                                trials, "deg" if rotary else "mm")
+        for j, estimate in zip(series, _refined([machine.error_joints[j] for j in series], freq, deltas, df, q, w, nrm,
+                                                g, trials, "deg" if rotary else "mm")):
+            found[j] = estimate
     out = [found[j] for j in sorted(found) if found[j] is not None]  # in the joints' order (ties keep it)
-    out.sort(key=lambda e: -e.statistic)
+    # by decreasing Δ; joints whose columns coincide on these data tie to rounding (9 digits): the first joint first
+    out.sort(key=lambda e: -float(f"{e.statistic:.9g}"))
     return out
 
 
-def _refined(joint, freq, delta, df, q, w, nrm, g, trials, unit):
-    """The PeriodEstimate of ``joint`` from its Δ on the grid ``freq``: the best grid period refined by a
-    bounded scalar search, its standard deviation from the curvature of Δ; None if Δ is nowhere positive."""
-    from scipy.optimize import minimize_scalar
+def _collapsed(q, *series) -> tuple:
+    """(positions, series...): readings ``q`` that repeat exactly (a rotary axis read at a few angles) taken once,
+    and each series (N, ...) summed over the readings at each position; every sum of the search is one over
+    positions."""
+    positions, inverse = np.unique(q, return_inverse=True)
+    if positions.size == q.size:
+        return (q, *series)
+    order = np.argsort(inverse, kind="stable")
+    starts = np.searchsorted(inverse[order], np.arange(positions.size))
+    return (positions, *(np.add.reduceat(s[order], starts, axis=0) for s in series))
 
-    k = int(np.argmax(delta))
-    if not delta[k] > 0:
-        return None
-    lo, hi = freq[max(k - 1, 0)], freq[min(k + 1, len(freq) - 1)]
 
-    def negative(f):
-        return -float(_delta_at(np.array([f]), q, w, nrm, g)[0, 0])
-
-    f_best = minimize_scalar(negative, bounds=(lo, hi), method="bounded",
-                             options={"xatol": df * 1e-6}).x if hi > lo else freq[k]
-    d_best = -negative(f_best)
-    if d_best < delta[k]:
-        f_best, d_best = freq[k], float(delta[k])
-    period = 1.0 / f_best
+def _refined(joints, freq, deltas, df, q, w, nrm, g, trials, unit) -> list:
+    """The PeriodEstimate of each of ``joints`` (of one axis) from its Δ on the grid ``freq`` (a row of ``deltas``):
+    the best grid period refined by a bounded scalar search, its standard deviation from the curvature of Δ; None
+    if Δ is nowhere positive. The joints' searches run side by side, each step's Δ computed for all at once."""
+    best = np.argmax(deltas, axis=1)
+    live = [i for i, k in enumerate(best) if deltas[i, k] > 0]
+    out = [None] * len(joints)
+    if not live:
+        return out
+    f_best = freq[best].astype(float)
+    searches = {}
+    for i in live:
+        lo, hi = freq[max(best[i] - 1, 0)], freq[min(best[i] + 1, len(freq) - 1)]
+        if hi > lo:
+            searches[i] = _bounded_minimum(lo, hi, df * 1e-6)
+    # per joint, contiguous: W, NRM (J, N), G (J, rank, N); each step evaluates every joint (the cheapest way)
+    series = (np.ascontiguousarray(w.T), np.ascontiguousarray(nrm.T), np.ascontiguousarray(g.transpose(1, 2, 0)))
+    at = f_best.copy()  # the abscissa each search asks about
+    for i, search in searches.items():
+        at[i] = next(search)
+    while searches:
+        values = -_delta_each(at, q, *series)
+        for i in list(searches):
+            try:
+                at[i] = searches[i].send(float(values[i]))
+            except StopIteration as done:
+                at[i] = f_best[i] = done.value
+                del searches[i]
+    d_best = _delta_each(f_best, q, *series)[live]
+    on_grid = deltas[live, best[live]]
+    worse = d_best < on_grid
+    period = 1.0 / np.where(worse, freq[best[live]], f_best[live])
+    d_best = np.where(worse, on_grid, d_best)
     # curvature of Δ in the period: var P = 2 / (−Δ'')
     h = period * 1e-4
-    d2 = (-negative(1.0 / (period + h)) - 2 * d_best - negative(1.0 / (period - h))) / h**2
-    std = math.sqrt(2.0 / -d2) if d2 < 0 else float("nan")
-    return PeriodEstimate(joint.code, joint.axis, float(period), std, float(d_best), float(trials), unit)
+    sub = [x[live] for x in series]
+    d2 = (_delta_each(1.0 / (period + h), q, *sub) - 2 * d_best + _delta_each(1.0 / (period - h), q, *sub)) / h**2
+    for m, i in enumerate(live):
+        std = math.sqrt(2.0 / -d2[m]) if d2[m] < 0 else float("nan")
+        out[i] = PeriodEstimate(joints[i].code, joints[i].axis, float(period[m]), std, float(d_best[m]), float(trials),
+                                unit)
+    return out
+
+
+def _bounded_minimum(x1: float, x2: float, xatol: float):
+    """The bounded search of ``scipy.optimize.minimize_scalar(method="bounded")`` (Brent's method: golden sections
+    and parabolic steps) for the minimum of a function on [x1, x2], as a generator: it yields each abscissa where it
+    needs the function's value, is sent that value, and returns the minimum's abscissa; so the searches of many
+    joints run side by side. A transcription of scipy's ``_minimize_scalar_bounded`` (maxiter 500), step for step."""
+    sqrt_eps = math.sqrt(2.2e-16)
+    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
+    a, b = x1, x2
+    fulc = a + golden_mean * (b - a)
+    nfc, xf = fulc, fulc
+    rat = e = 0.0
+    x = xf
+    fx = yield x
+    num = 1
+    ffulc = fnfc = fx
+    xm = 0.5 * (a + b)
+    tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+    tol2 = 2.0 * tol1
+    while abs(xf - xm) > (tol2 - 0.5 * (b - a)):
+        golden = True
+        if abs(e) > tol1:  # a parabola through the three best points
+            golden = False
+            r = (xf - nfc) * (fx - ffulc)
+            q = (xf - fulc) * (fx - fnfc)
+            p = (xf - fulc) * q - (xf - nfc) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = abs(q)
+            r = e
+            e = rat
+            if abs(p) < abs(0.5 * q * r) and p > q * (a - xf) and p < q * (b - xf):  # an acceptable parabola
+                rat = (p + 0.0) / q
+                x = xf + rat
+                if (x - a) < tol2 or (b - x) < tol2:
+                    rat = tol1 * (np.sign(xm - xf) + ((xm - xf) == 0))
+            else:
+                golden = True
+        if golden:
+            e = (a - xf) if xf >= xm else (b - xf)
+            rat = golden_mean * e
+        x = xf + (np.sign(rat) + (rat == 0)) * max(abs(rat), tol1)
+        fu = yield x
+        num += 1
+        if fu <= fx:
+            if x >= xf:
+                a = xf
+            else:
+                b = xf
+            fulc, ffulc = nfc, fnfc
+            nfc, fnfc = xf, fx
+            xf, fx = x, fu
+        else:
+            if x < xf:
+                a = x
+            else:
+                b = x
+            if fu <= fnfc or nfc == xf:
+                fulc, ffulc = nfc, fnfc
+                nfc, fnfc = x, fu
+            elif fu <= ffulc or fulc == xf or fulc == nfc:
+                fulc, ffulc = x, fu
+        xm = 0.5 * (a + b)
+        tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if num >= 500:
+            break
+    return xf

@@ -92,7 +92,8 @@ class Candidate:
     trials: float = 1.0
 
 
-#: Memory for one block of candidate basis values in the score test, bytes (diagnosis memory stays flat in N).
+#: Memory for the basis values of one group of candidates over a chunk of alignments in the score test, bytes
+#: (diagnosis memory stays flat in N).
 SCORE_BLOCK_BYTES = 64 * 1024 * 1024
 
 
@@ -109,7 +110,9 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
 
     A candidate's column is its error joint's column times a basis value, so every sum over alignments the
     test needs is a sum over the N alignments of basis values times a few series of its joint (computed once
-    per joint, :func:`_joint_series`), not over the 3N coordinates of each column.
+    per joint, :func:`_joint_series`), not over the 3N coordinates of each column. The candidates of one joint
+    are summed together (:func:`_column_groups`); local errors on one knot grid share its B-splines, and each
+    window's sums are a sub-block of the grid's.
 
     Parameters
     ----------
@@ -120,7 +123,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
 
     Returns
     -------
-    list of Candidate, unsorted.
+    list of Candidate, in the order of ``candidates``.
     """
 
     if d_errors is None or q0 is None:
@@ -136,55 +139,117 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
     model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
     test = _Test(machine, result, sigma, sigma_known, M, rss, J0, model_names, J0.T @ J0)
-    codes = machine.error_codes
     n = len(obs)
-    out = []
-    for block in _blocks(candidates, n):
-        d = design(machine, block, obs)
-        # per block, so that memory stays flat in N: (N, rank) per joint of the block
-        series = {j: _joint_series(d_errors[:, :, j] / sigma, Q0, r) for j in np.unique(d.joint_index)}
-        norm2, A, bvec = _column_sums(d, series)
-        start = 0
-        for e in block:
-            a, b = start, start + e.n_params
-            start = b
-            k = e.n_params
-            unit = e.param_units(machine)[-1]  # the unit of the size: a polynomial sizes its highest term
-            norm_c = np.sqrt(norm2[a:b])
-            if lever[codes.index(e.code)] < INVISIBLE_LEVER_M or not np.any(norm_c > visible_floor):
-                out.append(Candidate(e.name, "invisible", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit))
+    out = [None] * len(candidates)
+    pending = []  # (position, effect, unit, alive, scale, projected Gram matrix, joint, projected product with r)
+    joint, series = None, None
+    for group in _column_groups(machine, obs, candidates):
+        units = [e.param_units(machine)[-1] for _, e, _ in group.members]  # a polynomial sizes its highest term
+        if lever[group.joint] < INVISIBLE_LEVER_M:
+            for (i, e, _), unit in zip(group.members, units):
+                out[i] = Candidate(e.name, "invisible", e.n_params, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit)
+            continue
+        if group.joint != joint:  # the groups come joint by joint: one joint's series at a time
+            joint = group.joint
+            series = _joint_series(d_errors[:, :, joint] / sigma, Q0, r)
+        norm2, A, bvec, grams = _group_sums(group, series, n)
+        for (i, e, ix), unit, gram in zip(group.members, units, grams):
+            norm_c = np.sqrt(norm2[ix])
+            if not np.any(norm_c > visible_floor):
+                out[i] = Candidate(e.name, "invisible", e.n_params, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit)
                 continue
             # a column that vanishes on this plan (a sine sampled at its zeros) carries nothing: drop it
             # rather than blow its rounding noise up to unit length
             alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
             scale = np.where(alive, norm_c, 1.0)
-            basis = d.basis[:, a:b]
-            nrm = series[d.joint_index[a]][0]
-            gram = (basis * nrm[:, None]).T @ basis - A[:, a:b].T @ A[:, a:b]
-            gs, w, V = _normalized(gram, alive, scale)
+            pending.append((i, e, unit, alive, scale, gram - A[:, ix].T @ A[:, ix], joint, bvec[ix]))
+    # the eigen-decompositions of the normalized Gram matrices and the tests, all candidates of one size at once
+    for k in sorted({item[1].n_params for item in pending}):
+        items = [item for item in pending if item[1].n_params == k]
+        alive = np.array([item[3] for item in items])
+        scale = np.array([item[4] for item in items])
+        both = alive[:, :, None] & alive[:, None, :]
+        gs = np.where(both, np.array([item[5] for item in items]) / (scale[:, :, None] * scale[:, None, :]), 0.0)
+        w, V = np.linalg.eigh(gs)
+        bvec = np.array([item[7] for item in items])
+        products = [None] * len(items)
+        for m in np.flatnonzero(w.min(axis=1) < EXACT_BELOW):
+            # the sums lose the digits a projection off a model that nearly explains the candidate cancels
+            e, j = items[m][1], items[m][6]
+            col, basis = d_errors[:, :, j] / sigma, design(machine, [e], obs).basis
+            gram, bvec[m] = _projected_exactly(col, basis, Q0, r)
+            gs[m], w[m], V[m] = _normalized(gram, alive[m], scale[m])
             # the product with the model's columns serves only aliased candidates, all scored exactly (an aliased
             # candidate's eigenvalues are below ALIAS_TOL² < EXACT_BELOW)
-            sums = (None, bvec[a:b])
-            if w.min() < EXACT_BELOW:
-                gram, *sums = _projected_exactly(d_errors[:, :, d.joint_index[a]] / sigma, basis, Q0, J0, r)
-                gs, w, V = _normalized(gram, alive, scale)
-            out.append(test.judge(e, unit, alive, scale, gs, w, V, *sums))
+            products[m] = lambda col=col, basis=basis: _model_products(col, basis, J0)
+        judged = test.judge([item[1] for item in items], [item[2] for item in items], alive, scale, gs, w, V, bvec,
+                            products)
+        for item, c in zip(items, judged):
+            out[item[0]] = c
     return out
 
 
-def _blocks(candidates, n: int) -> list:
-    """``candidates`` in blocks whose basis values (N × columns) fit SCORE_BLOCK_BYTES (with room for temporaries)."""
-    budget = max(int(SCORE_BLOCK_BYTES // (8 * 4 * max(n, 1))), 8)  # columns per block
-    blocks, current, width = [], [], 0
-    for e in candidates:
-        if current and width + e.n_params > budget:
-            blocks.append(current)
-            current, width = [], 0
-        current.append(e)
-        width += e.n_params
-    if current:
-        blocks.append(current)
-    return blocks
+@dataclass(frozen=True)
+class _Columns:
+    """The basis values of candidates of one error joint, summed together.
+
+    Attributes
+    ----------
+    joint : int
+        The error joint (index in ``machine.error_joints``).
+    members : list of (int, Effect, array of int)
+        Each candidate's position in the list scored, the effect, and its columns among the group's.
+    width : int
+        Columns of the group.
+    values : callable (slice of rows) -> array (rows, width)
+        The group's basis values at those alignments.
+    shared : bool
+        The members share columns (windows of one knot grid): their Gram matrices are sub-blocks of the group's.
+        Otherwise each member's columns are its own, and only its block of the Gram matrix is summed.
+    """
+
+    joint: int
+    members: list
+    width: int
+    values: object
+    shared: bool
+
+
+def _column_groups(machine, obs, candidates) -> list:
+    """``candidates`` in groups of one error joint (:class:`_Columns`), joint by joint: local errors by knot grid
+    (each window's columns a subset of the grid's B-splines, computed once), every other candidate with the
+    other candidates of its joint."""
+    from .bases import local_column_index, local_columns, local_grid
+
+    codes = machine.error_codes
+    n = len(obs)
+    plain, grids = {}, {}
+    for i, e in enumerate(candidates):
+        j = codes.index(e.code)
+        if e.basis == "local":
+            grids.setdefault((j, e.axis, local_grid(e)), []).append((i, e))
+        else:
+            plain.setdefault(j, []).append((i, e))
+
+    def rows_of(c):  # the observations of a slice of rows (all of them, most often)
+        return obs if c.start == 0 and c.stop >= n else obs.subset(np.arange(c.start, c.stop))
+
+    groups = []
+    for j, members in plain.items():
+        effects = [e for _, e in members]
+        edges = np.cumsum([0] + [e.n_params for e in effects])
+        groups.append(_Columns(j, [(i, e, np.arange(a, b)) for (i, e), a, b in zip(members, edges[:-1], edges[1:])],
+                               int(edges[-1]), lambda c, effects=effects: design(machine, effects, rows_of(c)).basis,
+                               False))
+    for (j, axis, _), members in grids.items():
+        effects = [e for _, e in members]
+        q = obs.axes[:, machine.axis_names.index(axis)]
+        index = local_column_index(effects, q)
+        groups.append(_Columns(j, [(i, e, ix) for (i, e), ix in zip(members, index)],
+                               local_columns(effects, q, slice(0, 0)).shape[1],
+                               lambda c, effects=effects, q=q: local_columns(effects, q, c), True))
+    groups.sort(key=lambda g: g.joint)  # stable: in the candidates' order within a joint
+    return groups
 
 
 def _joint_series(col, Q0, r) -> tuple:
@@ -197,31 +262,50 @@ def _joint_series(col, Q0, r) -> tuple:
     return nrm, rw, g, Q0.T @ r
 
 
-def _column_sums(d, series) -> tuple:
-    """For the columns of design ``d``: squared norms (P,), products with the model's orthonormal basis
-    (rank, P), and the projected columns' product with the residual (P,)."""
-    P = d.n_params
-    norm2 = np.zeros(P)
-    A = np.zeros((next(iter(series.values()))[2].shape[1], P))
-    bvec = np.zeros(P)
-    for j in np.unique(d.joint_index):
-        cols = np.flatnonzero(d.joint_index == j)
-        nrm, rw, g, s0 = series[j]
-        B = d.basis[:, cols]
-        norm2[cols] = nrm @ (B * B)
-        A[:, cols] = g.T @ B
-        bvec[cols] = rw @ B - A[:, cols].T @ s0  # (C − Q0 A)ᵀ r, with Q0ᵀ r ≈ 0
-    return norm2, A, bvec
+def _group_sums(group: _Columns, series, n: int) -> tuple:
+    """For the columns of ``group``: squared norms (width,), products with the model's orthonormal basis
+    (rank, width), the projected columns' product with the residual (width,), and each member's Gram matrix
+    CᵀC (not yet projected); summed over chunks of alignments whose basis values fit SCORE_BLOCK_BYTES."""
+    nrm, rw, g, s0 = series
+    width = group.width
+    rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 4 * max(width, 1))))
+    norm2, A, rwB = np.zeros(width), np.zeros((g.shape[1], width)), np.zeros(width)
+    # members by their number of columns: their blocks of the Gram matrix summed at once
+    sizes = {}
+    for m, (_, _, ix) in enumerate(group.members):
+        sizes.setdefault(ix.size, []).append(m)
+    gram = np.zeros((width, width)) if group.shared else {k: np.zeros((len(ms), k, k)) for k, ms in sizes.items()}
+    for a in range(0, n, rows):
+        c = slice(a, min(a + rows, n))
+        B = group.values(c)
+        norm2 += nrm[c] @ (B * B)
+        A += g[c].T @ B
+        rwB += rw[c] @ B
+        if group.shared:
+            gram += (B * nrm[c, None]).T @ B
+        else:
+            for k, ms in sizes.items():
+                Bk = B[:, np.array([group.members[m][2] for m in ms])]  # (rows, members, k)
+                gram[k] += np.einsum("nmi,nmj->mij", Bk * nrm[c, None, None], Bk)
+    bvec = rwB - A.T @ s0  # (C − Q0 A)ᵀ r, with Q0ᵀ r ≈ 0
+    if group.shared:
+        grams = [gram[np.ix_(ix, ix)] for _, _, ix in group.members]
+    else:
+        grams = [None] * len(group.members)
+        for k, ms in sizes.items():
+            for m, block in zip(ms, gram[k]):
+                grams[m] = block
+    return norm2, A, bvec, grams
 
 
 #: Alignments per chunk of the explicitly projected columns (memory flat in N).
 EXACT_ROWS = 8192
 
 
-def _projected_exactly(col, basis, Q0, J0, r) -> tuple:
+def _projected_exactly(col, basis, Q0, r) -> tuple:
     """For the columns ``col`` × ``basis`` of one joint (col (N, 3), basis (N, k)): their Gram matrix projected off
-    the model, their product with the model's columns (p0, k) and the projected columns' product with r (k,),
-    from the projected columns, in chunks of alignments."""
+    the model and the projected columns' product with r (k,), from the projected columns, in chunks of
+    alignments."""
     n, k = basis.shape
     chunks = [slice(a, min(a + EXACT_ROWS, n)) for a in range(0, n, EXACT_ROWS)]
 
@@ -231,14 +315,21 @@ def _projected_exactly(col, basis, Q0, J0, r) -> tuple:
     def rows(c):
         return slice(3 * c.start, 3 * c.stop)
 
-    A = sum(Q0[rows(c)].T @ columns(c) for c in chunks)
-    BJ = sum(J0[rows(c)].T @ columns(c) for c in chunks)
+    kept = columns(chunks[0]) if len(chunks) == 1 else None  # one chunk: its columns serve both passes
+    A = sum(Q0[rows(c)].T @ (columns(c) if kept is None else kept) for c in chunks)
     gram, bvec = np.zeros((k, k)), np.zeros(k)
     for c in chunks:
-        Cp = columns(c) - Q0[rows(c)] @ A
+        Cp = (columns(c) if kept is None else kept) - Q0[rows(c)] @ A
         bvec += Cp.T @ r[rows(c)]
         gram += Cp.T @ Cp
-    return gram, BJ, bvec
+    return gram, bvec
+
+
+def _model_products(col, basis, J0) -> np.ndarray:
+    """The product (p0, k) of the model's columns ``J0`` with the columns ``col`` × ``basis`` of one joint."""
+    n, k = basis.shape
+    return sum(J0[3 * a:3 * min(a + EXACT_ROWS, n)].T @ (col[a:a + EXACT_ROWS, :, None] * basis[a:a + EXACT_ROWS, None, :]).reshape(-1, k)
+               for a in range(0, n, EXACT_ROWS))
 
 
 def _normalized(gram, alive, scale) -> tuple:
@@ -262,43 +353,56 @@ class _Test:
     model_names: list
     G0: np.ndarray
 
-    def judge(self, e, unit, alive, scale, gs, w, V, BJ, bvec) -> Candidate:
-        """The candidate ``e`` from its projected, normalized Gram matrix ``gs`` (eigen-decomposition w, V), its
-        product with the model's columns BJ and its projected columns' product with the residual ``bvec``."""
-        result, machine, sigma, M, rss, J0 = self.result, self.machine, self.sigma, self.M, self.rss, self.J0
-        k = e.n_params
-        ratio = np.where(alive, np.sqrt(np.maximum(np.diag(gs), 0.0)), 0.0)
+    def judge(self, effects, units, alive, scale, gs, w, V, bvec, products) -> list:
+        """The candidates ``effects`` of k parameters each, from their projected, normalized Gram matrices ``gs``
+        (m, k, k) (eigen-decompositions w (m, k), V (m, k, k)), their projected columns' products with the
+        residual ``bvec`` (m, k) and, for an aliased one, a function ``products[i]`` that gives its product with
+        the model's columns: a list of Candidate."""
+        result, machine, sigma, M, rss = self.result, self.machine, self.sigma, self.M, self.rss
+        k = gs.shape[1]
+        ratio = np.where(alive, np.sqrt(np.maximum(np.diagonal(gs, axis1=1, axis2=2), 0.0)), 0.0)
         sv = np.sqrt(np.maximum(w, 0.0))
         keep = sv > ALIAS_TOL
-        if not keep.any() or ratio.max() < ALIAS_TOL:
-            G0 = self.G0
-            coef = np.linalg.lstsq(G0, BJ, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
-            weight = np.abs(coef).max(axis=1) * np.sqrt(np.diag(G0)) if coef.size else np.zeros(0)
-            order = np.argsort(-weight)
-            names = tuple(self.model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
-            return Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit, names)
-        kk = int(keep.sum())
-        Vk, sk = V[:, keep], sv[keep]
-        proj = (Vk.T @ (bvec / scale)) / sk  # U_kᵀ r, without forming U
-        delta = float(proj @ proj)
-        if self.sigma_known:
-            log_sf = _chi2_logsf(delta, kk)
-        else:
-            dof2 = M - result.rank - kk
-            F = (delta / kk) / max((rss - delta) / dof2, 1e-300)
-            log_sf = f_logsf(F, kk, dof2)
-            if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
-                log_sf = _chi2_logsf(F * kk, kk)
+        aliased = ~keep.any(axis=1) | (ratio.max(axis=1) < ALIAS_TOL)
+        kk = keep.sum(axis=1)
+        sk = np.where(keep, sv, 1.0)
+        proj = np.where(keep, np.einsum("mij,mi->mj", V, bvec / scale) / sk, 0.0)  # U_kᵀ r, without forming U
+        delta = np.einsum("mj,mj->m", proj, proj)
         # size of the effect: least-squares coefficients of the projected block, restricted to the
         # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
-        beta = -(Vk @ (proj / sk)) / scale  # r is model − measurement
-        cov = (Vk / sk**2) @ Vk.T / np.outer(scale, scale)
-        basis = basis_of(e)
-        size, size_std = basis.size(e, beta, cov)
-        rms_after = float(np.sqrt(max(rss - delta, 0.0) / M)) * sigma
-        note = "" if basis.note is None else basis.note(e, beta, _axis_unit(machine, e.axis))
-        return Candidate(e.name, "live", k, delta, float(np.exp(log_sf)), float(log_sf / np.log(10)),
-                         rms_after, size, size_std, unit, note=note)
+        beta = -np.einsum("mij,mj->mi", V, proj / sk) / scale  # r is model − measurement
+        cov = np.einsum("mij,mj,mlj->mil", V, np.where(keep, 1.0 / sk**2, 0.0), V) / (scale[:, :, None] * scale[:, None, :])
+        rms_after = np.sqrt(np.maximum(rss - delta, 0.0) / M) * sigma
+        out = []
+        for m, (e, unit) in enumerate(zip(effects, units)):
+            if aliased[m]:
+                out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit,
+                                     self._aliases(products[m](), k)))
+                continue
+            d, kd = float(delta[m]), int(kk[m])
+            if self.sigma_known:
+                log_sf = _chi2_logsf(d, kd)
+            else:
+                dof2 = M - result.rank - kd
+                F = (d / kd) / max((rss - d) / dof2, 1e-300)
+                log_sf = f_logsf(F, kd, dof2)
+                if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
+                    log_sf = _chi2_logsf(F * kd, kd)
+            basis = basis_of(e)
+            size, size_std = basis.size(e, beta[m], cov[m])
+            note = "" if basis.note is None else basis.note(e, beta[m], _axis_unit(machine, e.axis))
+            out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / np.log(10)),
+                                 float(rms_after[m]), size, size_std, unit, note=note))
+        return out
+
+    def _aliases(self, BJ, k) -> tuple:
+        """The model parameters (at most three) an aliased candidate, of products BJ with the model's columns,
+        cannot be told from."""
+        G0, J0 = self.G0, self.J0
+        coef = np.linalg.lstsq(G0, BJ, rcond=None)[0] if J0.shape[1] else np.zeros((0, k))
+        weight = np.abs(coef).max(axis=1) * np.sqrt(np.diag(G0)) if coef.size else np.zeros(0)
+        order = np.argsort(-weight)
+        return tuple(self.model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
 
 
 #: Joints whose best searched period is scored as a candidate (the strongest first).
