@@ -120,13 +120,24 @@ def what_is_left(steps) -> str:
     st = final.structure
     if best is not None and best.p_value < final.threshold:
         return text + (f"; structure remains: {best.effect} is significant (p = {best.p_value:.2g}) but was not "
-                       f"added ({steps[-1].stopped.split(':')[0]})")
+                       f"added ({_why_not_added(steps[-1])})")
     if final.verdict == "missing-effect":
         return text + f"; structure remains: {final.note}" if final.note else text + "; structure remains"
     if st is not None:
         return text + (f"; nothing structured remains: no candidate is significant and neighbouring alignments "
                        f"agree no more than noise would (p = {st.p_value:.2g})")
     return text + "; nothing structured remains: no candidate is significant"
+
+
+def _why_not_added(last) -> str:
+    """Why the last step's significant candidate stayed out, in a few words (its stop message says it in full)."""
+    from .crossval import MIN_GAIN_SE
+
+    cv = last.held_out
+    if cv is not None and not cv.improves:
+        return (f"it does not predict held-out alignments better: a gain of {cv.gain_se:.1f} standard errors, "
+                f"{MIN_GAIN_SE:g} needed")
+    return last.stopped.split("; ")[0]
 
 
 def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progress, robust, folds) -> list:

@@ -268,6 +268,21 @@ def test_the_final_model_says_what_it_explains_and_whether_structure_remains():
     assert steps[-1].diagnosis.verdict == "noise" and "nothing structured remains" in text
 
 
+def test_the_last_word_says_why_a_significant_candidate_stayed_out_in_whole_words():
+    """The reason was the stop message cut at its first colon: "(the best candidate, EAY)" for EAY:poly3."""
+    from types import SimpleNamespace
+
+    from kinid.identification.crossval import CrossValidation
+    from kinid.identification.selection import _why_not_added
+
+    stopped = ("the best candidate, EAY:poly3 (p = 3.3e-06), does not predict held-out data better: held-out "
+               "blocks -4% (1.332 → 1.275 µm, 4-fold, gain 1.6 standard errors)")
+    why = _why_not_added(SimpleNamespace(held_out=CrossValidation(4, 1.332, 1.275, 1.6), stopped=stopped))
+    assert why == "it does not predict held-out alignments better: a gain of 1.6 standard errors, 2 needed"
+    other = "adding EXX:map:10 needs EXX:map:10 = 7235 µm, beyond 1000 µm: the observations look inconsistent; not added"
+    assert _why_not_added(SimpleNamespace(held_out=None, stopped=other + "; also: x")) == other.split("; ")[0]
+
+
 def test_a_drift_and_an_error_of_the_axis_time_follows_are_named_inseparable():
     """Class 2: a drift of the tool, the plan visited tilt-major (time follows B). An error of B's position explains
     the data as well as the drift: the diagnosis names both and the plan's order as the cause, in the text, the
