@@ -35,7 +35,8 @@ from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
 from .local_errors import proposed_maps
-from .scoring import Candidate, _f_log10_p, score_all
+from .scoring import Candidate, _f_log10_p
+from .searched import score_all
 from .structure import structure_left
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "time_follows", "TIME_CONFOUND", "noise_from_replicates", "axis_residuals", "joints_the_urdf_lacks",

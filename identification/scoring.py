@@ -30,14 +30,13 @@ from kinid.stats import chi2_logsf, f_logsf
 from kinid.threads import blas_single_threaded
 
 from .bases import basis_of
-from .effects import candidate_library
 from .fit import FitResult
 from .leverage import model_pass
 from .machine import Machine
 from .observations import Observations
 from .residuals import design, effect_columns
 
-__all__ = ["Candidate", "score_candidates", "score_all", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
+__all__ = ["Candidate", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
 
 
 #: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
@@ -219,7 +218,7 @@ def _column_groups(machine, obs, candidates) -> list:
     """``candidates`` in groups of one error joint (:class:`_Columns`), joint by joint: local errors by knot grid
     (each window's columns a subset of the grid's B-splines, computed once), every other candidate with the
     other candidates of its joint."""
-    from .bases import local_column_index, local_columns, local_grid
+    from .bsplines import local_column_index, local_columns, local_grid
 
     codes = machine.error_codes
     n = len(obs)
@@ -405,160 +404,6 @@ class _Test:
         return tuple(self.model_names[i] for i in order[:3] if weight[i] > 1e-3 * max(weight.max(), 1e-300))
 
 
-#: Joints whose best searched period is scored as a candidate (the strongest first).
-FOUND_PERIODS = 4
-
-
-#: χ² gain a free period needs over the joint's best listed period (χ²₁ at p = 0.001).
-PERIOD_GAIN_MIN = 10.83
-
-
-def _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
-    """Candidates at periods the library does not list, found by :func:`~kinid.identification.periods.search_periods`.
-
-    Each is scored like a library candidate, then its p-value is multiplied by
-    the number of independent periods searched for its joint.
-    """
-    from dataclasses import replace
-
-    from kinid.errors import DataError
-
-    from .effects import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, parse_effect
-    from .periods import search_periods
-
-    r = result.residuals_um.ravel() / sigma
-    r = r - q0 @ (q0.T @ r)
-    have = {c.effect for c in scored}
-    # the best χ² drop of a listed period, per joint: a free period must beat it by more than one
-    # extra parameter gains by chance (χ²₁ at 0.001), else the listed period is the simpler account
-    listed_best = {}
-    for c in scored:
-        if c.status == "live" and ":periodic:" in c.effect:
-            code = c.effect.split(":")[0]
-            listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
-    out = []
-    estimates = search_periods(machine, obs, r, d_errors, q0, sigma)
-    joints = max(len(estimates), 1)  # the best of every joint's search is taken: the trials multiply
-    for est in estimates[:FOUND_PERIODS]:
-        listed = ROTARY_PERIODS_DEG if est.unit == "deg" else LINEAR_PERIODS_MM
-        if est.effect in have or any(abs(est.period - p) <= max(2 * est.period_std, 1e-9 * p) for p in listed):
-            continue  # the library's own candidate covers it
-        if est.statistic - listed_best.get(est.code, 0.0) < PERIOD_GAIN_MIN:
-            continue
-        try:
-            effect = parse_effect(est.effect, machine)
-        except DataError:
-            continue
-        c = score_candidates(machine, obs, result, [effect], sigma, sigma_known=known, d_errors=d_errors, q0=q0)[0]
-        if c.status != "live":
-            continue
-        trials = est.trials * joints
-        log10_p = min(0.0, c.log10_p + math.log10(trials))
-        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
-                f"(p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} joints searched)")
-        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
-        have.add(est.effect)
-    return out
-
-
-#: Warm-up time constants searched per joint (log grid from a minute to three times the run) and the joints
-#: searched: those whose best listed warm-up candidate is strongest.
-TAU_GRID = 24
-TAU_JOINTS = 3
-
-
-def _found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
-    """Warm-up candidates at time constants the library does not list: for the joints whose listed warm-up
-    scores best, the χ² drop over a log grid of τ, refined by a bounded search in log τ; the p-value is
-    multiplied by the τ and joints searched. Proposed only where it gains over the listed τ."""
-    from dataclasses import replace
-
-    from scipy.optimize import minimize_scalar
-
-    from kinid.errors import DataError
-
-    from .effects import parse_effect
-
-    if obs.t_s is None or not np.ptp(obs.t_s) > 0:
-        return []
-    listed = {}
-    for c in scored:
-        if c.status == "live" and ":warmup:" in c.effect:
-            code = c.effect.split(":")[0]
-            if code not in listed or c.statistic > listed[code].statistic:
-                listed[code] = c
-    codes = sorted(listed, key=lambda k: -listed[k].statistic)[:TAU_JOINTS]
-    span = float(np.max(obs.t_s))
-    if not codes or not span > 60.0:
-        return []
-    grid = np.geomspace(60.0, 3.0 * span, TAU_GRID)
-    have = {c.effect for c in scored}
-
-    def score(code, taus):
-        try:
-            effects = [parse_effect(f"{code}:warmup:{t:.5g}", machine) for t in taus]
-        except DataError:
-            return []
-        return score_candidates(machine, obs, result, effects, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
-
-    out = []
-    for code in codes:
-        on_grid = score(code, grid)
-        if not on_grid:
-            continue
-        k = int(np.argmax([c.statistic if c.status == "live" else -np.inf for c in on_grid]))
-        lo, hi = np.log(grid[max(k - 1, 0)]), np.log(grid[min(k + 1, len(grid) - 1)])
-        best = minimize_scalar(lambda u: -(score(code, [np.exp(u)]) or [on_grid[k]])[0].statistic,
-                               bounds=(lo, hi), method="bounded", options={"xatol": 0.01, "maxiter": 20})
-        c = score(code, [np.exp(best.x)])[0]
-        if c.status != "live" or c.statistic < on_grid[k].statistic:
-            c = on_grid[k]
-        if c.status != "live" or c.effect in have or c.statistic - listed[code].statistic < PERIOD_GAIN_MIN:
-            continue
-        trials = float(TAU_GRID * len(codes))
-        log10_p = min(0.0, c.log10_p + math.log10(trials))
-        tau = c.effect.rpartition(":")[2]
-        note = f"time constant found by search: τ = {tau} s (p-value × {trials:.0f}: {TAU_GRID} τ of {len(codes)} joints)"
-        out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
-    return out
-
-
-#: An added warm-up's time constant is refined within this factor either side of the candidate's.
-TAU_REFINE_FACTOR = 3.0
-
-
-def refined_time_constant(machine: Machine, obs: Observations, result: FitResult, name: str, sigma: float) -> str:
-    """``CODE:warmup:<τ>`` with τ refined to the one whose candidate explains most of the residuals of ``result``
-    (a log grid within TAU_REFINE_FACTOR of the candidate's τ, then a bounded search in log τ); any other name as
-    it is. A warm-up is proposed at the τ of the library's grid (a factor 3 apart) or of the search, whose trials
-    penalty may keep a better τ out; fitted at a τ off the machine's, its amplitude misses the growth between."""
-    from scipy.optimize import minimize_scalar
-
-    from .effects import parse_effect
-
-    code, kind, tau = (name.split(":") + ["", ""])[:3]
-    if kind != "warmup" or obs.t_s is None:
-        return name
-    d_errors, _, q0 = model_pass(machine, obs, result)
-
-    def named(log_tau) -> str:  # four significant digits, never in exponent notation
-        digits = np.format_float_positional(math.exp(log_tau), precision=4, unique=False, fractional=False, trim="-")
-        return f"{code}:warmup:{digits}"
-
-    def statistic(log_tau) -> float:
-        c = score_candidates(machine, obs, result, [parse_effect(named(log_tau), machine)], sigma, sigma_known=False,
-                             d_errors=d_errors, q0=q0)[0]
-        return c.statistic if c.status == "live" else -math.inf
-
-    grid = np.log(float(tau)) + np.linspace(-1.0, 1.0, 13) * math.log(TAU_REFINE_FACTOR)
-    values = [statistic(u) for u in grid]
-    k = int(np.argmax(values))
-    found = minimize_scalar(lambda u: -statistic(u), bounds=(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]),
-                            method="bounded", options={"xatol": 0.01, "maxiter": 20})
-    best_u, best = (found.x, -found.fun) if -found.fun > values[k] else (grid[k], values[k])
-    return named(best_u) if best > values[len(grid) // 2] else name  # the middle of the grid: τ as given
-
-
 def _axis_unit(machine, axis: str) -> str:
     return "mm" if machine.axis(axis).kind == "prismatic" else "deg"
 
@@ -575,13 +420,3 @@ def _f_log10_p(c: Candidate, rss: float, dof: int) -> float:
 
 #: log P(χ²_k > x), finite far into the tail (kept under this name for callers of the score test).
 _chi2_logsf = chi2_logsf
-
-
-def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0) -> list:
-    """The candidates scored at ``result``: the library's, and the free periods and time constants found (the
-    diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.local_errors`)."""
-    library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
-    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
-    scored += _found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
-    scored += _found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0)
-    return scored

@@ -212,7 +212,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             progress.say(f"  stopped: {stop}")
             break
         from .effects import parse_effect
-        from .scoring import refined_time_constant
+        from .searched import refined_time_constant
 
         name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)
         if name != best.effect:

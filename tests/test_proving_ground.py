@@ -191,7 +191,7 @@ def test_a_local_error_rests_on_readings_per_coefficient_not_per_knot():
     every knot of a window for readings (its end knots too, where the error is held at zero) refused every window
     with knots every 10 mm; the 20 mm window left rang between the positions, and the final model predicted held-out
     alignments 1.7× worse than the default model. Each coefficient's B-spline resting on readings admits them."""
-    from kinid.identification.bases import _bsplines
+    from kinid.identification.bsplines import _bsplines
     from kinid.identification.local_errors import _bspline_support
 
     q = np.random.default_rng(3).uniform(-60.0, 60.0, 300)
