@@ -47,7 +47,8 @@ def commands(out: Path) -> dict:
         "dual-axis": ["dual-axis", "--data", str(STAGES / "dual_axis.csv"), "--pixel-to-mm", *PIXEL_TO_MM,
                       "--report", str(out / "dual-axis")],
         "contour": ["contour", "--simulate", "--sim-frames", "40", "--workers", "1", "--report", str(out / "contour")],
-        "iso230-2": ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--plot", str(out / "iso230-2.png")],
+        "iso230-2": ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--plot", str(out / "iso230-2.png"),
+                     "--report", str(out / "iso230-2")],
         "board": ["board", "--out", str(out / "board.json"), "--svg", str(out / "board.svg"),
                   "--pdf", str(out / "board.pdf")],
     }

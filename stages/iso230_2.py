@@ -271,7 +271,9 @@ def register(subparsers) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object (keys A_um, E_um, R_um, M_um, B_um, ...)")
     p.add_argument("--plot", metavar="OUT.png", help="mean deviations ±2s per direction against the target")
     p.add_argument("--axis", default="", metavar="NAME", help="the axis measured, for the report (e.g. X)")
-    p.set_defaults(run=_run)
+    p.add_argument("--report", metavar="DIR", help="write the test report into DIR: the standard's values, the "
+                                                   "table per target, the plot (HTML, one-file HTML and PDF)")
+    p.set_defaults(run=_run, outputs={"plot": "file", "report": "replaced folder"})
 
 
 def _run(args) -> int:
@@ -286,10 +288,70 @@ def _run(args) -> int:
 
     source = shown_path(Path(args.runs).name)
     axis = shown_path(args.axis) if args.axis else ""
+    if args.report:
+        from kinid.report_html import check_report_folder
+
+        check_report_folder(args.report)
     if args.plot:
         plot_runs(result, args.plot, axis=axis, source=source)
+    if args.report:
+        from .outputs import staged_report
+
+        with staged_report(args) as staged:
+            write_report(result, staged.report, args.runs, axis=axis, source=source)
     from kinid.files import strict_json
 
     summary = {"standard": STANDARD, "axis": args.axis, "source": str(args.runs), **result.summary()}
     print(strict_json(summary) if args.json else result.text(axis, source))
+    if args.report and not args.json:
+        print(f"report written to {args.report}")
     return 0
+
+
+def write_report(result: PositioningResult, folder, runs_path, *, axis: str = "", source: str = "") -> None:
+    """The test report (kinid.report_html): the provenance, the axis values of the standard in a table, the values
+    per target, the plot, and the text output."""
+    from pathlib import Path
+
+    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc
+    from kinid.report_html import write_report as write_pages
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    plot_runs(result, folder / "positioning.png", axis=axis, source=source)
+    k = _decimals([result.A_um, result.R_um, result.E_um])
+    named = f"axis {axis}" if axis else "the axis"
+    values = Table(("value", "bidirectional (µm)", "↑ (µm)", "↓ (µm)"), (
+        ("accuracy A", f"{result.A_um:.{k}f}", f"{result.A_up_um:.{k}f}", f"{result.A_down_um:.{k}f}"),
+        ("systematic positional deviation E", f"{result.E_um:.{k}f}", f"{result.E_up_um:.{k}f}",
+         f"{result.E_down_um:.{k}f}"),
+        ("repeatability R", f"{result.R_um:.{k}f}", f"{result.R_up_um:.{k}f}", f"{result.R_down_um:.{k}f}"),
+        ("range of mean bidirectional deviation M", f"{result.M_um:.{k}f}", "—", "—"),
+        ("reversal value B", f"{result.B_um:.{k}f}", "—", "—"),
+        ("mean reversal value B̄", f"{result.mean_reversal_um:.{k}f}", "—", "—")), numeric=(1, 2, 3),
+        caption=f"{STANDARD}: ↑ positive approach, ↓ negative; A and R include ±2s (s the estimator of the standard "
+                f"uncertainty at each target from {result.runs} runs per direction); — the standard defines none.")
+    rows = tuple((f"{t:.3f}", f"{u:.{k}f}", f"{d:.{k}f}", f"{b:.{k}f}", f"{su:.{k}f}", f"{sd:.{k}f}", f"{r:.{k}f}")
+                 for t, u, d, b, su, sd, r in zip(result.targets_mm, result.mean_up_um, result.mean_down_um,
+                                                  result.reversal_um, result.s_up_um, result.s_down_um,
+                                                  result.repeatability_um))
+    targets = Table(("target (mm)", "mean ↑ (µm)", "mean ↓ (µm)", "reversal B_i (µm)", "s ↑ (µm)", "s ↓ (µm)",
+                     "repeatability R_i (µm)"), rows, numeric=tuple(range(7)),
+                    caption="Per target: the mean unidirectional positional deviations, their difference B_i, the "
+                            "estimators s of the standard uncertainty, and the bidirectional repeatability R_i.")
+    span = f"{float(result.targets_mm.min()):g} to {float(result.targets_mm.max()):g} mm"
+    summary = [f"Over {span} ({len(result.targets_mm)} targets, {result.runs} runs per direction) {named} positions "
+               f"with accuracy A = {result.A_um:.{k}f} µm, repeatability R = {result.R_um:.{k}f} µm and reversal "
+               f"value B = {result.B_um:.{k}f} µm ({STANDARD}).",
+               "Compare with the machine's specification; where A is mostly systematic (E close to A), a pitch "
+               "compensation table of the axis removes most of it (kinid compensate)."]
+    prov = [("standard", f"{STANDARD} (determination of accuracy and repeatability of positioning of numerically "
+                         f"controlled axes)"),
+            ("axis", axis or "not named (--axis NAME)"), ("runs", file_provenance(runs_path)), ("made", now_utc())]
+    sections = [Section("Values of the axis", tables=(values,)),
+                Section("Per target", tables=(targets,), figures=(Figure(
+                    "positioning.png", "Mean positional deviation per direction with ±2s bands, and the mean "
+                                       "bidirectional deviation, against the target position"),)),
+                Section("Text output", details=result.text(axis, source))]
+    write_pages(folder, f"Positioning accuracy and repeatability of {named}", "kinid iso230-2", prov, summary,
+                sections)

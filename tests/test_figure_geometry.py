@@ -40,7 +40,8 @@ def _commands(d: Path) -> list:
         [*dual, "--report", str(d / "dual"), "--plot", str(d / "dual.png")],
         ["dual-axis", "--simulate", "--plot", str(d / "dual_sim.png")],
         [*contour, "--report", str(d / "contour"), "--plot", str(d / "contour.png")],
-        ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--plot", str(d / "iso.png")],
+        ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--plot", str(d / "iso.png"), "--report",
+         str(d / "iso")],
     ]
 
 

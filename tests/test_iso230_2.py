@@ -94,3 +94,23 @@ def test_millimetres_in_the_micrometre_column_are_warned_of(tmp_path, capsys):
                                                                        for t, r, d, v in rows) + "\n")
     assert main(["iso230-2", str(f)]) == 0
     assert "millimetres" not in capsys.readouterr().err
+
+
+def test_report_states_the_standard_axis_file_and_values(tmp_path, capsys):
+    """--report: the test report to hand over names the edition, the axis and the runs file, and holds the axis values
+    and the per-target table the text prints (the same decimals), the plot, one-file HTML and PDF."""
+    import pathlib
+
+    runs = pathlib.Path(__file__).resolve().parent.parent / "examples" / "x_runs.csv"
+    assert main(["iso230-2", str(runs), "--axis", "X", "--json"]) == 0
+    values = json.loads(capsys.readouterr().out)
+    assert main(["iso230-2", str(runs), "--axis", "X", "--report", str(tmp_path / "rep")]) == 0
+    assert f"report written to {tmp_path / 'rep'}" in capsys.readouterr().out
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "ISO 230-2:2014" in page and "x_runs.csv" in page and "SHA-256" in page and "of axis X" in page
+    for key in ("A_um", "E_um", "R_um", "M_um", "B_um", "mean_reversal_um", "A_up_um", "R_down_um"):
+        assert f"{values[key]:.3f}" in page, key
+    for row in values["positions"]:
+        assert f"{row['target_mm']:.3f}" in page and f"{row['repeatability_um']:.3f}" in page
+    for name in ("positioning.png", "report.html", "report.pdf"):
+        assert (tmp_path / "rep" / name).stat().st_size > 1000
