@@ -10,39 +10,24 @@ Run: ``python benchmarks/bench_auto_scale.py [--repeat N]``
 """
 import argparse
 import statistics
+import sys
 import time
-
-import numpy as np
+from pathlib import Path
 
 
 def main():
     from threadpoolctl import threadpool_limits
 
-    from kinid.identification import default_model, diagnose, fit, forward_select, load_machine, simulate
-    from kinid.identification.observations import Observations
-    from kinid.identification.simulate import patent_plan
-    from kinid.urdf import path
+    import kinid.identification as ident
+    from kinid.identification import diagnose, fit, forward_select
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_diagnose_scale import data_set  # the same 3 360 alignments
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
-    m = load_machine(path("five_axis_bc"))
-    effects = default_model(m)
-    rng = np.random.default_rng(5)
-    theta = rng.normal(0, 15.0, sum(e.n_params for e in effects))
-    base = patent_plan(m)
-    plan = Observations(base.marks * 10, np.tile(base.w_mm, (10, 1)), np.tile(base.axes, (10, 1)))
-    obs = simulate(m, plan, effects, theta, noise_um=1.0, rng=rng)
-    # the lead: at reading x the carriage stands at x + e(x); the reading that put the tool on the mark is
-    # then the one with x + e(x) = the aligned position (as benchmarks/bench_auto.py does)
-    k = m.axis_names.index("X")
-    x0 = obs.axes[:, k].copy()
-    x = x0.copy()
-    for _ in range(30):
-        x = x0 - 2.5e-3 * np.sin(2 * np.pi * x / 13.3 + 0.7)
-    axes = obs.axes.copy()
-    axes[:, k] = x
-    obs = Observations(obs.marks, obs.w_mm, axes, obs.t_s, obs.directions, obs.lines, "<bench>")
+    m, obs, effects = data_set(ident)
     times = {"fit": [], "diagnose": [], "auto": []}
     with threadpool_limits(1):
         for _ in range(args.repeat):
