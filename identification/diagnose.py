@@ -35,6 +35,7 @@ from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
 from .local_errors import proposed_maps
+from .plausibility import warning_lines
 from .scoring import Candidate, _f_log10_p
 from .searched import score_all
 from .structure import structure_left
@@ -240,18 +241,9 @@ class Diagnosis:
             lines.append("")
             lines.append(f"possible outliers (studentized residual beyond the Bonferroni χ²₃ bound): rows {', '.join(str(i + 1) for i in self.outliers[:20])}")
         odd = f.implausible()
-        if any(not a.undetermined for a in odd):
+        if odd:
             lines.append("")
-            lines.append("the fit needs sizes no machine has: the observations look inconsistent (a sensor offset "
-                         "not in the sensor file, a camera model that does not fit the lens, a unit) — check them "
-                         "before adding effects:")
-            lines += [f"  - {a.describe()}" for a in odd if not a.undetermined]
-        if any(a.undetermined for a in odd):
-            lines.append("")
-            lines.append("errors the plan hardly determines take sizes no machine has within their uncertainty "
-                         "(the poses barely tell them from other errors): fit with --prior to hold such errors near "
-                         "zero, or choose poses that determine them (kinid plan --param NAME=U):")
-            lines += [f"  - {a.describe()}" for a in odd if a.undetermined]
+            lines += warning_lines(odd, prefix="the fit needs ")
         missing = joints_the_urdf_lacks(f.machine)
         if missing and self.verdict == "missing-effect":
             lines.append("")

@@ -57,22 +57,33 @@ class Implausible:
                     f"{self.limit:g} {self.unit}: not determined by these data (zero is within its uncertainty)")
         return f"{self.effect} = {self.size:.4g} {self.unit}, beyond {self.limit:g} {self.unit}"
 
+    @property
+    def remedy(self) -> str:
+        """What the flag means and what to do, for this effect alone (the report's note under its table)."""
+        if self.undetermined:
+            return (f"the plan hardly determines it — fit with --prior to hold such errors near zero, or choose poses "
+                    f"that determine it (kinid plan --param {self.effect}=U)")
+        return ("the observations look inconsistent (a sensor offset, a camera model, a unit) rather than the machine "
+                "having it")
+
 
 #: What :func:`implausible_effects` flags, said once above the list (fit and diagnosis texts).
-INCONSISTENT = ("sizes no machine has (the observations look inconsistent — a sensor offset, a camera model, a "
-                "unit — rather than these errors being there)")
+INCONSISTENT = ("sizes no machine has (the observations look inconsistent — a sensor offset not in the sensor file, a "
+                "camera model that does not fit the lens, a unit — rather than these errors being there; check them "
+                "before adding effects)")
 UNDETERMINED = ("sizes no machine has within the uncertainty of errors the plan hardly determines (its poses barely "
                 "tell them from other errors): fit with --prior to hold such errors near zero, or choose poses that "
                 "determine them (kinid plan --param NAME=U)")
 
 
-def warning_lines(odd) -> list:
-    """The warning lines for flagged effects: the inconsistent ones and the undetermined ones apart."""
+def warning_lines(odd, prefix: str = "WARNING: ") -> list:
+    """The warning lines for flagged effects, the inconsistent ones and the undetermined ones apart, each group
+    under its header (``prefix`` before it: the fit's text warns, the diagnosis lists)."""
     lines = []
     for flagged, header in (([a for a in odd if not a.undetermined], INCONSISTENT),
                             ([a for a in odd if a.undetermined], UNDETERMINED)):
         if flagged:
-            lines.append(f"WARNING: {header}:")
+            lines.append(f"{prefix}{header}:")
             lines += [f"  - {a.describe()}" for a in flagged]
     return lines
 

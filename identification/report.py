@@ -115,13 +115,7 @@ def errors_table(fit_result, *, caption="", obs=None) -> Table:
                 what_text += " (⚠ a size no machine has: see below the table)"
             rows.append((name, what_text, how if i == 0 else "as above", v, u, unit))
         k += e.n_params
-    notes = []
-    for a in flagged.values():
-        notes.append(f"⚠ {a.describe()}: " + (
-            f"the plan hardly determines it — fit with --prior to hold such errors near zero, or choose poses "
-            f"that determine it (kinid plan --param {a.effect}=U)" if a.undetermined else
-            "the observations look inconsistent (a sensor offset, a camera model, a unit) rather than the machine "
-            "having it"))
+    notes = [f"⚠ {a.describe()}: {a.remedy}" for a in flagged.values()]
     return Table(("error", "what it is", "how it varies", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(3, 4),
                  caption=(caption or "U: expanded uncertainty, k = 2 (twice the standard deviation at the σ used); "
                                      "held: not identifiable from these data (see below)")
