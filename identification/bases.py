@@ -34,7 +34,7 @@ import numpy as np
 
 from kinid.errors import DataError
 
-from .bsplines import _LOCAL_GRIDS, _bsplines, _grid_bsplines, local_grid
+from .bsplines import _bsplines
 
 __all__ = ["Basis", "BasisInput", "BASES", "register_basis", "basis_of", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG",
            "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name"]
@@ -358,25 +358,10 @@ def _map_values(e, q, t, s):
 
 
 def _local_values(e, q, t, s):
-    """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside."""
+    """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside. (The diagnosis scores the windows
+    of one knot grid from that grid's B-splines at once, :mod:`~kinid.identification.bsplines`.)"""
     knots = np.asarray(e.knots)
-    step = float(knots[1] - knots[0])
-    centres = knots[2:-2]
-    q = np.asarray(q, float)
-    if q.size == 0 or not np.all(np.isfinite(q)):
-        return _bsplines(q, centres, step)
-    key = local_grid(e)
-    grid = _LOCAL_GRIDS.get(key)
-    if grid is None or grid[0].shape != q.shape or not np.array_equal(grid[0], q):
-        if len(_LOCAL_GRIDS) >= 16:
-            _LOCAL_GRIDS.clear()
-        grid = _LOCAL_GRIDS[key] = (q.copy(), *_grid_bsplines(q, *key))
-    _, first, values = grid
-    out = np.zeros((q.size, centres.size))
-    index = np.round((centres - first) / step).astype(int)
-    inside = (index >= 0) & (index < values.shape[1])  # a B-spline off the grid is zero at every reading
-    out[:, inside] = values[:, index[inside]]
-    return out
+    return _bsplines(np.asarray(q, float), knots[2:-2], float(knots[1] - knots[0]))
 
 
 def _peak(e, beta, cov):

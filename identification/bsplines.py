@@ -17,12 +17,6 @@ def _bsplines(q, centres, step):
     return out
 
 
-#: The B-splines of one knot grid at the readings last asked for, shared by every window on that grid
-#: (the diagnosis scores hundreds of windows on the same readings): (step, phase) -> (readings, first
-#: centre, values).
-_LOCAL_GRIDS: dict = {}
-
-
 def local_grid(e) -> tuple:
     """(step, phase) of the knot grid of the local error ``e``: windows with the same pair share their B-splines."""
     knots = np.asarray(e.knots)
@@ -36,12 +30,6 @@ def _grid_span(q, step: float, phase: float) -> tuple:
     return first, int(np.ceil((q.max() + 2 * step - first) / step)) + 1
 
 
-def _grid_bsplines(q, step: float, phase: float) -> tuple:
-    """(first centre, values (N, count)) of the B-splines every ``step`` (at ``phase``) that reach readings ``q``."""
-    first, count = _grid_span(q, step, phase)
-    return first, _bsplines(q, first + step * np.arange(count), step)
-
-
 def _grid_index(e, first: float, step: float, count: int) -> np.ndarray:
     """Columns of the grid (from ``first``, ``count`` B-splines) that are the local error ``e``'s; ``count`` for a
     B-spline off the grid (zero at every reading)."""
@@ -52,7 +40,7 @@ def _grid_index(e, first: float, step: float, count: int) -> np.ndarray:
 def local_columns(effects, q, rows=slice(None)) -> np.ndarray:
     """The values (rows, c) at readings ``q[rows]`` of the B-splines of local errors ``effects`` on one knot grid
     (:func:`local_grid`), computed once for all of them; :func:`local_column_index` says which are whose.
-    They are the numbers :func:`_local_values` gives at all readings ``q``, at those rows."""
+    They are the numbers the local basis gives (``bases._local_values``, each window's own B-splines), to rounding."""
     q = np.asarray(q, float)
     if q.size == 0 or not np.all(np.isfinite(q)):  # as _local_values: each effect's own B-splines
         return np.concatenate([_bsplines(q[rows], np.asarray(e.knots)[2:-2], local_grid(e)[0]) for e in effects],

@@ -131,32 +131,32 @@ LOCAL_STEPS = (0.5, 1.0, 2.0)
 LOCAL_SPARE_POSITIONS = 2
 
 
-def _hat_support(q, first: float, step: float, count: int) -> np.ndarray:
-    """Σ over readings ``q`` of each knot's hat function (1 at the knot, 0 a step away), for ``count`` knots every
-    ``step`` from ``first``: each reading shares itself between the two knots around it (O(N), no N × knots array)."""
+def _knot_sums(q, first: float, step: float, count: int, pieces) -> np.ndarray:
+    """Σ over readings ``q`` of the basis function at each of ``count`` knots every ``step`` from ``first``, where
+    ``pieces(f)`` gives, for a reading a fraction f past its knot i, the (shift, value) of each function that is not
+    zero there (at knot i + shift): O(N), no N × knots array."""
     x = (np.asarray(q, float) - first) / step
     i = np.floor(x).astype(np.int64)
-    frac = x - i
     out = np.zeros(count)
-    for index, weight in ((i, 1.0 - frac), (i + 1, frac)):
-        inside = (index >= 0) & (index < count)
-        out += np.bincount(index[inside], weights=weight[inside], minlength=count)
-    return out
-
-
-def _bspline_support(q, first: float, step: float, count: int) -> np.ndarray:
-    """Σ over readings ``q`` of each cubic B-spline centred every ``step`` from ``first`` (``count`` of them): the
-    readings a local error's coefficient rests on. Each reading touches four B-splines (O(N))."""
-    x = (np.asarray(q, float) - first) / step
-    i = np.floor(x).astype(np.int64)
-    f = x - i
-    out = np.zeros(count)
-    for shift, weight in ((-1, (1 - f) ** 3 / 6), (0, (4 - 6 * f**2 + 3 * f**3) / 6),
-                          (1, (1 + 3 * f + 3 * f**2 - 3 * f**3) / 6), (2, f**3 / 6)):
+    for shift, weight in pieces(x - i):
         index = i + shift
         inside = (index >= 0) & (index < count)
         out += np.bincount(index[inside], weights=weight[inside], minlength=count)
     return out
+
+
+def _hat_support(q, first: float, step: float, count: int) -> np.ndarray:
+    """Σ over readings ``q`` of each knot's hat function (1 at the knot, 0 a step away): the readings a whole map's
+    knot rests on; each reading shares itself between the two knots around it."""
+    return _knot_sums(q, first, step, count, lambda f: ((0, 1.0 - f), (1, f)))
+
+
+def _bspline_support(q, first: float, step: float, count: int) -> np.ndarray:
+    """Σ over readings ``q`` of each cubic B-spline centred at the knots: the readings a local error's coefficient
+    rests on; each reading touches four B-splines."""
+    return _knot_sums(q, first, step, count, lambda f: (
+        (-1, (1 - f) ** 3 / 6), (0, (4 - 6 * f**2 + 3 * f**3) / 6), (1, (1 + 3 * f + 3 * f**2 - 3 * f**3) / 6),
+        (2, f**3 / 6)))
 
 
 def _local_windows(whole, q, distinct, machine) -> list:
