@@ -7,6 +7,12 @@ from .kinematics import ACTUATORS
 __all__ = ["write_measured_report", "write_simulated_report", "plot_measured", "demo_text", "quantity"]
 
 
+#: The actuator error model in words, for the captions of both reports' parameter tables.
+MODEL_WORDS = ("The error of each actuator, measured − commanded position at command c (µm), approached in direction "
+               "d = ±1: offset + scale·c − d·B/2 + Σ_h (s_h sin 2πhc/L + k_h cos 2πhc/L), B the backlash, L the screw "
+               "lead, s_h and k_h the sine and cosine parts of the h-th harmonic of the lead error")
+
+
 def quantity(name: str, value: float, std: float, truth: str = "") -> str:
     """``offset_um`` 1.653, 0.007 -> "offset 1.653 ± 0.007 µm" (the unit out of the parameter's name)."""
     stem, _, unit = name.rpartition("_")
@@ -31,11 +37,8 @@ def write_measured_report(models, args) -> None:
             stem, _, unit = n.rpartition("_")
             rows.append((a, _parameter_words(stem), f"{v:.3f}", f"{2 * s:.3f}", {"um": "µm"}.get(unit, unit)))
     table = Table(("actuator", "parameter", "value", "U (k = 2)", "unit"), tuple(rows), numeric=(2, 3),
-                  caption="The error of each actuator, measured − commanded position at command c (µm), approached "
-                          "in direction d = ±1: offset + scale·c − d·B/2 + Σ_h (s_h sin 2πhc/L + k_h cos 2πhc/L), "
-                          "B the backlash, L the screw lead, s_h and k_h the sine and cosine parts of the h-th "
-                          "harmonic of the lead error (and a bow, polynomial terms q_p, when the data ask for one). "
-                          "U: expanded uncertainty, k = 2.")
+                  caption=MODEL_WORDS + " (and a bow, polynomial terms q_p, when the data ask for one). U: expanded "
+                                        "uncertainty, k = 2.")
     before = {a: float(np.max(np.abs(m.error_um(m.commands_um, m.directions) + m.residuals_um))) for a, m in models.items()}
     worst = max(before, key=before.get)
     summary = [f"Uncompensated, the actuators miss their commands by up to {before[worst]:.3g} µm ({worst}); the "
@@ -71,12 +74,8 @@ def write_simulated_report(result: dict, args) -> None:
                          {"um": "µm"}.get(unit, unit)))
     models = Table(("actuator", "parameter", "fitted", "U (k = 2)", "simulated", "unit"), tuple(rows),
                    numeric=(2, 3, 4),
-                   caption="The error of each actuator, measured − commanded position at command c (µm), approached "
-                           "in direction d = ±1: offset + scale·c − d·B/2 + Σ_h (s_h sin 2πhc/L + k_h cos 2πhc/L), "
-                           "B the backlash, L the screw lead, s_h and k_h the sine and cosine parts of the h-th "
-                           "harmonic of the lead error; terms chosen by BIC. —: not a term of the simulated stage "
-                           "(there it is zero). "
-                           "U: expanded uncertainty, k = 2.")
+                   caption=MODEL_WORDS + "; terms chosen by BIC. —: not a term of the simulated stage (there it is "
+                                         "zero). U: expanded uncertainty, k = 2.")
     val = result["validation"]
     methods = ("uncompensated", "patent", "model")
     words = {"uncompensated": "uncompensated", "patent": "the patent's method", "model": "the fitted model"}
