@@ -167,7 +167,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
         best = _first_determined(dg, undetermined)
-        if dg.inseparable and best is not None and dg.inseparable.startswith(best.effect + " "):
+        if dg.inseparable and best is not None and best.effect == dg.live[0].effect:  # it names the best candidate
             undetermined[f"time {best.effect}"] = dg.inseparable  # said when the selection stops
         stop = ""
         if dg.verdict == "noise":
