@@ -11,9 +11,10 @@ The size of an effect is its largest value over the data: the value of a constan
 A maximum a posteriori fit (``identify --prior``) also flags a constant beyond ``PRIOR_MULTIPLE`` times
 its prior's standard deviation: the prior said such a size is all but impossible.
 
-A constant whose implausible value lies within its expanded uncertainty (k = 2) is not evidence of
-inconsistent observations: the plan hardly determines it (a direction of the parameters the poses
-barely see), and zero is as likely. It is flagged as ``undetermined``, with the remedy that fits it:
+A constant whose implausible value lies within its expanded uncertainty U (k = 2), or whose U alone
+reaches the limit, is not evidence of inconsistent observations: the plan hardly determines it (a
+direction of the parameters the poses barely see), and a little noise or a small misfit elsewhere moves
+it that far. It is flagged as ``undetermined``, with the remedy that fits it:
 a prior on the sizes (``--prior``) or poses that determine it (``kinid plan``).
 """
 from __future__ import annotations
@@ -48,13 +49,16 @@ class Implausible:
 
     @property
     def undetermined(self) -> bool:
-        """The size lies within the value's expanded uncertainty (k = 2): the data hardly determine it."""
-        return bool(np.isfinite(self.std) and self.size <= 2.0 * self.std)
+        """The data hardly determine the value: zero lies within its expanded uncertainty U (k = 2), or U alone
+        reaches sizes no machine has (the plan cannot bound it; a small misfit elsewhere then moves it that far)."""
+        return bool(np.isfinite(self.std) and 2.0 * self.std >= min(self.size, self.limit))
 
     def describe(self) -> str:
         if self.undetermined:
+            why = ("zero is within its uncertainty" if self.size <= 2.0 * self.std else
+                   "its uncertainty alone reaches sizes no machine has")
             return (f"{self.effect} = {self.size:.4g} ± {2.0 * self.std:.2g} {self.unit} (k = 2), beyond "
-                    f"{self.limit:g} {self.unit}: not determined by these data (zero is within its uncertainty)")
+                    f"{self.limit:g} {self.unit}: not determined by these data ({why})")
         return f"{self.effect} = {self.size:.4g} {self.unit}, beyond {self.limit:g} {self.unit}"
 
     @property

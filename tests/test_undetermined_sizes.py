@@ -28,7 +28,7 @@ def test_weakly_determined_error_is_not_called_inconsistent_observations(tmp_pat
     params = {p["name"]: p for p in fit["parameters"]}
     for name, a in flagged.items():
         p = params[name]
-        assert a["undetermined"] == (abs(p["value"]) <= 2 * p["std"])
+        assert a["undetermined"] == (2 * p["std"] >= min(abs(p["value"]), a["limit"]))
         assert a["undetermined"], f"{name} = {p['value']} ± {p['std']}: only errors of the plan's weak direction"
     assert "the observations look inconsistent" not in out
     assert "not determined by these data" in out and "--prior" in out
@@ -40,3 +40,22 @@ def test_weakly_determined_error_is_not_called_inconsistent_observations(tmp_pat
     assert main(["diagnose", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "obs.csv")]) == 0
     out = capsys.readouterr().out
     assert "errors the plan hardly determines" in out and "look inconsistent" not in out
+
+
+def test_a_weak_direction_pushed_by_a_missing_effect_is_undetermined_too(tmp_path, capsys):
+    """The same table and plan with a lead of Y the 6 positions of Y cannot pin: the lead's misfit pushes EA0Z to
+    −1.3e5 ± 4e4 µrad, 3 standard deviations from zero, but its uncertainty alone (U = 8e4 µrad) is beyond any
+    machine's size: the plan cannot bound it, and the warning says so rather than blaming the observations."""
+    machine = str(urdf_path("five_axis_bhead_c"))
+    (tmp_path / "errors.json").write_text(json.dumps({"EX0C": 8.0, "EA0C": 25.0, "EYY:periodic:7.3": [1.5, -0.8]}))
+    assert main(["simulate", "--machine", machine, "--errors", str(tmp_path / "errors.json"), "--noise-um", "0.8",
+                 "--seed", "3", "--out", str(tmp_path / "obs.csv")]) == 0
+    assert main(["identify", "--machine", machine, "--data", str(tmp_path / "obs.csv"),
+                 "--out", str(tmp_path / "fit.json")]) == 0
+    out = capsys.readouterr().out
+    fit = json.loads((tmp_path / "fit.json").read_text())
+    flagged = {a["effect"]: a for a in fit["implausible"]}
+    params = {p["name"]: p for p in fit["parameters"]}
+    ea0z = params["EA0Z"]
+    assert abs(ea0z["value"]) > 2 * ea0z["std"] and 2 * ea0z["std"] >= flagged["EA0Z"]["limit"]
+    assert flagged["EA0Z"]["undetermined"] and "its uncertainty alone reaches sizes no machine has" in out
