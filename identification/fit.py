@@ -85,6 +85,9 @@ class FitResult:
         For each shared (type B) source of the observations' uncertainty
         (``Observations.shifts_mm``): the change of every parameter when the
         source is one standard deviation off; included in ``std``.
+    correlation : array (P, P) or None
+        The correlation of the parameters' estimates from the noise (NaN where held); None for a
+        loaded fit (the file holds the standard deviations only).
     """
 
     machine: Machine
@@ -113,6 +116,7 @@ class FitResult:
     shared_std: dict = field(default_factory=dict)
     prior: str = ""
     prior_std: np.ndarray | None = None
+    correlation: np.ndarray | None = None
 
     @property
     def noise_um(self) -> float:
@@ -333,6 +337,8 @@ def fit(
     cov_scaled = (Vt.T / s**2) @ Vt
     std = np.full(P, np.nan)
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
+    correlation = np.full((P, P), np.nan)
+    correlation[np.ix_(free, free)] = cov_scaled / np.outer(std[free] * Df, std[free] * Df)
     shared = _shared_std(machine, d, obs, theta, free)
     std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
     # observability at the solution: the singular values just computed are those of the unit-column Jacobian
@@ -351,7 +357,7 @@ def fit(
         o1=o1, o3=o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
         iterations=it, success=success, message=message, singular_values=singular_values,
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
-        prior_std=None if prior_std is None else np.asarray(prior_std, float),
+        prior_std=None if prior_std is None else np.asarray(prior_std, float), correlation=correlation,
     )
 
 

@@ -16,11 +16,18 @@ reaches the limit, is not evidence of inconsistent observations: the plan hardly
 direction of the parameters the poses barely see), and a little noise or a small misfit elsewhere moves
 it that far. It is flagged as ``undetermined``, with the remedy that fits it:
 a prior on the sizes (``--prior``) or poses that determine it (``kinid plan``).
+
+The same holds for a weak direction shared by several constants (the B-head + C table's patent plan
+barely tells EA0Z from EY0C): the partner with the smaller uncertainty is dragged along with the one the
+plan cannot bound. The flagged constants are judged together, in units of their limits: the part of
+their values along the directions whose U moves one of them as far as its limit is what the plan
+cannot determine; a constant whose remainder is within the limit or within its own U (k = 2) is
+undetermined too. For one constant this is the rule above.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -46,17 +53,21 @@ class Implausible:
     limit: float
     unit: str
     std: float = math.nan  # of a constant's value; NaN for an effect of several parameters
+    partners: tuple = ()  # the flagged constants sharing the weak direction that carries its size
 
     @property
     def undetermined(self) -> bool:
         """The data hardly determine the value: zero lies within its expanded uncertainty U (k = 2), or U alone
-        reaches sizes no machine has (the plan cannot bound it; a small misfit elsewhere then moves it that far)."""
-        return bool(np.isfinite(self.std) and 2.0 * self.std >= min(self.size, self.limit))
+        reaches sizes no machine has (the plan cannot bound it; a small misfit elsewhere then moves it that far),
+        or its size lies along such a direction shared with ``partners``."""
+        return bool(np.isfinite(self.std) and 2.0 * self.std >= min(self.size, self.limit)) or bool(self.partners)
 
     def describe(self) -> str:
         if self.undetermined:
             why = ("zero is within its uncertainty" if self.size <= 2.0 * self.std else
-                   "its uncertainty alone reaches sizes no machine has")
+                   "its uncertainty alone reaches sizes no machine has" if 2.0 * self.std >= self.limit else
+                   f"its size lies along a direction the plan does not determine, shared with "
+                   f"{', '.join(self.partners)}")
             return (f"{self.effect} = {self.size:.4g} ± {2.0 * self.std:.2g} {self.unit} (k = 2), beyond "
                     f"{self.limit:g} {self.unit}: not determined by these data ({why})")
         return f"{self.effect} = {self.size:.4g} {self.unit}, beyond {self.limit:g} {self.unit}"
@@ -110,12 +121,10 @@ def implausible_effects(result, names=None) -> tuple:
     """The effects of a fit (or only those in ``names``) whose size is beyond :data:`LIMITS`."""
     machine = result.machine
     theta = np.where(result.identifiable, np.nan_to_num(result.values), 0.0)
-    out, k = [], 0
+    out, index, k = [], [], 0
     for e in result.effects:
         th = theta[k:k + e.n_params]
         k += e.n_params
-        if names is not None and e.name not in names:
-            continue
         setup = machine.error_joint(e.code).axis in ("W", "T")
         limit = LIMITS[("setup_" if setup else "") + e.unit]
         prior = getattr(result, "prior_std", None)
@@ -125,4 +134,34 @@ def implausible_effects(result, names=None) -> tuple:
         if size > limit:
             std = float(result.std[k - 1]) if e.n_params == 1 and result.identifiable[k - 1] else math.nan
             out.append(Implausible(e.name, size, limit, "µm" if e.unit == "um" else "µrad", std))
-    return tuple(out)
+            index.append(k - 1)
+    out = _weak_partners(out, index, theta, getattr(result, "correlation", None))
+    return tuple(a for a in out if names is None or a.effect in names)
+
+
+def _weak_partners(flagged: list, index: list, theta, correlation) -> list:
+    """The flagged constants whose size lies along directions the plan does not determine, judged together (the
+    module's docstring), each with the partners of its direction; the others unchanged."""
+    const = [i for i, a in enumerate(flagged) if np.isfinite(a.std) and a.std > 0]
+    if correlation is None or len(const) < 2:
+        return flagged
+    at = [index[i] for i in const]
+    limit = np.array([flagged[i].limit for i in const])
+    x = theta[at] / limit  # values in units of their limits
+    s = np.array([flagged[i].std for i in const]) / limit
+    C = np.nan_to_num(correlation[np.ix_(at, at)]) * np.outer(s, s)
+    lam, V = np.linalg.eigh(C)
+    # U (k = 2) along the direction moves some constant as far as its limit
+    weak = 2.0 * np.sqrt(np.maximum(lam, 0.0)) * np.abs(V).max(axis=0) >= 1.0
+    if not weak.any():
+        return flagged
+    Vw, Vd = V[:, weak], V[:, ~weak]
+    rest = x - Vw @ (Vw.T @ x)  # the part of the values the plan determines
+    rest_std = np.sqrt(np.maximum(np.einsum("ij,j,ij->i", Vd, lam[~weak], Vd), 0.0))
+    rho = np.nan_to_num(correlation[np.ix_(at, at)])
+    out = list(flagged)
+    for j, i in enumerate(const):
+        if np.abs(rest[j]) <= max(1.0, 2.0 * rest_std[j]) and not flagged[i].undetermined:
+            partners = tuple(flagged[m].effect for n, m in enumerate(const) if n != j and abs(rho[j, n]) >= 0.5)
+            out[i] = replace(flagged[i], partners=partners or tuple(flagged[m].effect for m in const if m != i))
+    return out

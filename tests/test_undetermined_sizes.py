@@ -28,7 +28,8 @@ def test_weakly_determined_error_is_not_called_inconsistent_observations(tmp_pat
     params = {p["name"]: p for p in fit["parameters"]}
     for name, a in flagged.items():
         p = params[name]
-        assert a["undetermined"] == (2 * p["std"] >= min(abs(p["value"]), a["limit"]))
+        alone = 2 * p["std"] >= min(abs(p["value"]), a["limit"])  # the rule for one constant
+        assert a["undetermined"] or not alone
         assert a["undetermined"], f"{name} = {p['value']} ± {p['std']}: only errors of the plan's weak direction"
     assert "the observations look inconsistent" not in out
     assert "not determined by these data" in out and "--prior" in out
@@ -45,7 +46,8 @@ def test_weakly_determined_error_is_not_called_inconsistent_observations(tmp_pat
 def test_a_weak_direction_pushed_by_a_missing_effect_is_undetermined_too(tmp_path, capsys):
     """The same table and plan with a lead of Y the 6 positions of Y cannot pin: the lead's misfit pushes EA0Z to
     −1.3e5 ± 4e4 µrad, 3 standard deviations from zero, but its uncertainty alone (U = 8e4 µrad) is beyond any
-    machine's size: the plan cannot bound it, and the warning says so rather than blaming the observations."""
+    machine's size: the plan cannot bound it, and the warning says so rather than blaming the observations — for
+    EA0Z and for EY0C, which the weak direction drags to 1 270 µm."""
     machine = str(urdf_path("five_axis_bhead_c"))
     (tmp_path / "errors.json").write_text(json.dumps({"EX0C": 8.0, "EA0C": 25.0, "EYY:periodic:7.3": [1.5, -0.8]}))
     assert main(["simulate", "--machine", machine, "--errors", str(tmp_path / "errors.json"), "--noise-um", "0.8",
@@ -59,3 +61,30 @@ def test_a_weak_direction_pushed_by_a_missing_effect_is_undetermined_too(tmp_pat
     ea0z = params["EA0Z"]
     assert abs(ea0z["value"]) > 2 * ea0z["std"] and 2 * ea0z["std"] >= flagged["EA0Z"]["limit"]
     assert flagged["EA0Z"]["undetermined"] and "its uncertainty alone reaches sizes no machine has" in out
+    # EY0C, its partner in that direction, is dragged along: 1 270 µm is 3.2 U from zero on its own, but the part
+    # of it the plan determines (what is left when the direction EA0Z spans is taken out) is within the limit
+    ey0c = params["EY0C"]
+    assert abs(ey0c["value"]) > 1000 and 2 * ey0c["std"] < abs(ey0c["value"]) and 2 * ey0c["std"] < 1000
+    assert flagged["EY0C"]["undetermined"], "the partner of the weak direction was called inconsistent"
+    assert "shared with EA0Z" in out and "look inconsistent" not in out
+
+
+def test_the_weak_direction_is_judged_together_and_only_its_share_is_excused():
+    """Two constants in limit units: A with U far beyond its limit, B with U = 0.4 limit. Values on the line the
+    plan cannot see (B = 0.1·A at ρ = 0.98) excuse B's 1.3 limits; the same B with A independent of it, or with a
+    part off the line beyond its limit, stays a size no machine has."""
+    import numpy as np
+
+    from kinid.identification.plausibility import Implausible, _weak_partners
+
+    def judged(b_value, rho):
+        a = Implausible("EA0Z", 13e4, 1e4, "µrad", std=4e4)
+        b = Implausible("EY0C", abs(b_value), 1e3, "µm", std=200.0)
+        corr = np.array([[1.0, rho], [rho, 1.0]])
+        return _weak_partners([a, b], [0, 1], np.array([-13e4, b_value]), corr)[1]
+
+    assert not Implausible("EY0C", 1300.0, 1e3, "µm", std=200.0).undetermined  # alone: 6.5 U from zero
+    on_line = judged(-1300.0, 0.98)
+    assert on_line.undetermined and on_line.partners == ("EA0Z",)
+    assert not judged(-1300.0, 0.0).undetermined  # nothing shared: B's size is its own
+    assert not judged(+2600.0, 0.98).undetermined  # the determined remainder is beyond the limit
