@@ -158,8 +158,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         odd = () if added is None else implausible_effects(dg.fit, names=(added,))
         if odd:  # the candidate explains the data only with a size no machine has: not added
             effects.pop()
-            stop = (f"adding {added} needs {odd[0].describe()}: the observations look inconsistent (a sensor "
-                    f"offset, a camera model, a unit) rather than the machine having it; not added")
+            stop = f"adding {added} needs {odd[0].describe()}: {odd[0].remedy}; not added"
             steps[-1] = replace(steps[-1], stopped=stop)
             progress.say(f"  stopped: {stop}")
             break
