@@ -44,7 +44,7 @@ def _nice_step(span: float) -> float:
     return 10 ** (k + 1)  # pragma: no cover
 
 
-def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side=None) -> list:
     """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range), or a local error
     inside one, as a candidate.
 
@@ -81,7 +81,7 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> l
     have = {c.effect for c in scored}
     fresh = [m for m in maps if m.name not in have]
     live = sorted((c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
-                                               q0=q0) if c.status == "live"), key=lambda c: c.log10_p)
+                                               q0=q0, side=side) if c.status == "live"), key=lambda c: c.log10_p)
     best = live[0] if live else None
     # where to look for a local error: inside the best maps, and on the joints of the best candidates of any
     # kind (a local error of an axis read at too few positions for a whole map shows first as a long period
@@ -91,7 +91,7 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> l
     codes = [c for c in dict.fromkeys(codes) if c in grids]
     windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
     local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
-                                         d_errors=d_errors, q0=q0) if c.status == "live"] if windows else []
+                                         d_errors=d_errors, q0=q0, side=side) if c.status == "live"] if windows else []
     if local:
         # near ties (within a factor LOCAL_TIE in p) go to the joint of the best map, where the structure was seen
         home = codes[0]
