@@ -40,7 +40,7 @@ def distinct_positions(q) -> np.ndarray:
 
 
 def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma: float, *, d_errors=None,
-                 q0=None) -> tuple:
+                 q0=None, side=None) -> tuple:
     """Periods (in the axis's unit) of the same error joint that explain the residual about as well as
     ``effect`` (``E??:periodic:P``), outside its own peak; empty when the period is determined."""
     from .bases import basis_of
@@ -71,7 +71,7 @@ def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma
     names = [f"{e.code}:periodic:{p:.6g}" for p in periods[far]]
     scored = score_candidates(machine, obs, result, [parse_effect(effect, machine)] +
                               [parse_effect(n, machine) for n in names], sigma, sigma_known=False,
-                              d_errors=d_errors, q0=q0)
+                              d_errors=d_errors, q0=q0, side=side)
     by_name = {c.effect: c for c in scored}
     own = by_name[effect].statistic if effect in by_name else 0.0
     if not own > 0:

@@ -36,7 +36,7 @@ from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
 from .local_errors import proposed_maps
 from .plausibility import DRIFT_HORIZON_S, LIMITS, warning_lines
-from .scoring import Candidate, _f_log10_p
+from .scoring import Candidate, _f_log10_p, fit_side
 from .searched import score_all
 from .structure import structure_left
 
@@ -334,8 +334,9 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     # Candidates are judged by the F test, which estimates σ from the residual left beside each candidate:
     # a σ given too small would make every candidate look significant by χ² (and one given too large, none).
     # The given σ still judges the residual as a whole (χ² below) and sizes the uncertainties.
-    scored = score_all(machine, obs, result, sigma, False, d_errors, q0)
-    scored += proposed_maps(machine, obs, result, scored, sigma, False, d_errors, q0)
+    side = fit_side(machine, obs, result, sigma, d_errors, q0)  # shared by every score test below
+    scored = score_all(machine, obs, result, sigma, False, d_errors, q0, side)
+    scored += proposed_maps(machine, obs, result, scored, sigma, False, d_errors, q0, side)
     location = {j.code for j in machine.error_joints if j.location}
     # best first; exact ties (identical columns) go to the location error, the more physical reading, then to the
     # smallest size for a machine: of errors the data cannot tell apart (a period of B read as a roll, a pitch or a
@@ -375,7 +376,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
             note = (f"the residual exceeds the noise σ given (χ² p = {chi2_p:.2g}) and no candidate or neighbour "
                     f"test explains it: an effect remains that the data cannot single out{where}, or the noise is "
                     f"about {apparent:.2g} µm, not {sigma:.2g} µm as given (if so, give --noise-um {apparent:.2g})")
-    undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0) if significant else ("", ())
+    undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0, side) if significant else ("", ())
     follows = time_follows(obs, machine)
     inseparable = _inseparable(machine, live, follows) if significant else ""
     stud, lev = studentized(result, q0, sigma)
@@ -436,7 +437,7 @@ def _share_of_limit(c: Candidate, machine: Machine) -> float:
     return abs(c.size) * (DRIFT_HORIZON_S if c.size_unit.endswith("/s") else 1.0) / limit
 
 
-def _undetermined(machine, obs, result, best, sigma, d_errors, q0):
+def _undetermined(machine, obs, result, best, sigma, d_errors, q0, side=None):
     """Why the best candidate's period is not determined by the positions measured, and the periods that fit as
     well; ("", ()) when it is."""
     from .ambiguity import distinct_positions, period_twins
@@ -444,7 +445,7 @@ def _undetermined(machine, obs, result, best, sigma, d_errors, q0):
     parts = best.effect.split(":")
     if len(parts) < 3 or parts[1] != "periodic":
         return "", ()
-    twins = period_twins(machine, obs, result, best.effect, sigma, d_errors=d_errors, q0=q0)
+    twins = period_twins(machine, obs, result, best.effect, sigma, d_errors=d_errors, q0=q0, side=side)
     if not twins:
         return "", ()
     axis = machine.error_joint(parts[0]).axis

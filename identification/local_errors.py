@@ -44,7 +44,7 @@ def _nice_step(span: float) -> float:
     return 10 ** (k + 1)  # pragma: no cover
 
 
-def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side=None) -> list:
     """The best non-parametric map (``CODE:map:<step>:<from>:<to>`` over the measured range), or a local error
     inside one, as a candidate.
 
@@ -81,7 +81,7 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> l
     have = {c.effect for c in scored}
     fresh = [m for m in maps if m.name not in have]
     live = sorted((c for c in score_candidates(machine, obs, result, fresh, sigma, sigma_known=known, d_errors=d_errors,
-                                               q0=q0) if c.status == "live"), key=lambda c: c.log10_p)
+                                               q0=q0, side=side) if c.status == "live"), key=lambda c: c.log10_p)
     best = live[0] if live else None
     # where to look for a local error: inside the best maps, and on the joints of the best candidates of any
     # kind (a local error of an axis read at too few positions for a whole map shows first as a long period
@@ -91,7 +91,7 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0) -> l
     codes = [c for c in dict.fromkeys(codes) if c in grids]
     windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
     local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
-                                         d_errors=d_errors, q0=q0) if c.status == "live"] if windows else []
+                                         d_errors=d_errors, q0=q0, side=side) if c.status == "live"] if windows else []
     if local:
         # near ties (within a factor LOCAL_TIE in p) go to the joint of the best map, where the structure was seen
         home = codes[0]
@@ -166,11 +166,15 @@ def _local_windows(whole, q, distinct, machine) -> list:
     ``distinct`` positions of the axis than the window has parameters (else the spline between the positions is
     a guess: coefficients of any size fit the same values). The window's end knots carry no coefficient (the
     error is zero there) and need no readings of their own."""
+    from dataclasses import replace
+
     from kinid.errors import DataError
 
+    from .bases import MAX_MAP_KNOTS, knots_every
     from .effects import parse_effect
 
     out = []
+    first = None  # the first window parsed: its joint and axis checked; the others differ from it in their knots only
     lo, hi = whole.knots[0], whole.knots[-1]
     for factor in LOCAL_STEPS:
         step = float(f"{(whole.knots[1] - whole.knots[0]) * factor:.6g}")
@@ -183,8 +187,17 @@ def _local_windows(whole, q, distinct, machine) -> list:
                 inside = np.count_nonzero((distinct > knots[i]) & (distinct < knots[i + width]))
                 if inside < width - 3 + LOCAL_SPARE_POSITIONS:  # width − 3 cubic B-splines lie in the window
                     continue
+                name = f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}"
+                # hundreds of windows: made as parsing would make them (the knots from the texts of the name), not
+                # parsed one by one; a window whose name parsing would refuse is parsed, and refused
+                a, b = (float(text) for text in name.split(":")[3:5])
+                own = knots_every(float(f"{step:g}"), a, b) if b > a else ()
+                if first is not None and 5 <= len(own) <= MAX_MAP_KNOTS:
+                    out.append(replace(first, name=name, knots=own))
+                    continue
                 try:
-                    out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
+                    out.append(parse_effect(name, machine))
                 except DataError:
                     continue
+                first = first or out[-1]
     return out

@@ -11,6 +11,7 @@ Pinocchio works in metres and radians inside.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -109,8 +110,7 @@ class Machine:
     tool_frame: int
 
     def __repr__(self) -> str:
-        return (f"Machine({self.path!r}: axes {', '.join(a.name for a in self.axes)}; "
-                f"{len(self.error_joints)} error joints)")
+        return f"Machine({self.path!r}: axes {', '.join(self.axis_names)}; {len(self.error_joints)} error joints)"
 
     def axis(self, name: str) -> Axis:
         for a in self.axes:
@@ -124,11 +124,11 @@ class Machine:
                 return e
         raise KeyError(code)
 
-    @property
+    @functools.cached_property
     def axis_names(self) -> tuple:
         return tuple(a.name for a in self.axes)
 
-    @property
+    @functools.cached_property  # read thousands of times per diagnosis; the fields are frozen
     def error_codes(self) -> tuple:
         return tuple(e.code for e in self.error_joints)
 
@@ -236,15 +236,15 @@ def _configurations(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray
 
 def axis_limits(machine: Machine) -> np.ndarray:
     """(n_axes, 2) travel of each axis from the URDF joint limits, mm / deg; ±inf where the URDF gives none."""
-    out = np.full((len(machine.axes), 2), [-np.inf, np.inf])
-    for j, a in enumerate(machine.axes):
-        if a.nq != 1:  # continuous joint: no limits
-            continue
-        lo, hi = machine.model.lowerPositionLimit[a.q_index], machine.model.upperPositionLimit[a.q_index]
-        scale = 1e3 if a.kind == "prismatic" else 180.0 / np.pi
-        if np.isfinite(lo) and np.isfinite(hi) and hi > lo and abs(hi) < 1e10:
-            out[j] = (lo * scale, hi * scale)
-    return out
+    if "_axis_limits" not in machine.__dict__:  # every periodic effect parsed asks: the model is read once
+        out = np.full((len(machine.axes), 2), [-np.inf, np.inf])
+        for j, a in enumerate(machine.axes):  # a continuous joint (nq 2) has no limits
+            lo, hi = (machine.model.lowerPositionLimit[a.q_index], machine.model.upperPositionLimit[a.q_index]) \
+                if a.nq == 1 else (np.nan, np.nan)
+            if np.isfinite(lo) and np.isfinite(hi) and hi > lo and abs(hi) < 1e10:
+                out[j] = np.array([lo, hi]) * (1e3 if a.kind == "prismatic" else 180.0 / np.pi)
+        machine.__dict__["_axis_limits"] = out
+    return machine.__dict__["_axis_limits"].copy()
 
 
 def axes_to_si(machine: Machine, axes_user: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ import numpy as np
 
 from .observations import Observations, SetAside
 
-__all__ = ["SetAside", "set_aside_outliers", "OUTLIER_ALPHA"]
+__all__ = ["SetAside", "set_aside_outliers", "set_aside_with_fit", "OUTLIER_ALPHA"]
 
 #: Family-wise level of the gross-error test over all alignments.
 OUTLIER_ALPHA = 1e-5
@@ -45,6 +45,16 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
     set_aside : tuple of SetAside
         In the order they were set aside.
     """
+    kept, out, _ = set_aside_with_fit(machine, obs, effects, noise_um=noise_um, alpha=alpha, free_fraction=free_fraction,
+                                      max_fraction=max_fraction, rounds=rounds)
+    return kept, out
+
+
+def set_aside_with_fit(machine, obs: Observations, effects, *, noise_um=None, alpha: float = OUTLIER_ALPHA,
+                       free_fraction: float = 0.02, max_fraction: float = 0.10, rounds: int = 4, first=None):
+    """:func:`set_aside_outliers`, and the fit of ``effects`` on the alignments kept (None when the last round set
+    rows aside: those kept were not fitted again). ``first``: a fit of ``effects`` on ``obs`` the first round
+    takes instead of fitting (the selection has one when it stops, and uses the fit returned for its first step)."""
     from kinid.stats import chi2_isf
 
     from .leverage import leverages, studentized
@@ -53,8 +63,9 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
     index = np.arange(len(obs))
     kept = obs
     out = []
+    result = None
     for _ in range(rounds):
-        result = fit(machine, kept, effects, noise_um=noise_um)
+        result = first if first is not None and kept is obs else fit(machine, kept, effects, noise_um=noise_um)
         r = result.residuals_um
         # the scale of these residuals, not the σ given: a σ given too large would hide the misreads; structure
         # left by an incomplete model raises this scale with the residuals of many rows
@@ -79,4 +90,5 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
         keep = np.setdiff1d(np.arange(len(kept)), bad)
         index = index[keep]
         kept = kept.subset(keep)
-    return kept, tuple(out)
+        result = None  # the rows kept are not fitted yet
+    return kept, tuple(out), result

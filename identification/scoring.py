@@ -36,7 +36,7 @@ from .machine import Machine
 from .observations import Observations
 from .residuals import design, effect_columns
 
-__all__ = ["Candidate", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
+__all__ = ["Candidate", "FitSide", "fit_side", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
 
 
 #: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
@@ -102,9 +102,54 @@ SCORE_BLOCK_BYTES = 64 * 1024 * 1024
 EXACT_BELOW = 1e-4
 
 
+@dataclass(frozen=True)
+class FitSide:
+    """What the score test of any candidate needs of the fit (:func:`fit_side`): made once per fit and σ, and
+    shared by every :func:`score_candidates` call at that fit (a diagnosis makes about ten, a τ search dozens).
+
+    Attributes
+    ----------
+    result, sigma : the fit and the σ that whitens
+    d_errors, q0 : the error-joint Jacobian at the fit and the model's orthonormal basis (see score_candidates)
+    r : array (3N,)
+        Whitened residual, projected exactly off the model.
+    J0 : array (3N, rank)
+        Whitened identifiable model columns; ``G0`` its Gram matrix, ``model_names`` its parameters.
+    lever : array (n_errors,)
+        RMS lever arm of each error joint to the tool point, m/rad (1 for translations).
+    visible_floor : float
+        Norm below which a candidate's column is invisible.
+    """
+
+    result: FitResult
+    sigma: float
+    d_errors: np.ndarray
+    q0: np.ndarray
+    r: np.ndarray
+    J0: np.ndarray
+    G0: np.ndarray
+    model_names: list
+    lever: np.ndarray
+    visible_floor: float
+
+
+def fit_side(machine: Machine, obs: Observations, result: FitResult, sigma: float, d_errors=None, q0=None) -> FitSide:
+    """The fit's side of the score test (:class:`FitSide`); ``d_errors`` and ``q0`` computed if not given."""
+    if d_errors is None or q0 is None:
+        d_errors, _, q0 = model_pass(machine, obs, result)
+    d0 = design(machine, result.effects, obs)
+    r = result.residuals_um.ravel() / sigma
+    J0 = effect_columns(d_errors, d0).reshape(result.residuals_um.size, -1)[:, result.identifiable] / sigma
+    r = r - q0 @ (q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
+    lever = np.sqrt(np.einsum("nkj,nkj->j", d_errors, d_errors) / d_errors.shape[0])  # per error joint: m/rad or 1
+    visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
+    model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
+    return FitSide(result, sigma, d_errors, q0, r, J0, J0.T @ J0, model_names, lever, visible_floor)
+
+
 @blas_single_threaded
 def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
-                     d_errors=None, q0=None):
+                     d_errors=None, q0=None, side: FitSide | None = None):
     """Score test of each candidate effect at the fit ``result`` (see module docstring).
 
     A candidate's column is its error joint's column times a basis value, so every sum over alignments the
@@ -119,25 +164,21 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         Error-joint Jacobian at the fit (computed if not given).
     q0 : array (3N, rank), optional
         Orthonormal basis of the identifiable model columns (computed if not given).
+    side : FitSide, optional
+        The fit's side of the test, made once by :func:`fit_side` for many calls (made here if not given, or if
+        it is of another fit or σ).
 
     Returns
     -------
     list of Candidate, in the order of ``candidates``.
     """
 
-    if d_errors is None or q0 is None:
-        d_errors, _, q0 = model_pass(machine, obs, result)
-    d0 = design(machine, result.effects, obs)
+    if side is None or side.result is not result or side.sigma != sigma:
+        side = fit_side(machine, obs, result, sigma, d_errors, q0)
+    d_errors, Q0, r, J0, lever, visible_floor = side.d_errors, side.q0, side.r, side.J0, side.lever, side.visible_floor
     M = result.residuals_um.size
-    r = result.residuals_um.ravel() / sigma
-    J0 = effect_columns(d_errors, d0).reshape(M, -1)[:, result.identifiable] / sigma
-    Q0 = q0
-    r = r - Q0 @ (Q0.T @ r)  # exactly orthogonal to the model (it is, to first order, at the optimum)
     rss = float(r @ r)
-    lever = np.sqrt(np.einsum("nkj,nkj->j", d_errors, d_errors) / d_errors.shape[0])  # per error joint: m/rad or 1
-    visible_floor = 1e-12 * max(1.0, float(np.abs(J0).max()) if J0.size else 1.0)
-    model_names = [n for n, ok in zip(result.param_names, result.identifiable) if ok]
-    test = _Test(machine, result, sigma, sigma_known, M, rss, J0, model_names, J0.T @ J0)
+    test = _Test(machine, result, sigma, sigma_known, M, rss, J0, side.model_names, side.G0)
     n = len(obs)
     out = [None] * len(candidates)
     pending = []  # (position, effect, unit, alive, scale, projected Gram matrix, joint, projected product with r)

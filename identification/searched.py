@@ -27,7 +27,7 @@ FOUND_PERIODS = 4
 PERIOD_GAIN_MIN = 10.83
 
 
-def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side=None) -> list:
     """Candidates at periods the library does not list, found by :func:`~kinid.identification.periods.search_periods`.
 
     Each is scored like a library candidate, then its p-value is multiplied by
@@ -63,7 +63,8 @@ def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0) -> l
             effect = parse_effect(est.effect, machine)
         except DataError:
             continue
-        c = score_candidates(machine, obs, result, [effect], sigma, sigma_known=known, d_errors=d_errors, q0=q0)[0]
+        c = score_candidates(machine, obs, result, [effect], sigma, sigma_known=known, d_errors=d_errors, q0=q0,
+                             side=side)[0]
         if c.status != "live":
             continue
         trials = est.trials * joints
@@ -81,7 +82,7 @@ TAU_GRID = 24
 TAU_JOINTS = 3
 
 
-def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0) -> list:
+def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0, side=None) -> list:
     """Warm-up candidates at time constants the library does not list: for the joints whose listed warm-up
     scores best, the χ² drop over a log grid of τ, refined by a bounded search in log τ; the p-value is
     multiplied by the τ and joints searched. Proposed only where it gains over the listed τ."""
@@ -113,7 +114,8 @@ def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q
             effects = [parse_effect(f"{code}:warmup:{t:.5g}", machine) for t in taus]
         except DataError:
             return []
-        return score_candidates(machine, obs, result, effects, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
+        return score_candidates(machine, obs, result, effects, sigma, sigma_known=known, d_errors=d_errors, q0=q0,
+                                side=side)
 
     out = []
     for code in codes:
@@ -149,11 +151,13 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
     from scipy.optimize import minimize_scalar
 
     from .effects import parse_effect
+    from .scoring import fit_side
 
     code, kind, tau = (name.split(":") + ["", ""])[:3]
     if kind != "warmup" or obs.t_s is None:
         return name
     d_errors, _, q0 = model_pass(machine, obs, result)
+    side = fit_side(machine, obs, result, sigma, d_errors, q0)  # one for the thirty-odd τ scored
 
     def named(log_tau) -> str:  # four significant digits, never in exponent notation
         digits = np.format_float_positional(math.exp(log_tau), precision=4, unique=False, fractional=False, trim="-")
@@ -161,7 +165,7 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
 
     def statistic(log_tau) -> float:
         c = score_candidates(machine, obs, result, [parse_effect(named(log_tau), machine)], sigma, sigma_known=False,
-                             d_errors=d_errors, q0=q0)[0]
+                             d_errors=d_errors, q0=q0, side=side)[0]
         return c.statistic if c.status == "live" else -math.inf
 
     grid = np.log(float(tau)) + np.linspace(-1.0, 1.0, 13) * math.log(TAU_REFINE_FACTOR)
@@ -173,11 +177,13 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
     return named(best_u) if best > values[len(grid) // 2] else name  # the middle of the grid: τ as given
 
 
-def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0) -> list:
+def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0,
+              side=None) -> list:
     """The candidates scored at ``result``: the library's, and the free periods and time constants found (the
     diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.local_errors`)."""
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None)
-    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0)
-    scored += found_periods(machine, obs, result, scored, sigma, known, d_errors, q0)
-    scored += found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0)
+    scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0,
+                              side=side)
+    scored += found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side)
+    scored += found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0, side)
     return scored

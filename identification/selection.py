@@ -24,19 +24,20 @@ __all__ = ["SelectionStep", "forward_select", "what_is_left"]
 WARM_START_ITERATIONS = 15
 
 
-def _set_aside(machine, obs, effects, noise_um, progress, before: tuple):
-    """``obs`` without its gross errors and the tuple of all set aside so far (rows of the original data)."""
-    from .outliers import set_aside_outliers
+def _set_aside(machine, obs, effects, noise_um, progress, before: tuple, first=None):
+    """``obs`` without its gross errors, the tuple of all set aside so far (rows of the original data), and the fit of
+    ``effects`` on the rows kept (None if not made); ``first``: a fit of ``effects`` on ``obs`` to start from."""
+    from .outliers import set_aside_with_fit
 
-    kept, new = set_aside_outliers(machine, obs, effects, noise_um=noise_um)
+    kept, new, result = set_aside_with_fit(machine, obs, effects, noise_um=noise_um, first=first)
     if not new:
-        return obs, before
+        return obs, before, result
     if before:  # rows of ``obs`` -> rows of the data as read: keep the first record's numbering
         rows = [i for i in range(len(obs) + len(before)) if i not in {a.row for a in before}]
         new = tuple(replace(a, row=rows[a.row]) for a in new)
     for a in new:
         progress.say(f"  set aside as a gross error: {a.describe()}")
-    return kept, before + new
+    return kept, before + new, result
 
 
 @dataclass(frozen=True)
@@ -92,11 +93,11 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     progress = as_progress(progress)
     if noise_um is not None:
         noise_um = check_positive("noise_um", noise_um)
-    aside = ()
+    aside, start = (), None
     if robust:
-        obs, aside = _set_aside(machine, obs, effects, noise_um, progress, aside)
+        obs, aside, start = _set_aside(machine, obs, effects, noise_um, progress, aside)
     settings = dict(noise_um=noise_um, alpha=alpha, max_steps=max_steps, progress=progress, robust=robust, folds=folds)
-    steps = _select(machine, obs, list(effects), aside, **settings)
+    steps = _select(machine, obs, list(effects), aside, start=start, **settings)
     last = steps[-1]
     if robust and len(steps) > 1 and len(last.fit.set_aside) > len(aside):
         progress.say(f"  {len(last.fit.set_aside) - len(aside)} gross errors stood out only at the end; "
@@ -140,15 +141,17 @@ def _why_not_added(last) -> str:
     return last.stopped.split("; ")[0]
 
 
-def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progress, robust, folds) -> list:
-    """The selection loop of :func:`forward_select` from ``effects`` on ``obs`` (``aside``: set aside so far)."""
+def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progress, robust, folds, start=None) -> list:
+    """The selection loop of :func:`forward_select` from ``effects`` on ``obs`` (``aside``: set aside so far;
+    ``start``: the fit of ``effects`` on ``obs`` from a cold start, when the set-aside made it)."""
     added = None
     steps = []
     theta0 = None
     carried = None
     undetermined = {}  # error joint -> why the period added for it is not determined by the data
     for _ in range(max_steps + 1):
-        dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0)
+        dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0,
+                      result=start if theta0 is None else None)  # the first step's fit: the set-aside's, if made
         if theta0 is not None and (not dg.fit.success or dg.fit.iterations > WARM_START_ITERATIONS):
             # the warm start stalled: a cold start reaches the optimum the model has
             cold = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha)
@@ -194,7 +197,8 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             stop += "; also: " + "; ".join(undetermined.values())
         if stop:
             if robust:  # a misread may stand out only once the model is complete
-                kept, more = _set_aside(machine, obs, effects, noise_um, progress, aside)
+                # the step's fit is the first round's: the model and rows are those the set-aside fits
+                kept, more, _ = _set_aside(machine, obs, effects, noise_um, progress, aside, first=dg.fit)
                 if more != aside:
                     obs, aside = kept, more
                     dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,
