@@ -13,6 +13,7 @@ from .fit import FitResult
 from .leverage import model_pass
 from .machine import Machine
 from .observations import Observations
+from .periods import bounded_minimum
 from .scoring import score_candidates
 
 __all__ = ["score_all", "found_periods", "found_time_constants", "refined_time_constant", "FOUND_PERIODS",
@@ -88,8 +89,6 @@ def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q
     multiplied by the τ and joints searched. Proposed only where it gains over the listed τ."""
     from dataclasses import replace
 
-    from scipy.optimize import minimize_scalar
-
     from kinid.errors import DataError
 
     from .effects import parse_effect
@@ -124,9 +123,9 @@ def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q
             continue
         k = int(np.argmax([c.statistic if c.status == "live" else -np.inf for c in on_grid]))
         lo, hi = np.log(grid[max(k - 1, 0)]), np.log(grid[min(k + 1, len(grid) - 1)])
-        best = minimize_scalar(lambda u: -(score(code, [np.exp(u)]) or [on_grid[k]])[0].statistic,
-                               bounds=(lo, hi), method="bounded", options={"xatol": 0.01, "maxiter": 20})
-        c = score(code, [np.exp(best.x)])[0]
+        best_u, _ = bounded_minimum(lambda u: -(score(code, [np.exp(u)]) or [on_grid[k]])[0].statistic, lo, hi,
+                                    xatol=0.01, maxiter=20)
+        c = score(code, [np.exp(best_u)])[0]
         if c.status != "live" or c.statistic < on_grid[k].statistic:
             c = on_grid[k]
         if c.status != "live" or c.effect in have or c.statistic - listed[code].statistic < PERIOD_GAIN_MIN:
@@ -148,8 +147,6 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
     (a log grid within TAU_REFINE_FACTOR of the candidate's τ, then a bounded search in log τ); any other name as
     it is. A warm-up is proposed at the τ of the library's grid (a factor 3 apart) or of the search, whose trials
     penalty may keep a better τ out; fitted at a τ off the machine's, its amplitude misses the growth between."""
-    from scipy.optimize import minimize_scalar
-
     from .effects import parse_effect
     from .scoring import fit_side
 
@@ -171,9 +168,9 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
     grid = np.log(float(tau)) + np.linspace(-1.0, 1.0, 13) * math.log(TAU_REFINE_FACTOR)
     values = [statistic(u) for u in grid]
     k = int(np.argmax(values))
-    found = minimize_scalar(lambda u: -statistic(u), bounds=(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]),
-                            method="bounded", options={"xatol": 0.01, "maxiter": 20})
-    best_u, best = (found.x, -found.fun) if -found.fun > values[k] else (grid[k], values[k])
+    found_u, found = bounded_minimum(lambda u: -statistic(u), grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)],
+                                     xatol=0.01, maxiter=20)
+    best_u, best = (found_u, -found) if -found > values[k] else (grid[k], values[k])
     return named(best_u) if best > values[len(grid) // 2] else name  # the middle of the grid: τ as given
 
 

@@ -344,3 +344,23 @@ def test_a_period_the_positions_cannot_determine_is_named():
     leads = [float(s.added.split(":")[2]) for s in steps[1:] if s.added.startswith("EXX:periodic:")]
     assert leads and abs(leads[0] - 10.0) <= 0.1, [s.added for s in steps]
     assert "not determined" not in steps[-1].stopped and steps[-1].undetermined == ()
+
+
+def test_the_bounded_search_is_scipys_step_for_step():
+    """kinid's bounded Brent search (used so that --auto does not import scipy.optimize) gives scipy's abscissa
+    and value exactly, with the selection's settings (xatol 0.01, 20 steps) and with scipy's default steps."""
+    from scipy.optimize import minimize_scalar
+
+    from kinid.identification.periods import bounded_minimum
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        a, b, c = rng.normal(size=3)
+        lo, hi = sorted(rng.uniform(-3, 3, 2))
+
+        def f(u):
+            return np.sin(3 * a * u) + b * u**2 + c * np.cos(7 * u)
+
+        for xatol, steps in ((0.01, 20), (1e-6, 500)):
+            theirs = minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": xatol, "maxiter": steps})
+            assert bounded_minimum(f, lo, hi, xatol=xatol, maxiter=steps) == (theirs.x, theirs.fun)

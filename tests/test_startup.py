@@ -117,6 +117,29 @@ def test_identify_imports_only_what_the_fit_needs(tmp_path):
     assert not unneeded & modules, f"kinid identify imports {sorted(unneeded & modules)}"
 
 
+def test_identify_auto_imports_no_optimiser_it_does_not_use(tmp_path):
+    """``--auto`` needs scipy.special (the F distribution) but not scipy.optimize (0.16 s): its two bounded
+    searches are kinid.identification.periods.bounded_minimum, the same steps (tests/test_period_search.py)."""
+    from kinid.urdf import path
+
+    urdf = str(path("five_axis_bc"))
+    (tmp_path / "errors.json").write_text('{"EX0C": 12.0, "EXX:periodic:13.3": [1.5, -0.8]}')
+    subprocess.run([sys.executable, "-m", "kinid", "simulate", "--machine", urdf, "--errors", "errors.json",
+                    "--noise-um", "1", "--out", "obs.csv"], check=True, capture_output=True, timeout=120, cwd=tmp_path)
+    code = ("import contextlib, io, json, sys; from kinid.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    rc = main(['identify', '--machine', {urdf!r}, '--data', 'obs.csv', '--noise-um', '1', '--auto', "
+            "'--out', 'fit.json'])\n"
+            "print(rc); print(json.dumps(sorted(sys.modules)))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    rc, modules = out.stdout.splitlines()
+    assert rc == "0" and json.loads((tmp_path / "fit.json").read_text())["effects"][-1].startswith("EXX:")
+    modules = set(json.loads(modules))
+    assert "kinid.identification.selection" in modules  # the selection ran
+    assert not {"scipy.optimize", "scipy.stats", "matplotlib", "cv2"} & modules
+
+
 def test_stage_packages_import_light_and_keep_every_public_name(tmp_path):
     """The stage packages load their names on first use; ``calibrate`` stays the function after its module loads."""
     code = ("import sys, types, importlib; stages = ('backlash', 'uvw', 'dual_axis', 'contour'); "
