@@ -83,17 +83,18 @@ def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chun
     theta = np.asarray(theta, float)
     P = d.n_params
     used, column = np.unique(d.joint_index, return_inverse=True)  # the joints the parameters sit on
+    one_each = np.array_equal(column, np.arange(P))  # each parameter on its own joint, in order: no gather
     parts = []
     top = np.zeros((0, P + 1))
     for dc, axes, w, off in _slices(d, obs, min(chunk, BLOCK_ROWS)):
         p, G, _ = evaluate(machine, axes, joint_values(machine, dc, theta), offsets_mm=off, error_columns=used,
                            axes_jacobian=False)
         n = len(p)
-        stacked = np.empty((top.shape[0] + 3 * n, P + 1))
+        stacked = np.empty((top.shape[0] + 3 * n, P + 1), order="F")  # LAPACK's order: qr's copy is a plain one
         stacked[: top.shape[0]] = top
-        rows = stacked[top.shape[0]:].reshape(n, 3, P + 1)
+        rows = stacked[top.shape[0]:].reshape(n, 3, P + 1)  # a view (the rows of an F-ordered block split in 3)
         # ∂r/∂θ_p = ∂p/∂(its joint) × basis_p, µm per parameter unit; the residual in the last column
-        np.multiply(G[:, :, column], dc.basis[:, None, :], out=rows[:, :, :P])
+        np.multiply(G if one_each else G[:, :, column], dc.basis[:, None, :], out=rows[:, :, :P])
         r = rows[:, :, P]
         np.subtract(p, w, out=r)
         r *= 1e3

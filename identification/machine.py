@@ -22,6 +22,7 @@ import pinocchio as pin
 from kinid.checks import check_array
 from kinid.errors import DataError, MachineError
 from kinid.files import captured_stderr, read_limited_text
+from .placements import _evaluate_chunk
 from .urdf_checks import (_ERROR_CODE, MAX_URDF_BYTES, _ancestors, _axis_names, _check_placement,  # noqa: F401
                           _joint_kind, _urdf_origins, check_urdf_limits)
 
@@ -337,112 +338,6 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
 
 #: Poses per chunk of :func:`evaluate`.
 EVALUATE_CHUNK = 512
-
-
-def _evaluate_chunk(machine: Machine, data, qs: np.ndarray, jacobian: bool, offsets_m=None, columns=None):
-    """Tool point (n, 3) mm and, with ``jacobian``, G (n, 3, len(columns)) m per SI unit (velocity ``columns``,
-    default all), at configurations ``qs``; with ``offsets_m`` (n, 3), of the point that far from it (tool frame, m).
-
-    Per pose, one ``forwardKinematics`` and one copy of the joint placements (:func:`_read_placements`); the rest
-    for all poses at once. A 1-DOF joint k's world-frame Jacobian column (``data.J``'s) is ang = R_k s,
-    lin = p_k × ang (revolute, s its axis) or lin = R_k s (prismatic): only the columns asked for are formed. The
-    point p_t is on the tool chain, the workpiece frame on the other, so d/dq_k of R_wᵀ (p_t − p_w) is
-    ±R_wᵀ (lin_k − p_t × ang_k): + on the tool chain, − on the workpiece's (its frame turns about the same point)."""
-    model, n = machine.model, qs.shape[0]
-    wf, tf = model.frames[machine.workpiece_frame], model.frames[machine.tool_frame]
-    jw, jt = wf.parentJoint, tf.parentJoint
-    joint_of, axis, sign, subspace = _joint_geometry(machine)
-    columns = np.arange(model.nv) if columns is None else np.asarray(columns, dtype=int)
-    joints = joint_of[columns] if jacobian else np.zeros(0, dtype=int)
-    first = min(jw, jt, *joints)
-    B = _read_placements(machine, data, qs, first, max(jw, jt, *joints))  # (n, rows, 12): R column-major, then p
-    rot = lambda j: B[:, j - first, :9].reshape(n, 3, 3).transpose(0, 2, 1)  # noqa: E731
-    # frame placements: oMf = oMi · (frame placement in its joint)
-    Rw = rot(jw) @ wf.placement.rotation
-    pw = rot(jw) @ wf.placement.translation + B[:, jw - first, 9:]
-    pt = rot(jt) @ tf.placement.translation + B[:, jt - first, 9:]
-    if offsets_m is not None:  # a point fixed to the tool: p_t + R_t d, R_t = R_joint · R_frame
-        pt = pt + ((rot(jt) @ tf.placement.rotation) @ offsets_m[:, :, None])[:, :, 0]
-    RwT = Rw.transpose(0, 2, 1)
-    p = (RwT @ (pt - pw)[:, :, None])[:, :, 0] * 1e3  # R_wᵀ (p_t − p_w), mm
-    if not jacobian:
-        return p
-    k, at, comp, ax = len(columns), (joints - first) * 12, np.arange(3)[:, None], axis[columns]
-    # (n, 2, 3, k), component-major: each column's axis R_k e_c (its joint's axis ±e_c) and its joint's position
-    take = np.concatenate([(at + 3 * (np.maximum(ax, 0) % 3) + comp).ravel(), (at + 9 + comp).ravel()])
-    WX = np.take(B.reshape(n, -1), take, axis=1).reshape(n, 2, 3, k)
-    W, X = WX[:, 0], WX[:, 1]
-    X -= pt[:, :, None]  # p_k − p_t
-    D = np.empty((n, 3, k))  # velocity of p_t: R_k e_c × (p_t − p_k) (= p_k × ω − p_t × ω) or R_k e_c (sliding)
-    D[:, 0] = X[:, 1] * W[:, 2] - X[:, 2] * W[:, 1]
-    D[:, 1] = X[:, 2] * W[:, 0] - X[:, 0] * W[:, 2]
-    D[:, 2] = X[:, 0] * W[:, 1] - X[:, 1] * W[:, 0]
-    if np.any(ax >= 3):
-        np.copyto(D, W, where=ax >= 3)
-    other = np.flatnonzero(ax < 0)
-    if len(other):  # a joint axis along none of its frame's axes: R_k s (s: the lin or the ang part, the other 0)
-        s = subspace[columns[other]]
-        Wo = np.einsum("nkcr,kc->nrk", B[:, joints[other] - first, :9].reshape(n, len(other), 3, 3), s[:, :3] + s[:, 3:])
-        D[:, :, other] = np.where(np.any(s[:, 3:] != 0, axis=1), np.cross(X[:, :, other], Wo, axis=1), Wo)
-    D *= _chain_signs(machine, jw, jt)[columns] * sign[columns]
-    return p, RwT @ D
-
-
-def _read_placements(machine: Machine, data, qs: np.ndarray, first: int, last: int) -> np.ndarray:
-    """(n, last − first + 1, 12): ``data.oMi[first..last]`` (R column-major, then p) after ``forwardKinematics``
-    at each configuration of ``qs``, through a live view of Pinocchio's array of placements (one copy per pose).
-
-    The view's layout (SE3 after SE3: rotation, then translation) is checked once per ``data`` against the
-    addresses of Pinocchio's own views and the values after a call; without it, the placements are read one by one."""
-    model, cache = machine.model, machine.__dict__.setdefault("_placements_view_cache", {})
-    if id(data) not in cache or cache[id(data)][0] is not data:
-        live = [(data.oMi[j].rotation, data.oMi[j].translation) for j in range(model.njoints)]
-        addr = [(R.__array_interface__["data"][0], t.__array_interface__["data"][0]) for R, t in live]
-        step, view = (addr[1][0] - addr[0][0] if len(addr) > 1 else 96), None
-        if step >= 96 and all(R.strides == (8, 24) and t.strides == (8,) and R.dtype == t.dtype == np.float64 and
-                              a == (addr[0][0] + j * step, addr[0][0] + j * step + 72) for j, ((R, t), a) in
-                              enumerate(zip(live, addr))):
-            view = np.lib.stride_tricks.as_strided(live[0][0], (model.njoints, 12), (step, 8), writeable=False)
-            q = pin.neutral(model)
-            q[-1] += 0.25  # any configuration: not all placements the identity
-            pin.forwardKinematics(model, data, q)
-            view = view if np.array_equal(view, [np.r_[R.ravel(order="F"), t] for R, t in live]) else None
-        cache[id(data)] = (data, view)  # the data, kept alive with the view into its memory
-    view, out, kinematics = cache[id(data)][1], np.empty((qs.shape[0], last - first + 1, 12)), pin.forwardKinematics
-    rows = view[first : last + 1] if view is not None else None  # live: refreshed by every call
-    for i in range(qs.shape[0]):
-        kinematics(model, data, qs[i])
-        out[i] = rows if rows is not None else [np.r_[data.oMi[j].rotation.ravel(order="F"), data.oMi[j].translation]
-                                                for j in range(first, last + 1)]
-    return out
-
-
-def _joint_geometry(machine: Machine):
-    """Per velocity column: its joint, c and the sign where its motion is ±e_c of the joint's frame (c 0-2
-    turning, 3-5 sliding along e_(c−3); c −1 otherwise), and its motion subspace (lin, ang) in that frame."""
-    if "_joint_geometry" not in machine.__dict__:
-        model, data = machine.model, machine.model.createData()
-        pin.computeJointJacobians(model, data, pin.neutral(model))
-        joint_of, S = np.zeros(model.nv, dtype=int), np.zeros((model.nv, 6))
-        for j in range(1, model.njoints):
-            for v in range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j]):
-                joint_of[v], S[v] = j, pin.getJointJacobian(model, data, j, pin.ReferenceFrame.LOCAL)[:, v]
-        unit, c = (np.count_nonzero(S, axis=1) == 1) & (np.abs(S).max(axis=1) == 1.0), np.argmax(np.abs(S), axis=1)
-        machine.__dict__["_joint_geometry"] = (joint_of, np.where(unit, (c + 3) % 6, -1),
-                                               np.where(unit, S[np.arange(model.nv), c], 1.0), S)
-    return machine.__dict__["_joint_geometry"]
-
-
-def _chain_signs(machine: Machine, jw: int, jt: int) -> np.ndarray:
-    """(nv,) +1 on the velocity columns of the tool chain, −1 on the workpiece chain's, 0 elsewhere."""
-    cache = machine.__dict__.setdefault("_sign_cache", {})
-    if (jw, jt) not in cache:
-        model, signs = machine.model, np.zeros(machine.model.nv)
-        for joint, sign in ((jt, 1.0), (jw, -1.0)):  # the joints that carry it (its support, itself included)
-            signs[[v for j in model.supports[joint] if j > 0
-                   for v in range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])]] = sign
-        cache[(jw, jt)] = signs
-    return cache[(jw, jt)]
 
 
 def tool_rotation_in_workpiece(machine: Machine, axes_user, errors_user) -> np.ndarray:
