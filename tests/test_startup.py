@@ -93,23 +93,28 @@ def test_unknown_attribute_is_an_attribute_error():
         assert not hasattr(package, "no_such_name")
 
 
-def test_identify_imports_only_what_the_fit_needs(tmp_path):
+def _modules_after_identify(tmp_path, errors: str, *options) -> set:
+    """The modules loaded by ``kinid identify [options]`` in a fresh process, on rows simulated with ``errors``."""
     from kinid.urdf import path
 
     urdf = str(path("five_axis_bc"))
-    (tmp_path / "errors.json").write_text('{"EX0C": 12.0, "EXX:periodic:10": [1.5, -0.8]}')
+    (tmp_path / "errors.json").write_text(errors)
     subprocess.run([sys.executable, "-m", "kinid", "simulate", "--machine", urdf, "--errors", "errors.json",
                     "--noise-um", "1", "--out", "obs.csv"], check=True, capture_output=True, timeout=120, cwd=tmp_path)
     code = ("import contextlib, io, json, sys; from kinid.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()):\n"
             f"    rc = main(['identify', '--machine', {urdf!r}, '--data', 'obs.csv', '--noise-um', '1', "
-            "'--out', 'fit.json'])\n"
+            f"*{list(options)!r}, '--out', 'fit.json'])\n"
             "print(rc); print(json.dumps(sorted(sys.modules)))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     rc, modules = out.stdout.splitlines()
     assert rc == "0" and (tmp_path / "fit.json").exists()
-    modules = set(json.loads(modules))
+    return set(json.loads(modules))
+
+
+def test_identify_imports_only_what_the_fit_needs(tmp_path):
+    modules = _modules_after_identify(tmp_path, '{"EX0C": 12.0, "EXX:periodic:10": [1.5, -0.8]}')
     # (kinid.identification.alignment is needed: the pose advice for held parameters solves nominal poses)
     unneeded = {"matplotlib", "cv2", "scipy", "kinid.vision", "kinid.stages", "kinid.identification.diagnose",
                 "kinid.identification.selection", "kinid.identification.simulate", "kinid.identification.plan_design",
@@ -120,22 +125,8 @@ def test_identify_imports_only_what_the_fit_needs(tmp_path):
 def test_identify_auto_imports_no_optimiser_it_does_not_use(tmp_path):
     """``--auto`` needs scipy.special (the F distribution) but not scipy.optimize (0.16 s): its two bounded
     searches are kinid.identification.periods.bounded_minimum, the same steps (tests/test_period_search.py)."""
-    from kinid.urdf import path
-
-    urdf = str(path("five_axis_bc"))
-    (tmp_path / "errors.json").write_text('{"EX0C": 12.0, "EXX:periodic:13.3": [1.5, -0.8]}')
-    subprocess.run([sys.executable, "-m", "kinid", "simulate", "--machine", urdf, "--errors", "errors.json",
-                    "--noise-um", "1", "--out", "obs.csv"], check=True, capture_output=True, timeout=120, cwd=tmp_path)
-    code = ("import contextlib, io, json, sys; from kinid.cli import main\n"
-            "with contextlib.redirect_stdout(io.StringIO()):\n"
-            f"    rc = main(['identify', '--machine', {urdf!r}, '--data', 'obs.csv', '--noise-um', '1', '--auto', "
-            "'--out', 'fit.json'])\n"
-            "print(rc); print(json.dumps(sorted(sys.modules)))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=tmp_path)
-    assert out.returncode == 0, out.stderr
-    rc, modules = out.stdout.splitlines()
-    assert rc == "0" and json.loads((tmp_path / "fit.json").read_text())["effects"][-1].startswith("EXX:")
-    modules = set(json.loads(modules))
+    modules = _modules_after_identify(tmp_path, '{"EX0C": 12.0, "EXX:periodic:13.3": [1.5, -0.8]}', "--auto")
+    assert json.loads((tmp_path / "fit.json").read_text())["effects"][-1].startswith("EXX:")
     assert "kinid.identification.selection" in modules  # the selection ran
     assert not {"scipy.optimize", "scipy.stats", "matplotlib", "cv2"} & modules
 
