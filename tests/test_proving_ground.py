@@ -55,6 +55,7 @@ def test_rates_on_drawn_scenarios(capsys):
     assert everything["pass"] >= 0.85  # 90 % when written (36 of 40)
     assert np.mean(hidden) >= 0.80  # 84 % (21 of 25)
     assert everything["worse_than_default"] == 0.0
+    assert everything["worse_on_plan"] == 0.0  # the same judged on every pose of the plan (noise-free truth)
     none = [sc for sc in scenarios if not sc.hidden and sc.sigma_declared == pg.NOISE_UM]
     assert none and all(not sc.result["added"] for sc in none)
 
