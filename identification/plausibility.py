@@ -149,7 +149,8 @@ def _weak_partners(flagged: list, index: list, theta, correlation) -> list:
     limit = np.array([flagged[i].limit for i in const])
     x = theta[at] / limit  # values in units of their limits
     s = np.array([flagged[i].std for i in const]) / limit
-    C = np.nan_to_num(correlation[np.ix_(at, at)]) * np.outer(s, s)
+    rho = np.nan_to_num(correlation[np.ix_(at, at)])
+    C = rho * np.outer(s, s)
     lam, V = np.linalg.eigh(C)
     # U (k = 2) along the direction moves some constant as far as its limit
     weak = 2.0 * np.sqrt(np.maximum(lam, 0.0)) * np.abs(V).max(axis=0) >= 1.0
@@ -158,7 +159,6 @@ def _weak_partners(flagged: list, index: list, theta, correlation) -> list:
     Vw, Vd = V[:, weak], V[:, ~weak]
     rest = x - Vw @ (Vw.T @ x)  # the part of the values the plan determines
     rest_std = np.sqrt(np.maximum(np.einsum("ij,j,ij->i", Vd, lam[~weak], Vd), 0.0))
-    rho = np.nan_to_num(correlation[np.ix_(at, at)])
     out = list(flagged)
     for j, i in enumerate(const):
         if np.abs(rest[j]) <= max(1.0, 2.0 * rest_std[j]) and not flagged[i].undetermined:
