@@ -160,14 +160,16 @@ def _num(x: float) -> str:
 
 
 def _largest(fit_result, n=3) -> str:
-    """The identified errors of largest size relative to their uncertainty, in words."""
+    """The identified errors of largest size relative to their uncertainty, in words; not those of a size no
+    machine has (flagged in the table: they are not clear, whatever their ratio)."""
     from .names import axis_directions, plain_name
 
     axes = axis_directions(fit_result.machine)
+    flagged = {a.effect for a in fit_result.implausible()}
     scored, k = [], 0
     for e in fit_result.effects:
         sl = slice(k, k + e.n_params)
-        if e.code.endswith(("0W", "0T")):  # where the board and the sensor sit: not the machine's error
+        if e.code.endswith(("0W", "0T")) or e.name in flagged:  # the set-up of board and sensor: not the machine's
             k += e.n_params
             continue
         ok = np.asarray(fit_result.identifiable[sl], bool)
@@ -180,7 +182,8 @@ def _largest(fit_result, n=3) -> str:
             scored.append((z, f"{plain_name(e.code, axes)} ({e.name}, {_num(size)} {unit})"))
         k += e.n_params
     scored.sort(reverse=True)
-    return "; ".join(t for z, t in scored[:n] if z > 3) or "no error stands out of its uncertainty"
+    clearest = "; ".join(t for z, t in scored[:n] if z > 3) or "no error stands out of its uncertainty"
+    return clearest + ("; the sizes no machine has, flagged in the table, are left out" if flagged else "")
 
 
 def _provenance(fit_result, obs, extra=()) -> list:
