@@ -37,8 +37,7 @@ from kinid.errors import DataError
 from .bsplines import _bsplines
 
 __all__ = ["Basis", "BasisInput", "BASES", "register_basis", "basis_of", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG",
-           "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name",
-           "knots_every"]
+           "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name"]
 
 #: Periods the diagnosis tries on every position-dependent joint (mm for linear, deg for rotary axes).
 LINEAR_PERIODS_MM = (2, 4, 5, 8, 10, 16, 20)
@@ -337,16 +336,10 @@ def map_knots(ctx: BasisInput, step_text, lo_text, hi_text) -> tuple:
         lo, hi = float(lo_text), float(hi_text)
     if not (np.isfinite(step) and step > 0 and np.isfinite(lo) and np.isfinite(hi) and hi > lo):
         raise ctx.fail("a map needs a positive step and a range from < to")
-    knots = knots_every(step, lo, hi)
-    if len(knots) > MAX_MAP_KNOTS:
-        raise ctx.fail(f"{len(knots)} knots, more than {MAX_MAP_KNOTS}; use a larger step or give the measured range "
-                       f"as {ctx.name.split(':map:')[0]}:map:{step_text}:<from>:<to> ({unit})")
-    return knots
-
-
-def knots_every(step: float, lo: float, hi: float) -> tuple:
-    """The knots of a map or a local error: every ``step`` from ``lo`` until ``hi`` is reached (two at least)."""
     n = int(np.ceil((hi - lo) / step - 1e-9)) + 1
+    if n > MAX_MAP_KNOTS:
+        raise ctx.fail(f"{n} knots, more than {MAX_MAP_KNOTS}; use a larger step or give the measured range as "
+                       f"{ctx.name.split(':map:')[0]}:map:{step_text}:<from>:<to> ({unit})")
     return tuple(float(lo + step * k) for k in range(max(n, 2)))
 
 

@@ -166,15 +166,11 @@ def _local_windows(whole, q, distinct, machine) -> list:
     ``distinct`` positions of the axis than the window has parameters (else the spline between the positions is
     a guess: coefficients of any size fit the same values). The window's end knots carry no coefficient (the
     error is zero there) and need no readings of their own."""
-    from dataclasses import replace
-
     from kinid.errors import DataError
 
-    from .bases import MAX_MAP_KNOTS, knots_every
     from .effects import parse_effect
 
     out = []
-    first = None  # the first window parsed: its joint and axis checked; the others differ from it in their knots only
     lo, hi = whole.knots[0], whole.knots[-1]
     for factor in LOCAL_STEPS:
         step = float(f"{(whole.knots[1] - whole.knots[0]) * factor:.6g}")
@@ -187,17 +183,8 @@ def _local_windows(whole, q, distinct, machine) -> list:
                 inside = np.count_nonzero((distinct > knots[i]) & (distinct < knots[i + width]))
                 if inside < width - 3 + LOCAL_SPARE_POSITIONS:  # width − 3 cubic B-splines lie in the window
                     continue
-                name = f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}"
-                # hundreds of windows: made as parsing would make them (the knots from the texts of the name), not
-                # parsed one by one; a window whose name parsing would refuse is parsed, and refused
-                a, b = (float(text) for text in name.split(":")[3:5])
-                own = knots_every(float(f"{step:g}"), a, b) if b > a else ()
-                if first is not None and 5 <= len(own) <= MAX_MAP_KNOTS:
-                    out.append(replace(first, name=name, knots=own))
-                    continue
                 try:
-                    out.append(parse_effect(name, machine))
+                    out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
                 except DataError:
                     continue
-                first = first or out[-1]
     return out
