@@ -35,7 +35,7 @@ from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
 from .local_errors import proposed_maps
-from .plausibility import DRIFT_HORIZON_S, LIMITS, warning_lines
+from .plausibility import share_of_limit, warning_lines
 from .scoring import Candidate, _f_log10_p, fit_side
 from .searched import score_all
 from .structure import structure_left
@@ -343,7 +343,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     # straightness of B's axis) the one that needs 2 µm rather than 2·10⁴ µrad
     live = sorted([c for c in scored if c.status == "live"], key=lambda c: (
         round(c.log10_p, 6), c.effect.split(":")[0] not in location, float(f"{c.rms_after_um:.9g}"),
-        _share_of_limit(c, machine)))
+        share_of_limit(machine, c.effect.split(":")[0], c.size, c.size_unit)))
     rest = [c for c in scored if c.status != "live"]
     threshold = alpha / max(len(live), 1)
     chi2_p = chi2_sf(float(np.sum(r**2)) / sigma**2, result.dof) if known else float("nan")
@@ -426,15 +426,6 @@ def _inseparable(machine, live, follows) -> str:
             f"time and one of {axis}'s position cannot be told apart; --auto adds the better, {best.effect} — measure "
             f"in another order (serpentine or random over {axis}, or a reference pose repeated through the run) to "
             f"tell them apart")
-
-
-def _share_of_limit(c: Candidate, machine: Machine) -> float:
-    """A candidate's estimated size as a share of the largest a machine (or a set-up) has."""
-    if not np.isfinite(c.size):
-        return math.inf
-    setup = machine.error_joint(c.effect.split(":")[0]).axis in ("W", "T")
-    limit = LIMITS[("setup_" if setup else "") + ("um" if c.size_unit.startswith("µm") else "urad")]
-    return abs(c.size) * (DRIFT_HORIZON_S if c.size_unit.endswith("/s") else 1.0) / limit
 
 
 def _undetermined(machine, obs, result, best, sigma, d_errors, q0, side=None):

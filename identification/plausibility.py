@@ -34,7 +34,8 @@ import numpy as np
 from .bases import basis_of
 from .effects import basis_values
 
-__all__ = ["Implausible", "implausible_effects", "warning_lines", "LIMITS", "PRIOR_MULTIPLE"]
+__all__ = ["Implausible", "implausible_effects", "warning_lines", "machine_limit", "share_of_limit", "LIMITS",
+           "PRIOR_MULTIPLE"]
 
 #: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
 LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
@@ -103,6 +104,21 @@ def warning_lines(odd, prefix: str = "WARNING: ") -> list:
     return lines
 
 
+def machine_limit(machine, code: str, unit: str) -> float:
+    """The largest size a machine has for error joint ``code`` (a set-up, for the board's and the sensor's joints
+    W and T), in ``unit`` (µm or µrad, written "um"/"urad" or "µm"/"µrad")."""
+    setup = machine.error_joint(code).axis in ("W", "T")
+    return LIMITS[("setup_" if setup else "") + ("urad" if "rad" in unit else "um")]
+
+
+def share_of_limit(machine, code: str, size: float, unit: str) -> float:
+    """``size`` (in ``unit``; a drift per second is judged over DRIFT_HORIZON_S) as a share of
+    :func:`machine_limit`: inf for a size not known."""
+    if not np.isfinite(size):
+        return math.inf
+    return abs(size) * (DRIFT_HORIZON_S if unit.endswith("/s") else 1.0) / machine_limit(machine, code, unit)
+
+
 def _size(effect, theta, machine, axis_ranges) -> float:
     basis = basis_of(effect)
     if basis.driver in ("position", "direction") and effect.axis in axis_ranges:
@@ -125,8 +141,7 @@ def implausible_effects(result, names=None) -> tuple:
     for e in result.effects:
         th = theta[k:k + e.n_params]
         k += e.n_params
-        setup = machine.error_joint(e.code).axis in ("W", "T")
-        limit = LIMITS[("setup_" if setup else "") + e.unit]
+        limit = machine_limit(machine, e.code, e.unit)
         prior = getattr(result, "prior_std", None)
         if prior is not None and e.n_params == 1 and np.isfinite(prior[k - 1]):
             limit = min(limit, PRIOR_MULTIPLE * float(prior[k - 1]))

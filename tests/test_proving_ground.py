@@ -341,7 +341,7 @@ def test_of_candidates_the_data_cannot_tell_apart_the_one_a_machine_could_have_c
     model (held-out 20× the oracle's). Of tied candidates the one whose estimated size is the smallest share of
     what a machine has comes first."""
     from kinid.identification import default_model, diagnose
-    from kinid.identification.diagnose import _share_of_limit
+    from kinid.identification.plausibility import share_of_limit
 
     tied_seen = 0
     for seed in (19 * 100003 + 168, 5, 6, 7):
@@ -350,7 +350,7 @@ def test_of_candidates_the_data_cannot_tell_apart_the_one_a_machine_could_have_c
         _, machine, obs = _data(seed, **drawn)
         dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
         tied = [c for c in dg.live if round(c.log10_p, 6) == round(dg.live[0].log10_p, 6)]
-        shares = [_share_of_limit(c, machine) for c in tied]
+        shares = [share_of_limit(machine, c.effect.split(":")[0], c.size, c.size_unit) for c in tied]
         print(seed, [(c.effect, f"{c.size:.3g} {c.size_unit}") for c in tied])
         assert shares[0] == min(shares)
         tied_seen += len(tied) > 1
