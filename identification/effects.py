@@ -155,10 +155,15 @@ def axis_dependent_joints(machine: Machine) -> list:
     for (an arm's gear error of J2 is ``EB0J2`` varying with J2 when J2 turns
     about y).
     """
+    from .derived import derived
+
+    # asked by the library, the period search and the maps alike: found once per machine
+    return list(derived(machine, "axis_dependent_joints", lambda: tuple(_axis_dependent_joints(machine))))
+
+
+def _axis_dependent_joints(machine) -> list:
     import pinocchio as pin
 
-    if "_axis_dependent_joints" in machine.__dict__:  # asked by the library, the period search and the maps alike
-        return list(machine.__dict__["_axis_dependent_joints"])
     data = machine.model.createData()
     pin.forwardKinematics(machine.model, data, pin.neutral(machine.model))
     out = []
@@ -180,7 +185,6 @@ def axis_dependent_joints(machine: Machine) -> list:
         if e.kind == "revolute" and np.linalg.norm(np.cross(offset, dk)) > 1e-9:
             continue  # parallel rotation axes on different lines do not commute
         out.append((e.code, e.axis))
-    machine.__dict__["_axis_dependent_joints"] = tuple(out)  # of the machine's frozen model: found once
     return out
 
 

@@ -237,15 +237,17 @@ def _configurations(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray
 
 def axis_limits(machine: Machine) -> np.ndarray:
     """(n_axes, 2) travel of each axis from the URDF joint limits, mm / deg; ±inf where the URDF gives none."""
-    if "_axis_limits" not in machine.__dict__:  # every periodic effect parsed asks: the model is read once
+    from .derived import derived
+
+    def read():  # every periodic effect parsed asks: the model is read once
         out = np.full((len(machine.axes), 2), [-np.inf, np.inf])
         for j, a in enumerate(machine.axes):  # a continuous joint (nq 2) has no limits
             lo, hi = (machine.model.lowerPositionLimit[a.q_index], machine.model.upperPositionLimit[a.q_index]) \
                 if a.nq == 1 else (np.nan, np.nan)
             if np.isfinite(lo) and np.isfinite(hi) and hi > lo and abs(hi) < 1e10:
                 out[j] = np.array([lo, hi]) * (1e3 if a.kind == "prismatic" else 180.0 / np.pi)
-        machine.__dict__["_axis_limits"] = out
-    return machine.__dict__["_axis_limits"].copy()
+        return out
+    return derived(machine, "axis_limits", read).copy()
 
 
 def axes_to_si(machine: Machine, axes_user: np.ndarray) -> np.ndarray:

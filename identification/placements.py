@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from .derived import derived
+
 __all__ = []
 
 
@@ -55,10 +57,8 @@ class _Columns:
 
 
 def _columns(machine, columns: np.ndarray) -> _Columns:
-    """The :class:`_Columns` of ``columns`` (velocity indices), cached on the machine: a fit asks the same each pass."""
-    cache = machine.__dict__.setdefault("_columns_cache", {})
-    key = columns.tobytes()
-    if key not in cache:
+    """The :class:`_Columns` of ``columns`` (velocity indices), kept on the machine: a fit asks the same each pass."""
+    def make():
         model = machine.model
         wf, tf = model.frames[machine.workpiece_frame], model.frames[machine.tool_frame]
         jw, jt = wf.parentJoint, tf.parentJoint
@@ -68,13 +68,13 @@ def _columns(machine, columns: np.ndarray) -> _Columns:
         at, comp = (joints - first) * 12, np.arange(3)[:, None]
         other = np.flatnonzero(ax < 0)
         s = subspace[columns[other]]
-        cache[key] = _Columns(
+        return _Columns(
             first, last, slice((jw - first) * 12, (jw - first + 1) * 12), slice((jt - first) * 12, (jt - first + 1) * 12),
             _placement_matrix(wf.placement), _placement_matrix(tf.placement),
             np.concatenate([(at + 3 * (np.maximum(ax, 0) % 3) + comp).ravel(), (at + 9 + comp).ravel()]),
             np.flatnonzero(ax >= 3), other, joints[other], s, np.any(s[:, 3:] != 0, axis=1),
             _chain_signs(machine, jw, jt)[columns] * sign[columns])
-    return cache[key]
+    return derived(machine, ("columns", columns.tobytes()), make)
 
 
 def _placement_matrix(placement: pin.SE3) -> np.ndarray:
@@ -159,7 +159,7 @@ def _read_placements(machine, data, qs: np.ndarray, first: int, last: int) -> np
 def _joint_geometry(machine):
     """Per velocity column: its joint, c and the sign where its motion is ±e_c of the joint's frame (c 0-2
     turning, 3-5 sliding along e_(c−3); c −1 otherwise), and its motion subspace (lin, ang) in that frame."""
-    if "_joint_geometry" not in machine.__dict__:
+    def make():
         model, data = machine.model, machine.model.createData()
         pin.computeJointJacobians(model, data, pin.neutral(model))
         joint_of, S = np.zeros(model.nv, dtype=int), np.zeros((model.nv, 6))
@@ -167,18 +167,16 @@ def _joint_geometry(machine):
             for v in range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j]):
                 joint_of[v], S[v] = j, pin.getJointJacobian(model, data, j, pin.ReferenceFrame.LOCAL)[:, v]
         unit, c = (np.count_nonzero(S, axis=1) == 1) & (np.abs(S).max(axis=1) == 1.0), np.argmax(np.abs(S), axis=1)
-        machine.__dict__["_joint_geometry"] = (joint_of, np.where(unit, (c + 3) % 6, -1),
-                                               np.where(unit, S[np.arange(model.nv), c], 1.0), S)
-    return machine.__dict__["_joint_geometry"]
+        return joint_of, np.where(unit, (c + 3) % 6, -1), np.where(unit, S[np.arange(model.nv), c], 1.0), S
+    return derived(machine, "joint_geometry", make)
 
 
 def _chain_signs(machine, jw: int, jt: int) -> np.ndarray:
     """(nv,) +1 on the velocity columns of the tool chain, −1 on the workpiece chain's, 0 elsewhere."""
-    cache = machine.__dict__.setdefault("_sign_cache", {})
-    if (jw, jt) not in cache:
+    def make():
         model, signs = machine.model, np.zeros(machine.model.nv)
         for joint, sign in ((jt, 1.0), (jw, -1.0)):  # the joints that carry it (its support, itself included)
             signs[[v for j in model.supports[joint] if j > 0
                    for v in range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])]] = sign
-        cache[(jw, jt)] = signs
-    return cache[(jw, jt)]
+        return signs
+    return derived(machine, ("chain_signs", jw, jt), make)
