@@ -213,15 +213,17 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         w, V = np.linalg.eigh(gs)
         bvec = np.array([item[7] for item in items])
         products = [None] * len(items)
+        exact = {}  # the sums lose the digits a projection off a model that nearly explains the candidate cancels
         for m in np.flatnonzero(w.min(axis=1) < EXACT_BELOW):
-            # the sums lose the digits a projection off a model that nearly explains the candidate cancels
-            e, j = items[m][1], items[m][6]
-            col, basis = d_errors[:, :, j] / sigma, design(machine, [e], obs).basis
-            gram, bvec[m] = _projected_exactly(col, basis, Q0, r)
-            gs[m], w[m], V[m] = _normalized(gram, alive[m], scale[m])
-            # the product with the model's columns serves only aliased candidates, all scored exactly (an aliased
-            # candidate's eigenvalues are below ALIAS_TOL² < EXACT_BELOW)
-            products[m] = lambda col=col, basis=basis: _model_products(col, basis, J0)
+            exact.setdefault(items[m][6], []).append(m)
+        for j, ms in exact.items():  # one joint's candidates of k parameters projected together
+            col, basis = d_errors[:, :, j] / sigma, design(machine, [items[m][1] for m in ms], obs).basis
+            grams, bvec[ms] = _projected_exactly(col, basis, k, Q0, r)
+            for m, gram, b in zip(ms, grams, range(0, basis.shape[1], k)):
+                gs[m], w[m], V[m] = _normalized(gram, alive[m], scale[m])
+                # the product with the model's columns serves only aliased candidates, all scored exactly (an
+                # aliased candidate's eigenvalues are below ALIAS_TOL² < EXACT_BELOW)
+                products[m] = lambda col=col, basis=basis[:, b:b + k]: _model_products(col, basis, J0)
         judged = test.judge([item[1] for item in items], [item[2] for item in items], alive, scale, gs, w, V, bvec,
                             products)
         for item, c in zip(items, judged):
@@ -342,27 +344,29 @@ def _group_sums(group: _Columns, series, n: int) -> tuple:
 EXACT_ROWS = 8192
 
 
-def _projected_exactly(col, basis, Q0, r) -> tuple:
-    """For the columns ``col`` × ``basis`` of one joint (col (N, 3), basis (N, k)): their Gram matrix projected off
-    the model and the projected columns' product with r (k,), from the projected columns, in chunks of
-    alignments."""
-    n, k = basis.shape
+def _projected_exactly(col, basis, k, Q0, r) -> tuple:
+    """For candidates of ``k`` columns each, ``col`` × ``basis`` of one joint (col (N, 3), basis (N, m·k), a
+    candidate's basis values side by side): their Gram matrices projected off the model (m, k, k) and the projected
+    columns' products with r (m, k), from the projected columns, in chunks of alignments."""
+    n, width = basis.shape
+    m = width // k
     chunks = [slice(a, min(a + EXACT_ROWS, n)) for a in range(0, n, EXACT_ROWS)]
 
     def columns(c):
-        return (col[c, :, None] * basis[c, None, :]).reshape(-1, k)
+        return (col[c, :, None] * basis[c, None, :]).reshape(-1, width)
 
     def rows(c):
         return slice(3 * c.start, 3 * c.stop)
 
     kept = columns(chunks[0]) if len(chunks) == 1 else None  # one chunk: its columns serve both passes
     A = sum(Q0[rows(c)].T @ (columns(c) if kept is None else kept) for c in chunks)
-    gram, bvec = np.zeros((k, k)), np.zeros(k)
+    grams, bvec = np.zeros((m, k, k)), np.zeros(width)
     for c in chunks:
         Cp = (columns(c) if kept is None else kept) - Q0[rows(c)] @ A
         bvec += Cp.T @ r[rows(c)]
-        gram += Cp.T @ Cp
-    return gram, bvec
+        Cp = Cp.reshape(-1, m, k).transpose(1, 0, 2)  # (m, rows, k): one matrix product per candidate
+        grams += np.matmul(Cp.transpose(0, 2, 1), Cp)
+    return grams, bvec.reshape(m, k)
 
 
 def _model_products(col, basis, J0) -> np.ndarray:
