@@ -442,7 +442,7 @@ def _undetermined(machine, obs, result, best, sigma, d_errors, q0, side=None):
     axis = machine.error_joint(parts[0]).axis
     positions = distinct_positions(obs.axes[:, machine.axis_names.index(axis)]).size
     unit = "°" if machine.axis(axis).kind != "prismatic" else " mm"
-    shown = ", ".join(f"{p:.3g}" for p in sorted(twins)[:6]) + (" …" if len(twins) > 6 else "")
+    shown = ", ".join(f"{p:.4g}" for p in sorted(twins, reverse=True)[:6]) + (" …" if len(twins) > 6 else "")
     return (f"{best.effect} is significant (p = {best.p_value:.2g}) but its period is not determined: periods "
             f"{shown}{unit} explain the data about as well on the {positions} positions of {axis} measured, and "
             f"differ between them — measure {axis} at more positions (kinid plan --detect {best.effect}=SIZE)"), twins

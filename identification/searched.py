@@ -16,7 +16,8 @@ from .observations import Observations
 from .periods import bounded_minimum
 from .scoring import score_candidates
 
-__all__ = ["score_all", "found_periods", "found_time_constants", "refined_time_constant", "FOUND_PERIODS",
+__all__ = ["score_all", "found_periods", "found_time_constants", "refined_time_constant", "period_found_on",
+           "FOUND_PERIODS",
            "PERIOD_GAIN_MIN", "TAU_GRID", "TAU_JOINTS", "TAU_REFINE_FACTOR"]
 
 
@@ -70,8 +71,10 @@ def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side
             continue
         trials = est.trials * joints
         log10_p = min(0.0, c.log10_p + math.log10(trials))
-        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
-                f"(p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} joints searched)")
+        found = (f"{360.0 / est.period:.0f} cycles per turn of {est.axis} (360°/{360.0 / est.period:.0f} = "
+                 f"{est.period:.6g}°)" if est.period_std == 0 else f"{est.period:.4g} ± {est.period_std:.2g} {est.unit}")
+        note = (f"period found by search: {found} (p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} "
+                f"joints searched)")
         out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
         have.add(est.effect)
     return out
@@ -172,6 +175,23 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
                                      xatol=0.01, maxiter=20)
     best_u, best = (found_u, -found) if -found > values[k] else (grid[k], values[k])
     return named(best_u) if best > values[len(grid) // 2] else name  # the middle of the grid: τ as given
+
+
+def period_found_on(machine: Machine, obs: Observations, result: FitResult, name: str, range_of=None) -> str:
+    """``CODE:periodic:<P>`` with P the period the search finds best for CODE in the residuals of ``result`` on
+    ``obs`` (over the periods the positions of ``range_of`` set, if given); any other name, or a joint the search
+    finds nothing for, as it is. The held-out check chooses a periodic candidate's period on its training blocks
+    with this: chosen on every alignment, the period of the best of many is fitted to the held-out blocks' noise
+    too, and predicts them better than it would new ones."""
+    from .periods import search_periods
+
+    code, kind = (name.split(":") + [""])[:2]
+    if kind != "periodic":
+        return name
+    d_errors, _, q0 = model_pass(machine, obs, result)
+    r = result.residuals_um.ravel()
+    found = search_periods(machine, obs, r - q0 @ (q0.T @ r), d_errors, q0, codes={code}, range_of=range_of)
+    return found[0].effect if found else name
 
 
 def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0,

@@ -136,6 +136,9 @@ def _why_not_added(last) -> str:
 
     cv = last.held_out
     if cv is not None and not cv.improves:
+        if cv.gain_se >= MIN_GAIN_SE and cv.chosen_gain_se is not None:
+            return (f"chosen on part of the alignments, its period does not predict the others better: a gain of "
+                    f"{cv.chosen_gain_se:.1f} standard errors")
         return (f"it does not predict held-out alignments better: a gain of {cv.gain_se:.1f} standard errors, "
                 f"{MIN_GAIN_SE:g} needed")
     return last.stopped.split("; ")[0]
@@ -168,7 +171,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         steps.append(SelectionStep(added, dg.fit, dg, data=obs))
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
-        best = _first_determined(dg, undetermined)
+        best, pending = _first_determined(dg)
         if dg.inseparable and best is not None and best.effect == dg.live[0].effect:  # it names the best candidate
             undetermined[f"time {best.effect}"] = dg.inseparable  # said when the selection stops
         stop = ""
@@ -187,14 +190,15 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             from .effects import parse_effect as _parse
 
             cv = cross_validate(machine, obs, effects, _parse(best.effect, machine), folds=folds, noise_um=noise_um,
-                                theta0=dg.fit.theta)
+                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, best.effect))
             progress.say(f"  {'':<28} next: {best.effect}, p = {best.p_value:.2g}, {cv}")
             steps[-1] = replace(steps[-1], held_out=cv)
             if not cv.improves:
                 stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
                         f"data better: {cv}")
-        if stop and undetermined:
-            stop += "; also: " + "; ".join(undetermined.values())
+        also = list(undetermined.values()) + ([pending[1]] if stop and pending else [])
+        if stop and also:
+            stop += "; also: " + "; ".join(also)
         if stop:
             if robust:  # a misread may stand out only once the model is complete
                 # the step's fit is the first round's: the model and rows are those the set-aside fits
@@ -217,6 +221,9 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         from .effects import parse_effect
         from .searched import refined_time_constant
 
+        if pending:  # the period is not determined: said when the selection stops
+            code, why = pending
+            undetermined[code] = why.replace(" — measure", f"; {best.effect} added, the longest of them — measure")
         name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)
         if name != best.effect:
             progress.say(f"  {'':<28} time constant refined: {best.effect} → {name}")
@@ -227,16 +234,34 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
     return steps
 
 
-def _first_determined(dg, undetermined: dict):
-    """The best live candidate. When the diagnosis found it periodic with a period the positions measured do not
-    determine (:mod:`.ambiguity`): the longest of the periods that fit as well — it reproduces every position
-    measured as well as any of them, and between them it is the smoothest (the convention of the period
-    search: of aliases, the lowest frequency) — and why, in ``undetermined``, for the step's stop message."""
+def _chosen_again(machine, obs, name: str):
+    """For the held-out check: a periodic candidate's period chosen again on each turn's training blocks (by the
+    period search over the periods the positions of all of ``obs`` resolve,
+    :func:`~kinid.identification.searched.period_found_on`); None for other candidates."""
+    if ":periodic:" not in name:
+        return None
+    from kinid.errors import DataError
+
+    from .effects import parse_effect
+    from .searched import period_found_on
+
+    def choose(train, result):
+        try:
+            return parse_effect(period_found_on(machine, train, result, name, range_of=obs), machine)
+        except DataError:
+            return parse_effect(name, machine)
+    return choose
+
+
+def _first_determined(dg):
+    """The best live candidate, and (error joint, why) when the diagnosis found it periodic with a period the
+    positions measured do not determine (:mod:`.ambiguity`), else None. Such a candidate is named by the longest of
+    the periods that fit as well — it reproduces every position measured as well as any of them, and between them
+    it is the smoothest (the convention of the period search: of aliases, the lowest frequency)."""
     best = dg.live[0] if dg.live else None
     if best is None or not dg.undetermined:
-        return best
+        return best, None
     code, _, period = best.effect.split(":")[:3]
     longest = max((float(period),) + tuple(dg.twins))
     name = best.effect if longest == float(period) else f"{code}:periodic:{longest:.6g}"
-    undetermined[code] = dg.undetermined.replace(" — measure", f"; {name} added, the longest of them — measure")
-    return replace(best, effect=name)
+    return replace(best, effect=name), (code, dg.undetermined)

@@ -1,0 +1,85 @@
+"""The held-out check of a periodic candidate also chooses its period on the training blocks alone.
+
+The best period of a search over many is fitted to the noise of every alignment, the held-out blocks' too: on
+pure noise it "predicts" them better than it would new alignments (the selection bias the check's docstring
+measures). Chosen again on each turn's training blocks, the gain is what the period search brings to data it
+did not see. Truth here: the patent plan on the B/C table, 1 µm noise, a lead of X written as a plain formula.
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinid.identification import forward_select, load_machine
+from kinid.identification.crossval import cross_validate
+from kinid.identification.effects import default_model, parse_effect
+from kinid.identification.fit import fit
+from kinid.identification.leverage import model_pass
+from kinid.identification.periods import search_periods
+from kinid.identification.selection import _chosen_again
+from kinid.identification.simulate import patent_plan, simulate
+from kinid.urdf import path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_period_search import _location_truth, _with_x_error  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def bc():
+    return load_machine(path("five_axis_bc"))
+
+
+def _gains(machine, seed, lead_um):
+    """Held-out gain (standard errors) of the best searched period: (chosen on all data, chosen per turn)."""
+    rng = np.random.default_rng(seed)
+    effects, theta = _location_truth(machine, rng)
+    obs = simulate(machine, patent_plan(machine), effects, theta, noise_um=1.0, rng=rng)
+    if lead_um:
+        obs = _with_x_error(machine, obs, lead_um, 13.3, 0.7)
+    model = default_model(machine)
+    result = fit(machine, obs, model, noise_um=1.0)
+    d_errors, _, q0 = model_pass(machine, obs, result)
+    r = result.residuals_um.ravel()
+    best = search_periods(machine, obs, r - q0 @ (q0.T @ r), d_errors, q0)[0].effect
+    cv = cross_validate(machine, obs, model, parse_effect(best, machine), noise_um=1.0, theta0=result.theta,
+                        choose=_chosen_again(machine, obs, best))
+    assert len(cv.chosen) == 4 and cv.improves == (cv.gain_se >= 2.0 and cv.chosen_gain_se > 0)
+    return cv.gain_se, cv.chosen_gain_se
+
+
+def test_on_noise_the_period_chosen_per_turn_has_no_held_out_gain(bc):
+    gains = np.array([_gains(bc, seed, 0.0) for seed in range(16)])
+    fixed, again = gains.T
+    # chosen on all data, the best period of noise gains about a standard error (13 of 16 seeds ≥ 1 when written)
+    assert fixed.mean() > 1.0 and np.sum(fixed >= 1.0) >= 10
+    # chosen per turn it gains nothing on average (−0.27 when written)
+    assert again.mean() < 0.3 and np.sum(again >= 1.0) <= 5
+    assert np.all(again < 2.0)
+
+
+def test_a_real_lead_keeps_its_held_out_gain(bc):
+    for seed in range(4):
+        fixed, again = _gains(bc, seed, 1.0)  # a 1 µm lead under 1 µm noise: 4.7–6.0 standard errors when written
+        assert again >= 2.0 and again > 0.9 * fixed
+
+
+def test_the_selection_chooses_a_periodic_candidates_period_per_turn(bc, monkeypatch):
+    import kinid.identification.crossval as crossval
+
+    seen = []
+    original = crossval.cross_validate
+
+    def spy(machine, obs, effects, candidate, **kw):
+        seen.append((candidate.name, kw.get("choose")))
+        return original(machine, obs, effects, candidate, **kw)
+
+    monkeypatch.setattr(crossval, "cross_validate", spy)
+    rng = np.random.default_rng(3)
+    effects, theta = _location_truth(bc, rng)
+    obs = _with_x_error(bc, simulate(bc, patent_plan(bc), effects, theta, noise_um=1.0, rng=rng), 3.0, 13.3, 0.7)
+    steps = forward_select(bc, obs, default_model(bc), noise_um=1.0)
+    assert any(e.name.startswith("EXX:periodic:13.3") for e in steps[-1].fit.effects)
+    periodic = [choose for name, choose in seen if ":periodic:" in name]
+    assert periodic and all(choose is not None for choose in periodic)
+    assert all(choose is None for name, choose in seen if ":periodic:" not in name)
