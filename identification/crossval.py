@@ -76,10 +76,11 @@ class CrossValidation:
 
 
 def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int = 4, noise_um=None,
-                   theta0=None, choose=None) -> CrossValidation:
+                   theta0=None, choose=None, always_choose: bool = False) -> CrossValidation:
     """Held-out RMS of ``effects`` and of ``effects + [candidate]``, fitted on all blocks but one in turn.
     ``choose(training data, fit of effects on them)``, if given, is the candidate of each turn: what the data
-    chose (a period searched) chosen again on the training blocks alone; its gain is ``chosen_gain_se``."""
+    chose (a period searched) chosen again on the training blocks alone; its gain is ``chosen_gain_se``,
+    measured once the candidate passes (or ``always_choose``)."""
     from .fit import fit
     from .residuals import design, residuals
 
@@ -87,33 +88,46 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
     order = np.argsort(obs.t_s, kind="stable") if obs.t_s is not None else np.arange(n)
     ss = np.zeros(2)
     count = 0
-    models = 2 if choose is None else 3  # without, with the candidate, with the turn's own choice
-    per_row = np.full((models, n), np.nan)  # each alignment's held-out squared error
-    chosen = []
+    per_row = np.full((3, n), np.nan)  # each alignment's held-out squared error: without, with, with the turn's own
+    turns = []
+
+    def start(model, theta):
+        if theta is None:
+            return None
+        size = sum(e.n_params for e in model)
+        return np.r_[theta, np.zeros(max(size - len(theta), 0))][:size]
+
+    def held_out(m, model, tr, te, test, theta):
+        result = fit(machine, tr, model, noise_um=noise_um, theta0=start(model, theta))
+        r = residuals(machine, design(machine, model, te), te, result.theta, jacobian=False)
+        per_row[m, test] = np.sum(r**2, axis=1)
+        return result, float(np.sum(r**2))
+
     for k in range(folds):
         test = np.sort(order[k::folds])
         train = np.setdiff1d(np.arange(n), test)
         if test.size == 0 or train.size == 0:
             continue
         tr, te = obs.subset(train), obs.subset(test)
-        without = None
-        for m in range(models):
-            model = list(effects) + ([candidate] if m == 1 else [choose(tr, without)] if m == 2 else [])
-            if m == 2:
-                chosen.append(model[-1].name)
-            start = None
-            if theta0 is not None:
-                start = np.r_[theta0, np.zeros(sum(e.n_params for e in model) - len(theta0))][:sum(e.n_params for e in model)]
-            result = fit(machine, tr, model, noise_um=noise_um, theta0=start)
-            without = result if m == 0 else without
-            r = residuals(machine, design(machine, model, te), te, result.theta, jacobian=False)
-            if m < 2:
-                ss[m] += float(np.sum(r**2))
-            per_row[m, test] = np.sum(r**2, axis=1)
+        (without, ss0), (with_, ss1) = (held_out(m, model, tr, te, test, theta0)
+                                        for m, model in enumerate((list(effects), list(effects) + [candidate])))
+        ss += (ss0, ss1)
         count += 3 * test.size
+        turns.append((tr, te, test, without, with_))
     rms = np.sqrt(ss / max(count, 1))
-    gains = [_gain_se(per_row[0] - per_row[m]) for m in range(1, models)]
-    return CrossValidation(folds, float(rms[0]), float(rms[1]), gains[0], gains[1] if choose else None, tuple(chosen))
+    gain = _gain_se(per_row[0] - per_row[1])
+    if choose is None or not (always_choose or rms[1] < rms[0] and gain >= MIN_GAIN_SE):
+        return CrossValidation(folds, float(rms[0]), float(rms[1]), gain)
+    # the candidate passes: is the way it was chosen as good, chosen without the held-out block?
+    chosen = []
+    for tr, te, test, without, with_ in turns:
+        own = choose(tr, without)
+        chosen.append(own.name)
+        if own.name == candidate.name:  # the same effect: the same fit
+            per_row[2, test] = per_row[1, test]
+        else:
+            held_out(2, list(effects) + [own], tr, te, test, with_.theta)
+    return CrossValidation(folds, float(rms[0]), float(rms[1]), gain, _gain_se(per_row[0] - per_row[2]), tuple(chosen))
 
 
 def _gain_se(gain) -> float:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .machine import Machine, evaluate
-from .observations import Observations, exact_duplicates
+from .observations import Observations, exact_duplicates, row_groups
 from .residuals import design, effect_columns, joint_values
 
 __all__ = ["model_pass", "studentized", "noise_from_replicates", "axis_residuals"]
@@ -24,20 +24,21 @@ def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray)
     copied, not replicates, and are left out.
     """
     preset = [j for j, a in enumerate(machine.axes) if a.kind != "prismatic"]
-    copies = {i for i, _ in exact_duplicates(obs)}  # an exact copy is the same measurement, not a replicate
-    keys = {}
-    for i in range(len(obs)):
-        if i in copies:
-            continue
-        key = (obs.marks[i], *np.round(obs.axes[i, preset], 9), *(obs.directions[a][i] for a in sorted(obs.directions)))
-        keys.setdefault(key, []).append(i)
-    ss, dof = 0.0, 0
-    for rows in keys.values():
-        if len(rows) > 1:
-            g = r_um[rows]
-            ss += float(np.sum((g - g.mean(axis=0)) ** 2))
-            dof += 3 * (len(rows) - 1)
-    return (np.sqrt(ss / dof), dof) if dof else None
+    kept = np.ones(len(obs), bool)
+    kept[[i for i, _ in exact_duplicates(obs)]] = False  # an exact copy is the same measurement, not a replicate
+    rows = np.flatnonzero(kept)
+    if rows.size == 0:
+        return None
+    readings = np.round(obs.axes[rows][:, preset], 9)
+    # a pose with a reading missing is nobody's replicate: a group of its own
+    alone = np.where(np.any(np.isnan(readings), axis=1), np.arange(1, rows.size + 1), 0)
+    group, first = row_groups(np.asarray(obs.marks)[rows], readings, alone,
+                              *(np.asarray(obs.directions[a])[rows] for a in sorted(obs.directions)))
+    count = np.bincount(group, minlength=first.size)
+    r = r_um[rows]
+    mean = np.stack([np.bincount(group, weights=r[:, k], minlength=first.size) for k in range(3)], axis=1) / count[:, None]
+    dof = int(3 * np.sum(count - 1))
+    return (np.sqrt(float(np.sum((r - mean[group]) ** 2)) / dof), dof) if dof else None
 
 
 def model_pass(machine: Machine, obs: Observations, result):

@@ -26,7 +26,7 @@ from kinid.errors import DataError
 from kinid.files import read_csv_rows
 from .machine import Machine
 
-__all__ = ["SetAside", "OFFSET_COLUMNS", "Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "check_observations",
+__all__ = ["SetAside", "OFFSET_COLUMNS", "Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "row_groups", "check_observations",
            "read_csv_rows"]
 
 _MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
@@ -139,17 +139,34 @@ def check_observations(obs, name: str = "obs") -> Observations:
 def exact_duplicates(obs: Observations) -> list:
     """(row, first row) pairs where a row repeats an earlier one exactly: same mark, mark position,
     every reading, time and direction. Such copies are one measurement, not replicates."""
-    seen, out = {}, []
-    for i in range(len(obs)):
-        key = (obs.marks[i], *obs.w_mm[i], *obs.axes[i], None if obs.t_s is None else obs.t_s[i],
-               *(obs.directions[a][i] for a in sorted(obs.directions)),
-               *(() if obs.offsets_mm is None else obs.offsets_mm[i]))
-        key = tuple("nan" if isinstance(v, float) and v != v else v for v in key)
-        if key in seen:
-            out.append((i, seen[key]))
-        else:
-            seen[key] = i
-    return out
+    group, first = row_groups(obs.marks, obs.w_mm, obs.axes, () if obs.t_s is None else obs.t_s,
+                              *(obs.directions[a] for a in sorted(obs.directions)),
+                              () if obs.offsets_mm is None else obs.offsets_mm)
+    return [(int(i), int(first[group[i]])) for i in np.flatnonzero(first[group] != np.arange(len(obs)))]
+
+
+def row_groups(*columns) -> tuple:
+    """(group (N,), first (groups,)): rows equal in every one of ``columns`` (each (N,) or (N, k), of numbers or
+    strings; an empty one is left out) share a group, ``first[g]`` is the first row of group ``g``. NaN equals NaN
+    and −0 equals 0, as values read from a file would."""
+    parts = []
+    for c in columns:
+        c = np.asarray(c)
+        if c.size == 0:
+            continue
+        if c.dtype.kind not in "biuf":
+            c = np.unique(c.astype(str), return_inverse=True)[1]
+        c = c.reshape(len(c), -1).astype(float)
+        parts += [np.isnan(c), np.where(np.isnan(c), 0.0, c) + 0.0]  # + 0.0: −0 is 0
+    if not parts:
+        return np.zeros(0, int), np.zeros(0, int)
+    key = np.concatenate(parts, axis=1)
+    order = np.lexsort(key.T[::-1])  # stable: equal rows in the order they come
+    ordered = key[order]
+    starts = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+    group = np.empty(len(key), int)
+    group[order] = np.cumsum(starts) - 1
+    return group, order[starts]
 
 
 def _ordered_axes(machine: Machine):

@@ -50,7 +50,9 @@ class Structure:
 
 
 def _neighbours(coords: np.ndarray) -> np.ndarray:
-    """Index of each row's nearest other row (Euclidean), by chunks to bound memory."""
+    """Index of each row's nearest other row (Euclidean; of rows as near, the first), by chunks to bound memory."""
+    if coords.shape[1] == 1:
+        return _neighbours_on_a_line(coords[:, 0])
     n = len(coords)
     out = np.empty(n, dtype=int)
     for start in range(0, n, 512):
@@ -58,6 +60,32 @@ def _neighbours(coords: np.ndarray) -> np.ndarray:
         d = np.sum((block[:, None, :] - coords[None, :, :]) ** 2, axis=2)
         d[np.arange(len(block)), np.arange(start, start + len(block))] = np.inf
         out[start:start + 512] = np.argmin(d, axis=1)
+    return out
+
+
+def _neighbours_on_a_line(x: np.ndarray) -> np.ndarray:
+    """:func:`_neighbours` of points on a line, from their order (n log n, not n²): a point repeated has its first
+    other copy; any other the first point of the nearer neighbouring value, or of both if they are as near."""
+    n = len(x)
+    order = np.argsort(x, kind="stable")  # equal values in the order of their rows
+    ordered = x[order]
+    starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+    size = np.diff(np.r_[starts, n])
+    value, first = ordered[starts], order[starts]
+    second = order[np.minimum(starts + 1, n - 1)]
+    group = np.empty(n, int)
+    group[order] = np.repeat(np.arange(starts.size), size)
+    out = np.empty(n, int)
+    rows = np.arange(n)
+    twin = size[group] > 1
+    g = group[twin]
+    out[twin] = np.where(first[g] == rows[twin], second[g], first[g])
+    g, last = group[~twin], starts.size - 1
+    left, right = np.maximum(g - 1, 0), np.minimum(g + 1, last)
+    d_left = np.where(g > 0, (x[~twin] - value[left]) ** 2, np.inf)  # the squares the pairwise search compares
+    d_right = np.where(g < last, (x[~twin] - value[right]) ** 2, np.inf)
+    out[~twin] = np.where(d_left < d_right, first[left],
+                          np.where(d_right < d_left, first[right], np.minimum(first[left], first[right])))
     return out
 
 

@@ -1,0 +1,31 @@
+"""Rows grouped by equal values (exact copies, replicates) — vectorised — against the plain dictionary of tuples."""
+import numpy as np
+
+from kinid.identification.observations import row_groups
+
+
+def _plain(*columns):
+    n = len(columns[0])
+    keys = [tuple(("nan" if v != v else v + 0.0) if isinstance(v, float) else v
+                  for c in columns for v in np.atleast_1d(np.asarray(c, dtype=object)[i]).tolist()) for i in range(n)]
+    seen, group, first = {}, [], []
+    for i, k in enumerate(keys):
+        if k not in seen:
+            seen[k] = len(first)
+            first.append(i)
+        group.append(seen[k])
+    return np.array(group), np.array(first)
+
+
+def test_row_groups_match_the_plain_grouping():
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(1, 60))
+        marks = rng.choice(["M1", "M2", "B10"], n)
+        values = rng.choice([0.0, -0.0, 1.5, np.nan, 60.000000001, 2.0], (n, int(rng.integers(1, 4))))
+        signs = rng.choice([-1, 1], n)
+        group, first = row_groups(marks, values, signs)
+        ref_group, ref_first = _plain(list(marks), [tuple(v) for v in values], list(signs))
+        # the same partition of the rows, and each group's first row
+        assert sorted(first.tolist()) == ref_first.tolist()
+        assert np.array_equal(first[group], ref_first[ref_group])
