@@ -6,7 +6,7 @@ there: an A/C table whose plan repeats the same six table angles at every tilt v
 those positions. The continuous period search guards itself (it searches no period shorter than twice the
 positions' spacing); a period of the candidate library has no such guard. Before a periodic effect is added,
 every period of the same error joint from :data:`~kinid.identification.periods.MIN_PERIOD_MM` (or ``_DEG``) to
-twice the travel seen (whole cycles per turn on a rotary axis that turns fully) is scored (the score test at the fit, no refit); a period outside the effect's own peak
+twice the travel seen (and, on a rotary axis, every whole number of cycles per turn) is scored (the score test at the fit, no refit); a period outside the effect's own peak
 (its frequency more than one cycle over the span away) whose χ² drop falls short of the effect's by less than
 :data:`TWIN_DELTA` (what two alternatives of two parameters differ by at 1 %) is a twin, and the period is not
 determined. As in the period search, the longest of periods
@@ -47,7 +47,7 @@ def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma
     ``effect`` (``E??:periodic:P``), outside its own peak; empty when the period is determined."""
     from .bases import basis_of
     from .effects import parse_effect
-    from .periods import MIN_PERIOD_DEG, MIN_PERIOD_MM, turns_fully
+    from .periods import MIN_PERIOD_DEG, MIN_PERIOD_MM
     from .scoring import score_candidates
 
     e = parse_effect(effect, machine)
@@ -62,9 +62,9 @@ def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma
     rotary = machine.axis(joint.axis).kind != "prismatic"
     low = MIN_PERIOD_DEG if rotary else MIN_PERIOD_MM
     high = 360.0 if rotary else 2.0 * span
-    # on an axis that turns fully, whole cycles per turn (as the period search); else log-spaced periods
-    periods = 360.0 / np.arange(1, math.floor(360.0 / low) + 1) if turns_fully(machine, joint.axis) else \
-        np.geomspace(low, max(high, low * 1.01), TWIN_PERIODS)
+    periods = np.geomspace(low, max(high, low * 1.01), TWIN_PERIODS)
+    if rotary:  # and every whole number of cycles per turn (a gear of n teeth): the twins the selection prefers
+        periods = np.union1d(periods, 360.0 / np.arange(1, math.floor(360.0 / low) + 1))
     far = np.abs(1.0 / periods - 1.0 / period) > 1.0 / span  # outside the effect's own peak
     # as the period search: on a grid of positions, periods below twice its spacing alias onto longer ones, and
     # the longest is taken by convention; a period at or above that limit only competes with those there too

@@ -22,10 +22,6 @@ found period is multiplied by the number of independent periods searched
 (the travel over the shortest period, per joint), so the search does not
 raise false alarms on noise.
 
-On a rotary axis that turns through a whole turn (:func:`turns_fully`) the
-error is a function on the circle: the grid is whole cycles per turn, 360°/n,
-and the best of them is exact (not refined; its standard deviation 0).
-
 The shortest period searched is twice the usual spacing of the axis's
 readings (on a regular grid of positions a shorter period aliases onto a
 longer one; readings within 0.001 mm or 0.001° count as one position), and at
@@ -44,7 +40,7 @@ import numpy as np
 from .machine import Machine
 from .observations import Observations
 
-__all__ = ["PeriodEstimate", "search_periods", "turns_fully", "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "period_name"]
+__all__ = ["PeriodEstimate", "search_periods", "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "period_name"]
 
 #: Shortest period searched on linear axes, mm (the library's shortest), and on rotary axes, deg.
 MIN_PERIOD_MM = 2.0
@@ -87,10 +83,7 @@ class PeriodEstimate:
 
 
 def period_name(period: float, std: float) -> str:
-    """The period as written in an effect name: enough digits that rounding moves it by < std / 10 (six significant
-    digits for an exact period, std 0: 360°/7 is 51.4286)."""
-    if std == 0:
-        return f"{period:.6g}"
+    """The period as written in an effect name: enough digits that rounding moves it by < std / 10."""
     if not (np.isfinite(std) and std > 0):
         return f"{period:.4g}"
     decimals = max(0, min(6, int(math.ceil(-math.log10(std / 10.0)))))
@@ -235,49 +228,19 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         w, nrm, g = (np.stack(s, axis=1) for s in zip(*series.values()))  # (N, J), (N, J), (N, J, rank)
         q, w, nrm, g = _collapsed(q, w, nrm, g)
         extent = max(span, 360.0) if rotary else span
-        whole = rotary and turns_fully(machine, axis)
-        # an axis that turns through whole turns: its error is a function on the circle, so whole cycles per turn
-        # (360°/n, a gear of n teeth); any other: a dense grid of periods, the best refined
-        df = 1.0 / 360.0 if whole else 1.0 / (OVERSAMPLE * extent)
-        freq = np.arange(1, math.floor(360.0 / p_min) + 1) / 360.0 if whole else \
-            np.arange(1.0 / p_max, 1.0 / p_min + df / 2, df)
-        if freq.size == 0:
-            continue
+        df = 1.0 / (OVERSAMPLE * extent)
+        freq = np.arange(1.0 / p_max, 1.0 / p_min + df / 2, df)
         chunk = max(int(CHUNK_BYTES // (8 * q.size)), 4)
         deltas = np.concatenate([_delta(*_grid_phasors(q, freq[k:k + chunk]), w, nrm, g)
                                  for k in range(0, len(freq), chunk)], axis=1)
-        trials = float(freq.size) if whole else max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
-        joints = [machine.error_joints[j] for j in series]
-        estimates = _whole_cycles(joints, freq, deltas, trials) if whole else \
-            _refined(joints, freq, deltas, df, q, w, nrm, g, trials, "deg" if rotary else "mm")
-        for j, estimate in zip(series, estimates):
+        trials = max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
+        for j, estimate in zip(series, _refined([machine.error_joints[j] for j in series], freq, deltas, df, q, w, nrm,
+                                                g, trials, "deg" if rotary else "mm")):
             found[j] = estimate
     out = [found[j] for j in sorted(found) if found[j] is not None]  # in the joints' order (ties keep it)
     # by decreasing Δ; joints whose columns coincide on these data tie to rounding (9 digits): the first joint first
     out.sort(key=lambda e: -float(f"{e.statistic:.9g}"))
     return out
-
-
-def turns_fully(machine: Machine, axis: str) -> bool:
-    """True for a rotary axis whose travel covers a whole turn (limits 360° or more apart, or none): its errors
-    repeat every turn, so a periodic one makes a whole number of cycles per turn (the model is continuous where the
-    readings wrap); a tilting axis or an arm's joint, which never turns round, may have any period."""
-    from .machine import axis_limits
-
-    a = machine.axis(axis)
-    if a.kind == "prismatic":
-        return False
-    lo, hi = axis_limits(machine)[machine.axis_names.index(axis)]
-    return not np.isfinite(hi - lo) or hi - lo >= 360.0 - 1e-6
-
-
-def _whole_cycles(joints, freq, deltas, trials) -> list:
-    """The PeriodEstimate of each of ``joints`` (of an axis that turns fully) from its Δ at whole cycles per turn
-    ``freq`` (1/360°, 2/360°, …): the best of them, exact (no refinement; its period's standard deviation 0);
-    None if Δ is nowhere positive."""
-    best = np.argmax(deltas, axis=1)
-    return [PeriodEstimate(joint.code, joint.axis, float(1.0 / freq[k]), 0.0, float(deltas[i, k]), float(trials), "deg")
-            if deltas[i, k] > 0 else None for i, (joint, k) in enumerate(zip(joints, best))]
 
 
 def _collapsed(q, *series) -> tuple:

@@ -71,10 +71,8 @@ def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side
             continue
         trials = est.trials * joints
         log10_p = min(0.0, c.log10_p + math.log10(trials))
-        found = (f"{360.0 / est.period:.0f} cycles per turn of {est.axis} (360°/{360.0 / est.period:.0f} = "
-                 f"{est.period:.6g}°)" if est.period_std == 0 else f"{est.period:.4g} ± {est.period_std:.2g} {est.unit}")
-        note = (f"period found by search: {found} (p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} "
-                f"joints searched)")
+        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
+                f"(p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} joints searched)")
         out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
         have.add(est.effect)
     return out

@@ -196,7 +196,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             if not cv.improves:
                 stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
                         f"data better: {cv}")
-        also = list(undetermined.values()) + ([pending[1]] if stop and pending else [])
+        also = list(undetermined.values()) + ([dg.undetermined] if stop and pending else [])
         if stop and also:
             stop += "; also: " + "; ".join(also)
         if stop:
@@ -223,7 +223,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
 
         if pending:  # the period is not determined: said when the selection stops
             code, why = pending
-            undetermined[code] = why.replace(" — measure", f"; {best.effect} added, the longest of them — measure")
+            undetermined[code] = why
         name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)
         if name != best.effect:
             progress.say(f"  {'':<28} time constant refined: {best.effect} → {name}")
@@ -257,11 +257,19 @@ def _first_determined(dg):
     """The best live candidate, and (error joint, why) when the diagnosis found it periodic with a period the
     positions measured do not determine (:mod:`.ambiguity`), else None. Such a candidate is named by the longest of
     the periods that fit as well — it reproduces every position measured as well as any of them, and between them
-    it is the smoothest (the convention of the period search: of aliases, the lowest frequency)."""
+    it is the smoothest (the convention of the period search: of aliases, the lowest frequency) — and on a rotary
+    axis by the longest of those that make a whole number of cycles per turn, if any does: a gear has whole teeth,
+    and such a model does not jump where a table's readings come round (191.9° fits six table angles as well as
+    180°)."""
     best = dg.live[0] if dg.live else None
     if best is None or not dg.undetermined:
         return best, None
     code, _, period = best.effect.split(":")[:3]
-    longest = max((float(period),) + tuple(dg.twins))
+    periods, which = (float(period),) + tuple(dg.twins), "the longest of them"
+    machine = dg.fit.machine
+    if machine.axis(machine.error_joint(code).axis).kind != "prismatic":
+        whole = [p for p in periods if abs(360.0 / p - round(360.0 / p)) < 1e-6]
+        periods, which = (whole, "the longest of them with whole cycles per turn") if whole else (periods, which)
+    longest = max(periods)
     name = best.effect if longest == float(period) else f"{code}:periodic:{longest:.6g}"
-    return replace(best, effect=name), (code, dg.undetermined)
+    return replace(best, effect=name), (code, dg.undetermined.replace(" — measure", f"; {name} added, {which} — measure"))

@@ -109,8 +109,8 @@ def test_off_list_period_on_a_rotary_axis(bc):
     best = before.live[0]
     assert best.effect.startswith("ECC:periodic:"), [c.effect for c in before.live[:5]]
     found = float(best.effect.split(":")[2])
-    # the table turns fully: whole cycles per turn are searched, and the gear's 7 teeth are found exactly
-    assert found == pytest.approx(P, abs=1e-3) and "7 cycles per turn of C" in best.note, (found, best.note)
+    std = float(best.note.split("±")[1].split()[0])
+    assert abs(found - P) <= 3 * std and std < 0.5, (found, std)
 
     steps = forward_select(bc, obs, default_model(bc), noise_um=SIGMA)
     assert steps[-1].diagnosis.verdict == "noise"
@@ -367,9 +367,10 @@ def test_the_bounded_search_is_scipys_step_for_step():
 
 
 @pytest.mark.parametrize("teeth", [2, 3])
-def test_a_table_that_turns_fully_gets_whole_cycles_per_turn(bc, teeth):
-    """The table read at six angles 60° apart, a gear error of 2 or 3 cycles per turn: whatever period is added
-    divides the turn (the model does not jump where the readings wrap), and the search only offers such periods."""
+def test_an_undetermined_period_of_the_table_is_named_by_whole_cycles_per_turn(bc, teeth):
+    """The table read at six angles 60° apart, a gear error of 2 or 3 cycles per turn: the period is not determined
+    (many fit the six angles alike), and the one added makes a whole number of cycles per turn (a model that does
+    not jump where the readings come round), not the longest of all (1.947 cycles before)."""
     rng = np.random.default_rng(40 + teeth)
     effects, theta = _location_truth(bc, rng)
     c = bc.axis_names.index("C")
@@ -380,13 +381,11 @@ def test_a_table_that_turns_fully_gets_whole_cycles_per_turn(bc, teeth):
     axes = sim.axes.copy()
     axes[:, c] = plan.axes[:, c]
     obs = replace(sim, axes=axes)
-    found = [c for c in diagnose(bc, obs, default_model(bc), noise_um=SIGMA).candidates
-             if "period found by search" in c.note and c.effect.split(":")[0][-1] == "C"]
-    assert all(float(c.effect.split(":")[2]) * round(360 / float(c.effect.split(":")[2])) == pytest.approx(360, abs=1e-3)
-               for c in found)
     steps = forward_select(bc, obs, default_model(bc), noise_um=SIGMA)
     added = [e.name for e in steps[-1].fit.effects if e.basis == "periodic"]
     assert added and all(e.startswith("ECC:") for e in added), added
     for name in added:
         cycles = 360.0 / float(name.split(":")[2])
         assert cycles == pytest.approx(round(cycles), abs=1e-4), name
+    if teeth == 2:  # not determined on six angles (3 cycles, 120°, is: the shortest period they resolve)
+        assert "not determined" in steps[-1].stopped and "whole cycles per turn" in steps[-1].stopped
