@@ -268,7 +268,7 @@ def _first_determined(dg):
     periods, which = (float(period),) + tuple(dg.twins), "the longest of them"
     machine = dg.fit.machine
     if machine.axis(machine.error_joint(code).axis).kind != "prismatic":
-        whole = [p for p in periods if abs(360.0 / p - round(360.0 / p)) < 1e-6]
+        whole = [p for p in periods if round(360.0 / p) >= 1 and f"{360.0 / round(360.0 / p):.6g}" == f"{p:.6g}"]
         periods, which = (whole, "the longest of them with whole cycles per turn") if whole else (periods, which)
     longest = max(periods)
     name = best.effect if longest == float(period) else f"{code}:periodic:{longest:.6g}"
