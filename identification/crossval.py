@@ -16,7 +16,8 @@ sum of squares 11 times in 12, by one standard error 5 times, by two never.
 The largest part of that choice, a period searched among hundreds, is made
 again on each turn's training blocks (``choose``): the best searched period
 of noise on the B/C table gained 1.4 standard errors on average (16 seeds)
-chosen on all data, −0.3 chosen per turn. A searched candidate must pass
+chosen on all data, −0.1 chosen per turn (a turn that finds the candidate's
+period again, within what its data determine, keeps the candidate's fit). A searched candidate must pass
 both: its period generalises (``MIN_GAIN_SE``), and so does the way it was
 found — chosen without the held-out block, it must still predict it better
 than the model without it (the nested gain above zero). The nested check

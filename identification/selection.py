@@ -245,9 +245,15 @@ def _chosen_again(machine, obs, name: str):
     from .effects import parse_effect
     from .searched import period_found_on
 
+    code, period = name.split(":")[0], float(name.split(":")[2])
+
     def choose(train, result):
+        found = period_found_on(machine, train, result, code, range_of=obs)
+        # the same period, within what the turn's data determine: the candidate itself (its fit serves)
+        if found is None or abs(found.period - period) <= found.period_std:
+            return parse_effect(name, machine)
         try:
-            return parse_effect(period_found_on(machine, train, result, name, range_of=obs), machine)
+            return parse_effect(found.effect, machine)
         except DataError:
             return parse_effect(name, machine)
     return choose
