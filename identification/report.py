@@ -209,7 +209,9 @@ def _provenance(fit_result, obs, extra=()) -> list:
     return rows
 
 
-def _summary(diagnosis, obs, fit_file=None) -> list:
+def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
+    """The summary's first two sentences: what the errors do, and what to do next (``selected``: the diagnosis is a
+    selection's last, whose best candidate the selection did not add — it says why — so it is not advised)."""
     f = diagnosis.fit
     moved = tool_motion_um(f, obs)
     first = (f"The machine's identified errors (the board's and the sensor's set-up aside) move the tool point by "
@@ -222,7 +224,12 @@ def _summary(diagnosis, obs, fit_file=None) -> list:
                   f"{'compensation' if fit_file else 'DIR'}).")
     else:
         best = diagnosis.live[0] if diagnosis.live else None
-        if best is not None and best.p_value < diagnosis.threshold:
+        if best is not None and best.p_value < diagnosis.threshold and selected:
+            second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
+                      f"shows an effect the model lacks; its most likely cause, {best.effect}, was not added, for the "
+                      f"reason above: measure more where it acts (kinid plan --detect {best.effect}=SIZE) and "
+                      f"identify again.")
+        elif best is not None and best.p_value < diagnosis.threshold:
             second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
                       f"shows an effect the model lacks, most likely {best.effect} (p = {best.p_value:.2g}); next: "
                       f"kinid identify ... --add {best.effect}.")
@@ -354,7 +361,7 @@ def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=N
     page = folder / "index.html"
     from .selection import what_is_left
 
-    summary = _summary(steps[-1].diagnosis, last, fit_file)
+    summary = _summary(steps[-1].diagnosis, last, fit_file, selected=True)
     left = what_is_left(steps)
     summary.insert(1, left[0].upper() + left[1:] + ".")
     write_report(folder, "Machine calibration: compare, diagnose, add", f"kinid: {Path(machine.path).name}",

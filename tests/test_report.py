@@ -138,3 +138,22 @@ def test_the_auto_report_shows_the_held_out_check_each_effect_passed(report, tmp
     assert rows[0][3] == said[0][1]  # the default model, before the first effect
     for row, (effect, _, after) in zip(rows[1:], said):
         assert row[1] == f"+ {effect}" and row[3] == after
+
+
+def test_the_auto_report_does_not_advise_adding_what_the_selection_left_out(report, tmp_path):
+    """A selection that stops with a significant candidate it did not add (here: no step allowed) says why, and
+    its summary does not advise adding that candidate."""
+    from kinid.identification import default_model, forward_select, load_machine
+    from kinid.identification.observations import read_observations
+    from kinid.identification.report import selection_report
+
+    d, _ = report
+    machine = load_machine(MACHINE)
+    obs = read_observations(d / "obs.csv", machine)
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0, max_steps=0)
+    best = steps[-1].diagnosis.live[0].effect
+    assert steps[-1].diagnosis.live[0].p_value < steps[-1].diagnosis.threshold  # significant, and left out
+    text = _text(selection_report(steps, obs, tmp_path / "rep").read_text()).split("The error falls")[0]  # summary
+    assert f"--add {best}" not in text
+    assert f"its most likely cause, {best}, was not added" in text and f"kinid plan --detect {best}=SIZE" in text
+    assert f"{best} is significant" in text and "but was not added (stopped after 0 added effects" in text
