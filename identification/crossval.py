@@ -79,9 +79,9 @@ class CrossValidation:
 def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int = 4, noise_um=None,
                    theta0=None, choose=None, always_choose: bool = False) -> CrossValidation:
     """Held-out RMS of ``effects`` and of ``effects + [candidate]``, fitted on all blocks but one in turn.
-    ``choose(training data, fit of effects on them)``, if given, is the candidate of each turn: what the data
-    chose (a period searched) chosen again on the training blocks alone; its gain is ``chosen_gain_se``,
-    measured once the candidate passes (or ``always_choose``)."""
+    ``choose(training rows, training data, fit of effects on them)``, if given, is the candidate of each turn:
+    what the data chose (a period searched) chosen again on the training blocks alone; its gain is
+    ``chosen_gain_se``, measured once the candidate passes (or ``always_choose``)."""
     from .fit import fit
     from .residuals import design, residuals
 
@@ -122,7 +122,7 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
     # the candidate passes: is the way it was chosen as good, chosen without the held-out block?
     chosen = []
     for tr, te, test, without, with_ in turns:
-        own = choose(tr, without)
+        own = choose(np.setdiff1d(np.arange(n), test), tr, without)
         chosen.append(own.name)
         if own.name == candidate.name:  # the same effect: the same fit
             per_row[2, test] = per_row[1, test]

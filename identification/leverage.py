@@ -41,12 +41,16 @@ def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray)
     return (np.sqrt(float(np.sum((r - mean[group]) ** 2)) / dof), dof) if dof else None
 
 
-def model_pass(machine: Machine, obs: Observations, result):
+def model_pass(machine: Machine, obs: Observations, result, d_errors=None):
     """One Pinocchio pass at the fit: error-joint and axis Jacobians, and an orthonormal basis
     ``Q0`` (3N, rank) of the identifiable model columns — shared by the score test, the
-    leverages and the axis residuals."""
+    leverages and the axis residuals. Given ``d_errors`` (N, 3, n_errors), no pass: the basis from them (the axis
+    Jacobian is then None)."""
     d0 = design(machine, result.effects, obs)
-    _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta), offsets_mm=obs.offsets_mm)
+    d_axes = None
+    if d_errors is None:
+        _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta),
+                                       offsets_mm=obs.offsets_mm)
     J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
     Q0 = np.linalg.qr(J0, mode="reduced")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
     return d_errors, d_axes, Q0

@@ -175,15 +175,17 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
     return named(best_u) if best > values[len(grid) // 2] else name  # the middle of the grid: τ as given
 
 
-def period_found_on(machine: Machine, obs: Observations, result: FitResult, code: str, range_of=None):
+def period_found_on(machine: Machine, obs: Observations, result: FitResult, code: str, range_of=None,
+                    d_errors=None):
     """The :class:`~kinid.identification.periods.PeriodEstimate` the search finds best for error joint ``code`` in
-    the residuals of ``result`` on ``obs`` (over the periods the positions of ``range_of`` set, if given), or None.
+    the residuals of ``result`` on ``obs`` (over the periods the positions of ``range_of`` set, if given; with the
+    error-joint Jacobian ``d_errors`` if given, else one at ``result``), or None.
     The held-out check chooses a periodic candidate's period on its training blocks with this: chosen on every
     alignment, the period of the best of many is fitted to the held-out blocks' noise too, and predicts them
     better than it would new ones."""
     from .periods import search_periods
 
-    d_errors, _, q0 = model_pass(machine, obs, result)
+    d_errors, _, q0 = model_pass(machine, obs, result, d_errors)
     r = result.residuals_um.ravel()
     found = search_periods(machine, obs, r - q0 @ (q0.T @ r), d_errors, q0, codes={code}, range_of=range_of)
     return found[0] if found else None

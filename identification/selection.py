@@ -190,7 +190,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             from .effects import parse_effect as _parse
 
             cv = cross_validate(machine, obs, effects, _parse(best.effect, machine), folds=folds, noise_um=noise_um,
-                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, best.effect))
+                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, best.effect, dg.fit))
             progress.say(f"  {'':<28} next: {best.effect}, p = {best.p_value:.2g}, {cv}")
             steps[-1] = replace(steps[-1], held_out=cv)
             if not cv.improves:
@@ -234,21 +234,27 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
     return steps
 
 
-def _chosen_again(machine, obs, name: str):
+def _chosen_again(machine, obs, name: str, result):
     """For the held-out check: a periodic candidate's period chosen again on each turn's training blocks (by the
     period search over the periods the positions of all of ``obs`` resolve,
-    :func:`~kinid.identification.searched.period_found_on`); None for other candidates."""
+    :func:`~kinid.identification.searched.period_found_on`; each turn's error-joint Jacobian is its rows of the one
+    at ``result``, the fit of the model on all of ``obs``: a turn's fit moves the joints by noise); None for other
+    candidates."""
     if ":periodic:" not in name:
         return None
     from kinid.errors import DataError
 
     from .effects import parse_effect
+    from .leverage import model_pass
     from .searched import period_found_on
 
     code, period = name.split(":")[0], float(name.split(":")[2])
+    jacobian = []  # made at the first turn
 
-    def choose(train, result):
-        found = period_found_on(machine, train, result, code, range_of=obs)
+    def choose(rows, train, turn):
+        if not jacobian:
+            jacobian.append(model_pass(machine, obs, result)[0])
+        found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=jacobian[0][rows])
         # the same period, within what the turn's data determine: the candidate itself (its fit serves)
         if found is None or abs(found.period - period) <= found.period_std:
             return parse_effect(name, machine)
