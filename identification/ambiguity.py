@@ -6,7 +6,8 @@ there: an A/C table whose plan repeats the same six table angles at every tilt v
 those positions. The continuous period search guards itself (it searches no period shorter than twice the
 positions' spacing); a period of the candidate library has no such guard. Before a periodic effect is added,
 every period of the same error joint from :data:`~kinid.identification.periods.MIN_PERIOD_MM` (or ``_DEG``) to
-twice the travel seen (and, on a rotary axis, every whole number of cycles per turn) is scored (the score test at the fit, no refit); a period outside the effect's own peak
+twice the travel seen (and, on a rotary axis, every whole number of cycles per turn) is scored (the score test
+at the fit, no refit); a period outside the effect's own peak
 (its frequency more than one cycle over the span away) whose χ² drop falls short of the effect's by less than
 :data:`TWIN_DELTA` (what two alternatives of two parameters differ by at 1 %) is a twin, and the period is not
 determined. As in the period search, the longest of periods

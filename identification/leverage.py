@@ -36,7 +36,8 @@ def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray)
                               *(np.asarray(obs.directions[a])[rows] for a in sorted(obs.directions)))
     count = np.bincount(group, minlength=first.size)
     r = r_um[rows]
-    mean = np.stack([np.bincount(group, weights=r[:, k], minlength=first.size) for k in range(3)], axis=1) / count[:, None]
+    sums = np.stack([np.bincount(group, weights=r[:, k], minlength=first.size) for k in range(3)], axis=1)
+    mean = sums / count[:, None]
     dof = int(3 * np.sum(count - 1))
     return (np.sqrt(float(np.sum((r - mean[group]) ** 2)) / dof), dof) if dof else None
 

@@ -216,7 +216,8 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         exact = {}  # the sums lose the digits a projection off a model that nearly explains the candidate cancels
         for m in np.flatnonzero(w.min(axis=1) < EXACT_BELOW):
             exact.setdefault(items[m][6], []).append(m)
-        for j, ms in exact.items():  # one joint's candidates of k parameters projected together
+        batch = max(EXACT_COLUMNS // k, 1)  # one joint's candidates of k parameters projected together, so many
+        for j, ms in [(j, ms[a:a + batch]) for j, ms in exact.items() for a in range(0, len(ms), batch)]:
             col, basis = d_errors[:, :, j] / sigma, design(machine, [items[m][1] for m in ms], obs).basis
             grams, bvec[ms] = _projected_exactly(col, basis, k, Q0, r)
             for m, gram, b in zip(ms, grams, range(0, basis.shape[1], k)):
@@ -340,8 +341,10 @@ def _group_sums(group: _Columns, series, n: int) -> tuple:
     return norm2, A, bvec, grams
 
 
-#: Alignments per chunk of the explicitly projected columns (memory flat in N).
+#: Alignments per chunk of the explicitly projected columns (memory flat in N), and columns projected at once (a
+#: chunk of them is 3 × EXACT_ROWS × EXACT_COLUMNS numbers, 12.6 MB).
 EXACT_ROWS = 8192
+EXACT_COLUMNS = 64
 
 
 def _projected_exactly(col, basis, k, Q0, r) -> tuple:

@@ -284,4 +284,5 @@ def _first_determined(dg):
         periods, which = (whole, "the longest of them with whole cycles per turn") if whole else (periods, which)
     longest = max(periods)
     name = best.effect if longest == float(period) else f"{code}:periodic:{longest:.6g}"
-    return replace(best, effect=name), (code, dg.undetermined.replace(" — measure", f"; {name} added, {which} — measure"))
+    why = dg.undetermined.replace(" — measure", f"; {name} added, {which} — measure")
+    return replace(best, effect=name), (code, why)
