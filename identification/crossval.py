@@ -71,9 +71,15 @@ class CrossValidation:
                 f"{self.folds}-fold, gain {self.gain_se:.1f} standard errors")
         if self.chosen_gain_se is None:
             return text + ")"
-        periods = ", ".join(dict.fromkeys(name.split(":")[2] for name in self.chosen))
-        return text + (f"; {self.chosen_gain_se:.1f} with the period chosen on each turn's training blocks "
-                       f"alone: {periods})")
+        chosen = ", ".join(dict.fromkeys(name.split(":", 2)[-1] for name in self.chosen))
+        return text + (f"; {self.chosen_gain_se:.1f} with the {self.what_chosen} chosen on each turn's training "
+                       f"blocks alone: {chosen})")
+
+    @property
+    def what_chosen(self) -> str:
+        """What each turn chose: ``period`` (a periodic candidate), ``window`` (a local one) or ``effect``."""
+        kind = self.chosen[0].split(":")[1] if self.chosen and self.chosen[0].count(":") >= 2 else ""
+        return {"periodic": "period", "local": "window"}.get(kind, "effect")
 
 
 def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int = 4, noise_um=None,

@@ -18,7 +18,7 @@ from kinid.stats import chi2_isf
 
 from .scoring import score_candidates
 
-__all__ = ["proposed_maps"]
+__all__ = ["proposed_maps", "local_windows", "window_found_on"]
 
 
 #: A proposed map must gain over the best parametric candidate more χ² than its extra parameters would
@@ -54,29 +54,17 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
     """
     from dataclasses import replace
 
-    from kinid.errors import DataError
-
-    from .effects import axis_dependent_joints, parse_effect
+    from .effects import axis_dependent_joints
 
     maps, grids = [], {}
     for code, axis in axis_dependent_joints(machine):
-        q = obs.axes[:, machine.axis_names.index(axis)]
-        lo, hi = float(np.min(q)), float(np.max(q))
-        distinct = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
-        positions = distinct.size
-        if not hi > lo or positions < LOCAL_MIN_POSITIONS:
+        grid = _map_grid(machine, obs, code, axis)
+        if grid is None:
             continue
-        step = _nice_step(hi - lo)
-        lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
-        knots = np.arange(lo, hi + step / 2, step)
-        support = _hat_support(q, knots[0], step, len(knots))
-        try:
-            whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
-        except DataError:
-            continue
+        whole, q, distinct, support = grid
         grids[code] = (whole, q, distinct)
         # a whole map needs readings at every knot; else they cluster at a few positions and a knot is a guess
-        if positions >= 2 * MAP_INTERVALS and support.min() >= MAP_MIN_SUPPORT:
+        if distinct.size >= 2 * MAP_INTERVALS and support.min() >= MAP_MIN_SUPPORT:
             maps.append(whole)
     have = {c.effect for c in scored}
     fresh = [m for m in maps if m.name not in have]
@@ -105,6 +93,49 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
         return []
     log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
     return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
+
+
+def _map_grid(machine, obs, code: str, axis: str):
+    """(the whole map of error joint ``code`` over the range its axis's readings cover, the readings, their distinct
+    positions, the readings each of the map's knots rests on), or None where the axis is read at too few positions
+    for maps and local errors."""
+    from kinid.errors import DataError
+
+    from .effects import parse_effect
+
+    q = obs.axes[:, machine.axis_names.index(axis)]
+    lo, hi = float(np.min(q)), float(np.max(q))
+    distinct = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
+    if not hi > lo or distinct.size < LOCAL_MIN_POSITIONS:
+        return None
+    step = _nice_step(hi - lo)
+    lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
+    knots = np.arange(lo, hi + step / 2, step)
+    try:
+        whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
+    except DataError:
+        return None
+    return whole, q, distinct, _hat_support(q, knots[0], step, len(knots))
+
+
+def local_windows(machine, obs, code: str) -> list:
+    """The local windows the diagnosis tries on error joint ``code`` with the readings of ``obs`` (its axis read at
+    too few positions: none)."""
+    grid = _map_grid(machine, obs, code, machine.error_joint(code).axis)
+    return [] if grid is None else _local_windows(*grid[:3], machine)
+
+
+def window_found_on(machine, obs, result, windows, d_errors=None):
+    """Of the local errors ``windows``, the one the score test finds likeliest in the residuals of ``result`` on
+    ``obs`` (σ from the residuals; with the error-joint Jacobian ``d_errors`` if given), or None. The held-out
+    check chooses a local candidate's window on its training blocks with this, as it does a period."""
+    from .leverage import model_pass
+
+    d_errors, _, q0 = model_pass(machine, obs, result, d_errors)
+    live = [c for c in score_candidates(machine, obs, result, windows, 1.0, sigma_known=False, d_errors=d_errors,
+                                        q0=q0) if c.status == "live"]
+    best = min(live, key=lambda c: c.log10_p, default=None)
+    return None if best is None else next(w for w in windows if w.name == best.effect)
 
 
 def _beats_parametric(candidate, scored) -> bool:

@@ -137,8 +137,8 @@ def _why_not_added(last) -> str:
     cv = last.held_out
     if cv is not None and not cv.improves:
         if cv.gain_se >= MIN_GAIN_SE and cv.chosen_gain_se is not None:
-            return (f"chosen on part of the alignments, its period does not predict the others better: a gain of "
-                    f"{cv.chosen_gain_se:.1f} standard errors")
+            return (f"chosen on part of the alignments, its {cv.what_chosen} does not predict the others better: a "
+                    f"gain of {cv.chosen_gain_se:.1f} standard errors")
         return (f"it does not predict held-out alignments better: a gain of {cv.gain_se:.1f} standard errors, "
                 f"{MIN_GAIN_SE:g} needed")
     return last.stopped.split("; ")[0]
@@ -235,26 +235,38 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
 
 
 def _chosen_again(machine, obs, name: str, result):
-    """For the held-out check: a periodic candidate's period chosen again on each turn's training blocks (by the
-    period search over the periods the positions of all of ``obs`` resolve,
-    :func:`~kinid.identification.searched.period_found_on`; each turn's error-joint Jacobian is its rows of the one
-    at ``result``, the fit of the model on all of ``obs``: a turn's fit moves the joints by noise); None for other
-    candidates."""
-    if ":periodic:" not in name:
+    """For the held-out check: what the data chose among many, chosen again on each turn's training blocks — a
+    periodic candidate's period (by the period search over the periods the positions of all of ``obs`` resolve,
+    :func:`~kinid.identification.searched.period_found_on`), a local error's window (among the windows the
+    diagnosis tries on its joint, :func:`~kinid.identification.local_errors.window_found_on`); None for other
+    candidates. Each turn's error-joint Jacobian is its rows of the one at ``result``, the fit of the model on all
+    of ``obs`` (a turn's fit moves the joints by noise)."""
+    kind = (name.split(":") + [""])[1]
+    if kind not in ("periodic", "local"):
         return None
     from kinid.errors import DataError
 
     from .effects import parse_effect
     from .leverage import model_pass
+    from .local_errors import local_windows, window_found_on
     from .searched import period_found_on
 
-    code, period = name.split(":")[0], float(name.split(":")[2])
+    code = name.split(":")[0]
     jacobian = []  # made at the first turn
 
-    def choose(rows, train, turn):
+    def rows_of(rows):
         if not jacobian:
             jacobian.append(model_pass(machine, obs, result)[0])
-        found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=jacobian[0][rows])
+        return jacobian[0][rows]
+
+    if kind == "local":
+        candidate = parse_effect(name, machine)
+        windows = [w for w in local_windows(machine, obs, code) if w.name != name] + [candidate]
+        return lambda rows, train, turn: window_found_on(machine, train, turn, windows, rows_of(rows)) or candidate
+    period = float(name.split(":")[2])
+
+    def choose(rows, train, turn):
+        found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=rows_of(rows))
         # the same period, within what the turn's data determine: the candidate itself (its fit serves)
         if found is None or abs(found.period - period) <= found.period_std:
             return parse_effect(name, machine)

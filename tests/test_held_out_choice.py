@@ -16,13 +16,14 @@ from kinid.identification.crossval import cross_validate
 from kinid.identification.effects import default_model, parse_effect
 from kinid.identification.fit import fit
 from kinid.identification.leverage import model_pass
+from kinid.identification.local_errors import local_windows, window_found_on
 from kinid.identification.periods import search_periods
 from kinid.identification.selection import _chosen_again
 from kinid.identification.simulate import patent_plan, simulate
 from kinid.urdf import path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_period_search import _location_truth, _with_x_error  # noqa: E402
+from test_period_search import _location_truth, _with_x_bump, _with_x_error  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +63,38 @@ def test_a_real_lead_keeps_its_held_out_gain(bc):
     for seed in range(4):
         fixed, again = _gains(bc, seed, 1.0)  # a 1 µm lead under 1 µm noise: 4.7–6.0 standard errors when written
         assert again >= 2.0 and again > 0.9 * fixed
+
+
+def _window_gains(machine, seed, bump_um):
+    """Held-out gain (standard errors) of the likeliest local window of the linear axes' joints: (chosen on all
+    data, chosen per turn among the same windows); the table every 20°, a bump of X at −15 mm if ``bump_um``."""
+    rng = np.random.default_rng(seed)
+    effects, theta = _location_truth(machine, rng)
+    plan = patent_plan(machine, tilt_deg=(-60, -30, 0, 30, 60), turn_deg=tuple(range(0, 360, 20)))
+    obs = simulate(machine, plan, effects, theta, noise_um=1.0, rng=rng)
+    if bump_um:
+        obs = _with_x_bump(machine, obs, bump_um, -15.0, 6.0)
+    model = default_model(machine)
+    result = fit(machine, obs, model, noise_um=1.0)
+    windows = [w for code in ("EXX", "EYX", "EZX", "EXY", "EYY", "EZY") for w in local_windows(machine, obs, code)]
+    best = window_found_on(machine, obs, result, windows)
+    cv = cross_validate(machine, obs, model, best, noise_um=1.0, theta0=result.theta,
+                        choose=_chosen_again(machine, obs, best.name, result), always_choose=True)
+    return best.name, cv.gain_se, cv.chosen_gain_se
+
+
+def test_on_noise_the_window_chosen_per_turn_has_no_held_out_gain(bc):
+    """The same for a local error: the likeliest of ~1 700 windows, chosen again per turn among them."""
+    gains = np.array([_window_gains(bc, seed, 0.0)[1:] for seed in range(12)])
+    fixed, again = gains.T
+    assert fixed.mean() > 0.3  # chosen on all data: +0.65 on average when written (5 of 12 ≥ 1)
+    assert again.mean() < -0.5 and np.sum(again >= 1.0) == 0  # per turn: −1.6 when written, none ≥ 1
+
+
+def test_a_real_bump_keeps_its_window_held_out_gain(bc):
+    for seed in range(3):
+        name, fixed, again = _window_gains(bc, seed, 4.0)
+        assert name.startswith("EXX:local:") and again >= 2.0, (name, fixed, again)
 
 
 def test_the_selection_chooses_a_periodic_candidates_period_per_turn(bc, monkeypatch):
