@@ -125,12 +125,33 @@ def local_windows(machine, obs, code: str) -> list:
     return [] if grid is None else _local_windows(*grid[:3], machine)
 
 
+def _rests_on_readings(support, distinct, lo: float, hi: float) -> bool:
+    """A window of knots from ``lo`` to ``hi`` whose B-splines centred at the knots rest on readings of ``support``
+    (Σ of each one's values; the window's own knots) can be fitted: each coefficient's B-spline on a support of at
+    least MAP_MIN_SUPPORT, and more ``distinct`` positions inside than the window has parameters (else the spline
+    between the positions is a guess: coefficients of any size fit the same values). Its end knots carry no
+    coefficient (the error is zero there) and need no readings of their own."""
+    width = len(support) - 1  # knot intervals; width − 3 cubic B-splines lie in the window
+    inside = np.count_nonzero((distinct > lo) & (distinct < hi))
+    return np.min(support[2:width - 1]) >= MAP_MIN_SUPPORT and inside >= width - 3 + LOCAL_SPARE_POSITIONS
+
+
 def window_found_on(machine, obs, result, windows, d_errors=None):
     """Of the local errors ``windows``, the one the score test finds likeliest in the residuals of ``result`` on
-    ``obs`` (σ from the residuals; with the error-joint Jacobian ``d_errors`` if given), or None. The held-out
-    check chooses a local candidate's window on its training blocks with this, as it does a period."""
+    ``obs`` (σ from the residuals; with the error-joint Jacobian ``d_errors`` if given), or None; only windows that
+    rest on the readings of ``obs`` as :func:`_local_windows` asks. The held-out check chooses a local candidate's
+    window on its training blocks with this, as it does a period."""
     from .leverage import model_pass
 
+    def rests(w):
+        q = obs.axes[:, machine.axis_names.index(w.axis)]
+        step = w.knots[1] - w.knots[0]
+        return _rests_on_readings(_bspline_support(q, w.knots[0], step, len(w.knots)), np.unique(np.round(q, 3)),
+                                  w.knots[0], w.knots[-1])
+
+    windows = [w for w in windows if rests(w)]
+    if not windows:
+        return None
     d_errors, _, q0 = model_pass(machine, obs, result, d_errors)
     live = [c for c in score_candidates(machine, obs, result, windows, 1.0, sigma_known=False, d_errors=d_errors,
                                         q0=q0) if c.status == "live"]
@@ -192,11 +213,8 @@ def _bspline_support(q, first: float, step: float, count: int) -> np.ndarray:
 
 def _local_windows(whole, q, distinct, machine) -> list:
     """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the range of the map
-    ``whole``, with knots every ``LOCAL_STEPS`` times its step: those whose every B-spline (every coefficient)
-    rests on readings ``q`` of a support (Σ of its values) of at least MAP_MIN_SUPPORT and that hold more
-    ``distinct`` positions of the axis than the window has parameters (else the spline between the positions is
-    a guess: coefficients of any size fit the same values). The window's end knots carry no coefficient (the
-    error is zero there) and need no readings of their own."""
+    ``whole``, with knots every ``LOCAL_STEPS`` times its step, that rest on the readings ``q`` (with their
+    ``distinct`` positions; :func:`_rests_on_readings`)."""
     from kinid.errors import DataError
 
     from .effects import parse_effect
@@ -209,10 +227,7 @@ def _local_windows(whole, q, distinct, machine) -> list:
         support = _bspline_support(q, knots[0], step, len(knots))  # of the B-spline centred at each knot
         for width in LOCAL_WIDTHS:
             for i in range(0, len(knots) - width):
-                if np.min(support[i + 2:i + width - 1]) < MAP_MIN_SUPPORT:  # the window's B-splines' centres
-                    continue
-                inside = np.count_nonzero((distinct > knots[i]) & (distinct < knots[i + width]))
-                if inside < width - 3 + LOCAL_SPARE_POSITIONS:  # width − 3 cubic B-splines lie in the window
+                if not _rests_on_readings(support[i:i + width + 1], distinct, knots[i], knots[i + width]):
                     continue
                 try:
                     out.append(parse_effect(f"{whole.code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))

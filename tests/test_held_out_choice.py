@@ -88,7 +88,8 @@ def test_on_noise_the_window_chosen_per_turn_has_no_held_out_gain(bc):
     gains = np.array([_window_gains(bc, seed, 0.0)[1:] for seed in range(12)])
     fixed, again = gains.T
     assert fixed.mean() > 0.3  # chosen on all data: +0.65 on average when written (5 of 12 ≥ 1)
-    assert again.mean() < -0.5 and np.sum(again >= 1.0) == 0  # per turn: −1.6 when written, none ≥ 1
+    # per turn, among the windows its training rows hold up: −0.9 when written (1 of 12 ≥ 1, none ≥ 2)
+    assert again.mean() < 0 and again.mean() < fixed.mean() - 1.0 and np.sum(again >= 2.0) == 0
 
 
 def test_a_real_bump_keeps_its_window_held_out_gain(bc):
