@@ -16,6 +16,7 @@ import numpy as np
 
 from kinid.stats import chi2_isf
 
+from .ambiguity import distinct_positions
 from .scoring import score_candidates
 
 __all__ = ["proposed_maps", "local_windows", "window_found_on"]
@@ -105,7 +106,7 @@ def _map_grid(machine, obs, code: str, axis: str):
 
     q = obs.axes[:, machine.axis_names.index(axis)]
     lo, hi = float(np.min(q)), float(np.max(q))
-    distinct = np.unique(np.round(q, 3))  # jitter of the readings is not a finer sampling
+    distinct = distinct_positions(q)  # jitter of the readings is not a finer sampling
     if not hi > lo or distinct.size < LOCAL_MIN_POSITIONS:
         return None
     step = _nice_step(hi - lo)
@@ -146,7 +147,7 @@ def window_found_on(machine, obs, result, windows, d_errors=None):
     def rests(w):
         q = obs.axes[:, machine.axis_names.index(w.axis)]
         step = w.knots[1] - w.knots[0]
-        return _rests_on_readings(_bspline_support(q, w.knots[0], step, len(w.knots)), np.unique(np.round(q, 3)),
+        return _rests_on_readings(_bspline_support(q, w.knots[0], step, len(w.knots)), distinct_positions(q),
                                   w.knots[0], w.knots[-1])
 
     windows = [w for w in windows if rests(w)]

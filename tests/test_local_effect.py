@@ -44,3 +44,31 @@ def test_local_basis_is_smooth_and_zero_outside(bc):
 def test_local_grammar_errors(bc, name, message):
     with pytest.raises(DataError, match=message):
         parse_effect(name, bc)
+
+
+def test_local_windows_count_positions_not_the_jitter_of_repeated_readings(bc):
+    """The patent plan measured ten times: the solved readings of X jitter by micrometres around its positions.
+    Every local window the diagnosis tries holds more positions (readings within the jitter are one) than it has
+    parameters; the jitter counted as positions, windows on one or two positions fitted their replicas' noise
+    (a 2.5 mm window at 1 630 µm, refused only as a size no machine has)."""
+    from dataclasses import replace
+
+    from kinid.identification.ambiguity import distinct_positions
+    from kinid.identification.effects import default_model
+    from kinid.identification.local_errors import local_windows
+    from kinid.identification.observations import Observations
+    from kinid.identification.simulate import patent_plan, simulate
+
+    rng = np.random.default_rng(5)
+    base = patent_plan(bc)
+    plan = Observations(base.marks * 10, np.tile(base.w_mm, (10, 1)), np.tile(base.axes, (10, 1)))
+    obs = simulate(bc, plan, default_model(bc), rng.normal(0, 15.0, 23), noise_um=1.0, rng=rng)
+    j = bc.axis_names.index("X")
+    x = obs.axes[:, j] + rng.normal(0, 2e-3, len(obs))  # readings solved to the mark: a few µm apart
+    obs = replace(obs, axes=np.column_stack([x if k == j else obs.axes[:, k] for k in range(obs.axes.shape[1])]))
+    assert np.unique(np.round(x, 3)).size > 5 * distinct_positions(x).size  # the jitter is finer than 0.001 mm
+    windows = local_windows(bc, obs, "EXX")
+    assert windows
+    for w in windows:
+        inside = np.count_nonzero((distinct_positions(x) > w.knots[0]) & (distinct_positions(x) < w.knots[-1]))
+        assert inside > w.n_params, (w.name, inside)
