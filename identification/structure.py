@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .ambiguity import POSITION_TOLERANCE
+
 __all__ = ["Structure", "structure_left"]
 
 #: Permutations of the null distribution (the smallest p-value is 1 / (PERMUTATIONS + 1)).
@@ -115,7 +117,10 @@ def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Struc
     names = list(names) or [f"axis {k + 1}" for k in range(a.shape[1])]
     usable = np.all(np.isfinite(a), axis=0) & (np.ptp(np.where(np.isfinite(a), a, 0.0), axis=0) > 0)
     a, names = a[:, usable], [nm for nm, u in zip(names, usable) if u]
-    a = a / np.ptp(a, axis=0)
+    # every axis scaled by its range, and readings within 0.1 % of it one position (as the period check counts
+    # them): readings solved from a measurement carry its noise, so replicas micrometres apart would be neighbours
+    # through their shared noise, not through the machine
+    a = np.round(a / np.ptp(a, axis=0) / POSITION_TOLERANCE) * POSITION_TOLERANCE
     looks = [("readings", a)]
     if t is not None and np.ptp(t) > 0:
         looks.append(("time", t[:, None]))
