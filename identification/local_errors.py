@@ -144,11 +144,16 @@ def window_found_on(machine, obs, result, windows, d_errors=None):
     window on its training blocks with this, as it does a period."""
     from .leverage import model_pass
 
+    readings = {}  # per axis: its readings and their distinct positions, found once
+
     def rests(w):
-        q = obs.axes[:, machine.axis_names.index(w.axis)]
+        if w.axis not in readings:
+            q = obs.axes[:, machine.axis_names.index(w.axis)]
+            readings[w.axis] = (q, distinct_positions(q))
+        q, distinct = readings[w.axis]
         step = w.knots[1] - w.knots[0]
-        return _rests_on_readings(_bspline_support(q, w.knots[0], step, len(w.knots)), distinct_positions(q),
-                                  w.knots[0], w.knots[-1])
+        return _rests_on_readings(_bspline_support(q, w.knots[0], step, len(w.knots)), distinct, w.knots[0],
+                                  w.knots[-1])
 
     windows = [w for w in windows if rests(w)]
     if not windows:

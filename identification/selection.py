@@ -247,7 +247,7 @@ def _chosen_again(machine, obs, name: str, result):
     from kinid.errors import DataError
 
     from .effects import parse_effect
-    from .leverage import model_pass
+    from .leverage import error_jacobian
     from .local_errors import local_windows, window_found_on
     from .searched import period_found_on
 
@@ -256,7 +256,7 @@ def _chosen_again(machine, obs, name: str, result):
 
     def rows_of(rows):
         if not jacobian:
-            jacobian.append(model_pass(machine, obs, result)[0])
+            jacobian.append(error_jacobian(machine, obs, result))
         return jacobian[0][rows]
 
     if kind == "local":
