@@ -171,13 +171,14 @@ def _identify(args) -> int:
         result = replace(result, prior=described)
     elif args.auto:
         from .selection import forward_select
-        from .report import selection_report
 
         steps = forward_select(machine, obs, effects, noise_um=args.noise_um, progress=sys.stderr,
                                robust=not args.no_robust)
         result = steps[-1].fit
         obs = steps[-1].data
         if args.report:
+            from .report import selection_report
+
             selection_report(steps, obs, args.report, fit_file=args.out)
     else:
         from dataclasses import replace

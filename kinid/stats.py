@@ -6,8 +6,12 @@ about 0.4 s, more than a whole fit).
 
 For whole ``k`` up to :data:`CLOSED_K` (the 3 coordinates of a residual, the few parameters of a
 candidate) χ² is computed in closed form — ``erfc`` or ``exp`` and a finite sum of positive terms,
-within 2e-13 of scipy's values — so ``kinid identify`` never imports ``scipy.special`` (≈ 0.1 s). Other
-degrees of freedom and the F distribution use ``scipy.special``, the functions scipy.stats calls underneath.
+within 2e-13 of scipy's values. Other degrees of freedom (the thousands of a large fit) use the
+regularized incomplete gamma function by its series or continued fraction, and the F distribution the
+regularized incomplete beta function by its continued fraction (Press et al., *Numerical Recipes*,
+``gser``, ``gcf``, ``betacf``), within 1e-11 of scipy's values relative up to a thousand degrees of
+freedom and 1e-9 up to 100 000 (``lgamma`` of large arguments loses digits). So no command imports
+``scipy.special`` (≈ 0.1 s) for a probability.
 
 Examples
 --------
@@ -30,18 +34,14 @@ def chi2_sf(x: float, k: float) -> float:
     """P(χ²_k > x)."""
     if _closed(k):
         return _chi2_sf_closed(float(x), int(k))
-    from scipy import special
-
-    return float(special.chdtrc(k, x))
+    return math.exp(_log_gammaincc(k / 2.0, float(x) / 2.0))
 
 
 def chi2_isf(p: float, k: float) -> float:
     """The x with P(χ²_k > x) = p."""
-    if _closed(k) and 0.0 < p < 1.0:
-        return _chi2_isf_closed(float(p), int(k))
-    from scipy import special
-
-    return float(special.chdtri(k, p))
+    if not 0.0 < p < 1.0:
+        return math.inf if p <= 0.0 else 0.0
+    return _falling_root(lambda x: chi2_sf(x, k), float(p), max(1.0, float(k)))
 
 
 def chi2_logsf(x: float, k: float) -> float:
@@ -50,6 +50,8 @@ def chi2_logsf(x: float, k: float) -> float:
     Beyond the underflow, the upper incomplete gamma function's asymptotic series:
     log Q(a, z) = (a − 1) log z − z − log Γ(a) + log(1 + (a − 1)/z + (a − 1)(a − 2)/z² ...), a = k/2, z = x/2.
     """
+    if not _closed(k):
+        return _log_gammaincc(k / 2.0, float(x) / 2.0)
     p = chi2_sf(x, k)
     if p > 0.0:
         return math.log(p)
@@ -59,11 +61,48 @@ def chi2_logsf(x: float, k: float) -> float:
 
 
 def f_logsf(F: float, d1: float, d2: float) -> float:
-    """log P(F_{d1,d2} > F); -inf where the probability underflows (callers fall back to χ²)."""
-    from scipy import special
+    """log P(F_{d1,d2} > F); -inf where the probability underflows a double (callers fall back to χ²).
 
-    p = float(special.fdtrc(d1, d2, F))
-    return math.log(p) if p > 0.0 else -math.inf
+    P(F_{d1,d2} > F) = I_x(d2/2, d1/2), the regularized incomplete beta function at x = d2/(d2 + d1·F).
+    """
+    if not F > 0.0:
+        return 0.0
+    s = d1 * F
+    log_p = _log_betainc(d2 / 2.0, d1 / 2.0, d2 / (d2 + s), s / (d2 + s))
+    return log_p if math.exp(log_p) > 0.0 else -math.inf
+
+
+def _log_betainc(a: float, b: float, x: float, y: float) -> float:
+    """log I_x(a, b) with y = 1 − x given apart (no cancellation near x = 1): x^a y^b / (a B(a, b)) times the
+    continued fraction where it converges fast, x < (a + 1)/(a + b + 2), else 1 − I_y(b, a)."""
+    if not x > 0.0:
+        return -math.inf
+    if not y > 0.0:
+        return 0.0
+    log_front = a * math.log(x) + b * math.log(y) + math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b)
+    if x < (a + 1.0) / (a + b + 2.0):
+        return log_front + math.log(_beta_fraction(a, b, x) / a)
+    return math.log1p(-math.exp(log_front) * _beta_fraction(b, a, y) / b)
+
+
+def _beta_fraction(a: float, b: float, x: float) -> float:
+    """The continued fraction of I_x(a, b) by the modified Lentz method (Press et al., Numerical Recipes,
+    ``betacf``): tens of terms for the degrees of freedom of a fit."""
+    tiny = 1e-300
+    c, d = 1.0, 1.0 - (a + b) * x / (a + 1.0)
+    d = 1.0 / (d if abs(d) > tiny else tiny)
+    h = d
+    for m in range(1, 100_000):
+        for numerator in (m * (b - m) * x / ((a + 2 * m - 1.0) * (a + 2 * m)),
+                          -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1.0))):
+            d = 1.0 + numerator * d
+            d = 1.0 / (d if abs(d) > tiny else tiny)
+            c = 1.0 + numerator / c
+            c = c if abs(c) > tiny else tiny
+            h *= d * c
+        if abs(d * c - 1.0) < 1e-15:
+            return h
+    raise ArithmeticError(f"the incomplete beta function's continued fraction did not converge (a={a}, b={b}, x={x})")
 
 
 def _closed(k) -> bool:
@@ -95,15 +134,48 @@ def _chi2_sf_closed(x: float, k: int) -> float:
     return base + math.exp(top) * math.fsum(math.exp(v - top) for v in logs)
 
 
-def _chi2_isf_closed(p: float, k: int) -> float:
-    """The x with :func:`_chi2_sf_closed` (x, k) = p, by bisection (the function falls with x) to 1e-14."""
-    lo, hi = 0.0, max(1.0, float(k))
-    while _chi2_sf_closed(hi, k) > p:
+def _falling_root(sf, p: float, hi: float) -> float:
+    """The x with sf(x) = p for a survival function sf falling from 1 at x = 0, by bisection to 1e-14."""
+    lo = 0.0
+    while sf(hi) > p:
         lo, hi = hi, 2.0 * hi
     while hi - lo > 1e-14 * hi:
         mid = 0.5 * (lo + hi)
-        if _chi2_sf_closed(mid, k) > p:
+        if sf(mid) > p:
             lo = mid
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+def _log_gammaincc(a: float, z: float) -> float:
+    """log Q(a, z), the regularized upper incomplete gamma function: 1 − the series of P below z = a + 1,
+    the continued fraction of Q above (each converges fast there; finite far into the tail)."""
+    if not z > 0.0:
+        return 0.0
+    log_front = a * math.log(z) - z - math.lgamma(a)
+    if z < a + 1.0:
+        term = total = 1.0 / a
+        n = a
+        while abs(term) > 1e-16 * abs(total):
+            n += 1.0
+            term *= z / n
+            total += term
+        return math.log1p(-math.exp(log_front) * total)
+    tiny = 1e-300
+    b = z + 1.0 - a
+    c, d = 1.0 / tiny, 1.0 / b
+    h = d
+    for i in range(1, 100_000):
+        numerator = -i * (i - a)
+        b += 2.0
+        d = numerator * d + b
+        d = 1.0 / (d if abs(d) > tiny else tiny)
+        c = b + numerator / c
+        c = c if abs(c) > tiny else tiny
+        h *= d * c
+        if abs(d * c - 1.0) < 1e-15:
+            return log_front + math.log(h)
+    raise ArithmeticError(f"the incomplete gamma function's continued fraction did not converge (a={a}, z={z})")
+
+

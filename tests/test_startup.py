@@ -123,12 +123,13 @@ def test_identify_imports_only_what_the_fit_needs(tmp_path):
 
 
 def test_identify_auto_imports_no_optimiser_it_does_not_use(tmp_path):
-    """``--auto`` needs scipy.special (the F distribution) but not scipy.optimize (0.16 s): its two bounded
-    searches are kinid.identification.periods.bounded_minimum, the same steps (tests/test_period_search.py)."""
+    """``--auto`` imports no scipy at all: not scipy.optimize (0.16 s; its two bounded searches are
+    kinid.identification.periods.bounded_minimum, the same steps, tests/test_period_search.py), nor scipy.special
+    (0.1 s; the χ² of thousands of degrees of freedom and the F distribution are kinid.stats's, tests/test_stats.py)."""
     modules = _modules_after_identify(tmp_path, '{"EX0C": 12.0, "EXX:periodic:13.3": [1.5, -0.8]}', "--auto")
     assert json.loads((tmp_path / "fit.json").read_text())["effects"][-1].startswith("EXX:")
     assert "kinid.identification.selection" in modules  # the selection ran
-    assert not {"scipy.optimize", "scipy.stats", "matplotlib", "cv2"} & modules
+    assert not {"scipy", "matplotlib", "cv2", "kinid.identification.report"} & modules
 
 
 def test_stage_packages_import_light_and_keep_every_public_name(tmp_path):

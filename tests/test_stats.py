@@ -21,10 +21,37 @@ def test_chi2_sf_and_isf_match_scipy(k):
         assert chi2_isf(p, k) == pytest.approx(special.chdtri(k, p), rel=1e-12), (k, p)
 
 
-def test_other_degrees_of_freedom_and_f_use_scipy():
-    assert chi2_sf(3.3, 2.5) == special.chdtrc(2.5, 3.3)
-    assert chi2_isf(0.01, CLOSED_K + 1) == special.chdtri(CLOSED_K + 1, 0.01)
-    assert f_logsf(2.0, 3, 40) == pytest.approx(math.log(special.fdtrc(3, 40, 2.0)), rel=1e-14)
+@pytest.mark.parametrize("k", [0.5, 2.5, 7.5, CLOSED_K + 1, 1_000, 9_999, 100_000])
+def test_chi2_of_other_degrees_of_freedom_matches_scipy(k):
+    """The incomplete gamma function's series and continued fraction: fractional k, and the thousands of
+    degrees of freedom of a large fit's residual, from the bulk to the tail."""
+    x = k + np.sqrt(2.0 * k) * np.linspace(-4.0, 12.0, 81)
+    for v in np.concatenate([x[x > 0], [1e-6, 0.01 * k, 3.0 * k + 50.0]]):
+        ref = special.chdtrc(k, v)
+        rel = 1e-11 if k <= 1_000 else 1e-9
+        if ref > 1e-300:
+            assert chi2_sf(v, k) == pytest.approx(ref, rel=rel, abs=0), (k, v)
+            assert chi2_logsf(v, k) == pytest.approx(math.log(ref), rel=rel, abs=rel), (k, v)
+    for p in (0.9, 0.5, 0.05, 1e-3, 1e-9, 1e-40):
+        assert chi2_isf(p, k) == pytest.approx(special.chdtri(k, p), rel=1e-10), (k, p)
+
+
+@pytest.mark.parametrize("d1", [1, 2, 3, 4, 5, 7, 10, 30, 100, 2.5])
+def test_f_tail_matches_scipy(d1):
+    """P(F > f) relative to scipy's, from the bulk to the far tail, for the degrees of freedom of candidates
+    (d1 a few parameters) against fits of a few to 100 000 residual degrees of freedom."""
+    rng = np.random.default_rng(int(d1 * 10))
+    F = np.concatenate([[1e-6, 0.01, 0.3, 0.9, 1.0, 1.1, 1.5, 2.0, 3.0, 5.0, 10.0, 30.0, 100.0, 1e3, 1e5],
+                        rng.uniform(0.3, 4.0, 20)])
+    for d2 in (1, 5, 40, 300, 1_000, 10_000, 100_000, 12.5):
+        for f in F:
+            ref = special.fdtrc(d1, d2, f)
+            if ref > 1e-300:
+                rel = 1e-11 if d2 <= 1_000 else 1e-9  # lgamma of large arguments loses digits in B(a, b)
+                assert math.exp(f_logsf(f, d1, d2)) == pytest.approx(ref, rel=rel, abs=0), (d1, d2, f)
+            else:
+                assert f_logsf(f, d1, d2) == -math.inf, (d1, d2, f)
+    assert f_logsf(0.0, d1, 40) == 0.0 and f_logsf(-1.0, d1, 40) == 0.0
 
 
 def test_the_tail_stays_finite():
