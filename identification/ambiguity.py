@@ -22,24 +22,15 @@ import numpy as np
 
 from .machine import Machine
 from .observations import Observations
+from .positions import distinct_positions
 
-__all__ = ["period_twins", "distinct_positions", "TWIN_DELTA", "TWIN_PERIODS"]
+__all__ = ["period_twins", "TWIN_DELTA", "TWIN_PERIODS"]
 
 #: A period whose χ² drop falls short of the effect's by less than this explains the data as well: the data cannot
 #: tell the two apart (χ²₂ at 0.99: two periodic effects of two parameters each, compared at the same σ).
 TWIN_DELTA = 9.21
 #: Periods scored per check (log-spaced).
 TWIN_PERIODS = 160
-#: Readings closer than this share of the span are one position (the jitter of solved readings is no sampling).
-POSITION_TOLERANCE = 1e-3
-
-
-def distinct_positions(q) -> np.ndarray:
-    """The positions an axis's readings ``q`` visit: readings closer than :data:`POSITION_TOLERANCE` of their span
-    (at least 0.001) count as one."""
-    q = np.asarray(q, float)
-    tolerance = max(POSITION_TOLERANCE * float(np.ptp(q)), 1e-3)
-    return np.unique(np.round(q / tolerance)) * tolerance
 
 
 def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma: float, *, d_errors=None,

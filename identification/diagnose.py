@@ -431,7 +431,8 @@ def _inseparable(machine, live, follows) -> str:
 def _undetermined(machine, obs, result, best, sigma, d_errors, q0, side=None):
     """Why the best candidate's period is not determined by the positions measured, and the periods that fit as
     well; ("", ()) when it is."""
-    from .ambiguity import distinct_positions, period_twins
+    from .ambiguity import period_twins
+    from .positions import distinct_positions
 
     parts = best.effect.split(":")
     if len(parts) < 3 or parts[1] != "periodic":

@@ -16,7 +16,7 @@ import numpy as np
 
 from kinid.stats import chi2_isf
 
-from .ambiguity import distinct_positions
+from .positions import distinct_positions
 from .scoring import score_candidates
 
 __all__ = ["proposed_maps", "local_windows", "window_found_on"]

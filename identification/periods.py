@@ -22,10 +22,12 @@ found period is multiplied by the number of independent periods searched
 (the travel over the shortest period, per joint), so the search does not
 raise false alarms on noise.
 
-The shortest period searched is twice the usual spacing of the axis's
-readings (on a regular grid of positions a shorter period aliases onto a
-longer one; readings within 0.001 mm or 0.001° count as one position), and at
-least 2 mm or 1° (a gear of 360 teeth).
+The shortest period searched is twice the smallest spacing of the axis's
+positions (on a regular grid of positions a shorter period aliases onto a
+longer one; on an irregular one the periods that fit alike are named by
+:mod:`~kinid.identification.ambiguity`; readings within 0.1 % of the axis's
+span count as one position: the jitter of solved readings is no finer
+sampling), and at least 2 mm or 1° (a gear of 360 teeth).
 
 Every sum is over alignments, O(N · periods · rank), in chunks of periods:
 memory stays flat in the number of alignments.
@@ -39,6 +41,7 @@ import numpy as np
 
 from .machine import Machine
 from .observations import Observations
+from .positions import distinct_positions, position_starts
 
 __all__ = ["PeriodEstimate", "search_periods", "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "period_name"]
 
@@ -49,6 +52,9 @@ MIN_PERIOD_DEG = 1.0
 OVERSAMPLE = 6
 #: Memory per array of one chunk of frequencies, bytes (a chunk holds N × chunk values; memory flat in N).
 CHUNK_BYTES = 8 * 1024 * 1024
+#: On the frequency grid, readings within this share of the shortest period searched count as one position (a
+#: phase error of at most π·10⁻³: the grid's Δ moves by ~10⁻⁵ of itself, and only points at the peak refined).
+GRID_MERGE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -204,15 +210,15 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         a = machine.axis(axis)
         k = machine.axis_names.index(axis)
         q = obs.axes[:, k]
-        # the positions that set the range searched; jitter of the readings is not a finer sampling
-        unique = np.unique(np.round((obs if range_of is None else range_of).axes[:, k], 3))
+        # the positions that set the range searched; the jitter of solved readings is not a finer sampling
+        unique = distinct_positions(np.round((obs if range_of is None else range_of).axes[:, k], 3))
         if unique.size < 6:
             continue
         span = float(unique[-1] - unique[0])
         rotary = a.kind != "prismatic"
-        # no period shorter than twice the usual spacing of the readings: on a regular grid of
+        # no period shorter than twice the smallest spacing of the positions: on a regular grid of
         # positions, shorter periods alias onto longer ones and cannot be told apart (Nyquist)
-        spacing = float(np.median(np.diff(unique)))
+        spacing = float(np.min(np.diff(unique)))
         p_min = max(MIN_PERIOD_DEG if rotary else MIN_PERIOD_MM, 2.0 * spacing)
         p_max = 360.0 if rotary else span
         if span <= 0 or p_max <= p_min:
@@ -226,16 +232,19 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         if not series:
             continue
         w, nrm, g = (np.stack(s, axis=1) for s in zip(*series.values()))  # (N, J), (N, J), (N, J, rank)
-        q, w, nrm, g = _collapsed(q, w, nrm, g)
+        exact = _collapsed(q, w, nrm, g)
+        # the grid only points at the best frequency (refined, and Δ evaluated, on the exact positions): readings
+        # within GRID_MERGE of the shortest period are one there (a plan measured again, read micrometres apart)
+        near = _collapsed(q, w, nrm, g, within=GRID_MERGE * p_min)
         extent = max(span, 360.0) if rotary else span
         df = 1.0 / (OVERSAMPLE * extent)
         freq = np.arange(1.0 / p_max, 1.0 / p_min + df / 2, df)
-        chunk = max(int(CHUNK_BYTES // (8 * q.size)), 4)
-        deltas = np.concatenate([_delta(*_grid_phasors(q, freq[k:k + chunk]), w, nrm, g)
+        chunk = max(int(CHUNK_BYTES // (8 * near[0].size)), 4)
+        deltas = np.concatenate([_delta(*_grid_phasors(near[0], freq[k:k + chunk]), *near[1:])
                                  for k in range(0, len(freq), chunk)], axis=1)
         trials = max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
-        for j, estimate in zip(series, _refined([machine.error_joints[j] for j in series], freq, deltas, df, q, w, nrm,
-                                                g, trials, "deg" if rotary else "mm")):
+        for j, estimate in zip(series, _refined([machine.error_joints[j] for j in series], freq, deltas, df, *exact,
+                                                trials, "deg" if rotary else "mm")):
             found[j] = estimate
     out = [found[j] for j in sorted(found) if found[j] is not None]  # in the joints' order (ties keep it)
     # by decreasing Δ; joints whose columns coincide on these data tie to rounding (9 digits): the first joint first
@@ -243,16 +252,17 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
     return out
 
 
-def _collapsed(q, *series) -> tuple:
-    """(positions, series...): readings ``q`` that repeat exactly (a rotary axis read at a few angles) taken once,
-    and each series (N, ...) summed over the readings at each position; every sum of the search is one over
-    positions."""
-    positions, inverse = np.unique(q, return_inverse=True)
-    if positions.size == q.size:
+def _collapsed(q, *series, within: float = 0.0) -> tuple:
+    """(positions, series...): readings ``q`` that repeat exactly (a rotary axis read at a few angles) — or, with
+    ``within``, that lie within it of the lowest of them — taken once (at the middle of their range), and each
+    series (N, ...) summed over the readings at each position; every sum of the search is one over positions."""
+    order = np.argsort(q, kind="stable")  # the readings of one position in their order
+    qs = q[order]
+    starts = position_starts(qs, within) if within > 0 else np.flatnonzero(np.r_[True, qs[1:] != qs[:-1]])
+    if starts.size == q.size:
         return (q, *series)
-    order = np.argsort(inverse, kind="stable")
-    starts = np.searchsorted(inverse[order], np.arange(positions.size))
-    return (positions, *(np.add.reduceat(s[order], starts, axis=0) for s in series))
+    ends = np.r_[starts[1:], q.size] - 1
+    return (0.5 * (qs[starts] + qs[ends]), *(np.add.reduceat(s[order], starts, axis=0) for s in series))
 
 
 def _refined(joints, freq, deltas, df, q, w, nrm, g, trials, unit) -> list:
@@ -288,14 +298,14 @@ def _refined(joints, freq, deltas, df, q, w, nrm, g, trials, unit) -> list:
             except StopIteration as done:
                 at[i] = f_best[i] = done.value
                 del searches[i]
+    sub = [x[live] for x in series]
     d_best = _delta_each(f_best, q, *series)[live]
-    on_grid = deltas[live, best[live]]
+    on_grid = _delta_each(freq[best[live]], q, *sub)  # the grid's own Δ is from readings merged
     worse = d_best < on_grid
     period = 1.0 / np.where(worse, freq[best[live]], f_best[live])
     d_best = np.where(worse, on_grid, d_best)
     # curvature of Δ in the period: var P = 2 / (−Δ'')
     h = period * 1e-4
-    sub = [x[live] for x in series]
     d2 = (_delta_each(1.0 / (period + h), q, *sub) - 2 * d_best + _delta_each(1.0 / (period - h), q, *sub)) / h**2
     for m, i in enumerate(live):
         std = math.sqrt(2.0 / -d2[m]) if d2[m] < 0 else float("nan")

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .ambiguity import POSITION_TOLERANCE
+from .positions import POSITION_TOLERANCE
 
 __all__ = ["Structure", "structure_left"]
 
@@ -57,11 +57,21 @@ def _neighbours(coords: np.ndarray) -> np.ndarray:
         return _neighbours_on_a_line(coords[:, 0])
     n = len(coords)
     out = np.empty(n, dtype=int)
-    for start in range(0, n, 512):
-        block = coords[start:start + 512]
-        d = np.sum((block[:, None, :] - coords[None, :, :]) ** 2, axis=2)
-        d[np.arange(len(block)), np.arange(start, start + len(block))] = np.inf
-        out[start:start + 512] = np.argmin(d, axis=1)
+    # a row repeated (a pose measured again) has its first other copy, at distance 0; only the others are searched
+    _, group, size = np.unique(coords, axis=0, return_inverse=True, return_counts=True)
+    group = group.ravel()
+    order = np.argsort(group, kind="stable")  # each group's rows in their order
+    starts = np.r_[0, np.cumsum(size)[:-1]]
+    first, second = order[starts], order[np.minimum(starts + 1, n - 1)]
+    rows = np.arange(n)
+    twin = size[group] > 1
+    out[twin] = np.where(first[group[twin]] == rows[twin], second[group[twin]], first[group[twin]])
+    single = np.flatnonzero(~twin)
+    for start in range(0, single.size, 512):
+        which = single[start:start + 512]
+        d = np.sum((coords[which][:, None, :] - coords[None, :, :]) ** 2, axis=2)
+        d[np.arange(which.size), which] = np.inf
+        out[which] = np.argmin(d, axis=1)
     return out
 
 

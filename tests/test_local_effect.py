@@ -53,7 +53,7 @@ def test_local_windows_count_positions_not_the_jitter_of_repeated_readings(bc):
     (a 2.5 mm window at 1 630 µm, refused only as a size no machine has)."""
     from dataclasses import replace
 
-    from kinid.identification.ambiguity import distinct_positions
+    from kinid.identification.positions import distinct_positions
     from kinid.identification.effects import default_model
     from kinid.identification.local_errors import local_windows
     from kinid.identification.observations import Observations

@@ -1,13 +1,25 @@
-"""The structure test's nearest neighbours on a line (sorted, n log n) against the pairwise search (n²)."""
+"""The structure test's nearest neighbours on a line (sorted, n log n) and in several readings (repeated rows by
+their copies, the others pairwise) against the pairwise search (n²)."""
 import numpy as np
 
 from kinid.identification.structure import _neighbours
 
 
 def _pairwise(x):
-    d = (x[:, None] - x[None, :]) ** 2
+    x = x[:, None] if x.ndim == 1 else x
+    d = np.sum((x[:, None, :] - x[None, :, :]) ** 2, axis=2)
     np.fill_diagonal(d, np.inf)
     return np.argmin(d, axis=1)  # of rows as near, the first
+
+
+def test_neighbours_in_several_readings_are_the_pairwise_ones():
+    """Poses measured again (rows repeated, in any order) beside poses measured once, on a grid where ties occur."""
+    rng = np.random.default_rng(2)
+    for k in range(300):
+        n, axes = int(rng.integers(2, 300)), int(rng.integers(2, 6))
+        poses = np.round(rng.uniform(0, 1, (int(rng.integers(1, 200)), axes)), [3, 1][k % 2])
+        coords = poses[rng.integers(0, len(poses), n)] if k % 3 else np.round(rng.uniform(0, 1, (n, axes)), 1)
+        assert np.array_equal(_neighbours(coords), _pairwise(coords)), coords
 
 
 def test_neighbours_on_a_line_are_the_pairwise_ones():

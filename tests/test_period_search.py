@@ -389,3 +389,53 @@ def test_an_undetermined_period_of_the_table_is_named_by_whole_cycles_per_turn(b
         assert cycles == pytest.approx(round(cycles), abs=1e-4), name
     if teeth == 2:  # not determined on six angles (3 cycles, 120°, is: the shortest period they resolve)
         assert "not determined" in steps[-1].stopped and "whole cycles per turn" in steps[-1].stopped
+
+
+def test_the_jitter_of_solved_readings_is_no_finer_sampling():
+    """The A/C plan that visits X at six positions, measured three times, X read each time as an alignment solves it
+    (a few µm apart): the search covers the periods the six positions resolve — the same shortest period and
+    number of trials as on readings repeated exactly — not the millimetre periods thousands of distinct readings
+    would seem to resolve (on a grid of six positions those alias onto longer ones: noise picks among them)."""
+    from kinid.identification.positions import distinct_positions
+    from kinid.identification.leverage import model_pass
+    from kinid.identification.observations import Observations
+    from kinid.identification.periods import search_periods
+
+    ac = load_machine(path("five_axis_ac"))
+    effects, theta = errors_from_mapping({"EX0C": 12.0, "EY0C": -8.0}, ac)
+    base = _ac_plan(ac, 0.0)
+    plan = Observations(base.marks * 3, np.tile(base.w_mm, (3, 1)), np.tile(base.axes, (3, 1)),
+                        np.arange(3 * len(base)) * 15.0, {}, tuple(range(2, 3 * len(base) + 2)), "<A/C plan x 3>")
+    rng = np.random.default_rng(11)
+    exact = simulate(ac, plan, effects, theta, noise_um=1.0, rng=rng)
+    x = ac.axis_names.index("X")
+    assert distinct_positions(exact.axes[:, x]).size == 6
+    axes = exact.axes.copy()
+    axes[:, x] += rng.normal(0.0, 2e-3, len(axes))  # 2 µm: what the alignment solved, not where the plan sent X
+    jittered = replace(exact, axes=axes)
+    assert np.unique(np.round(axes[:, x], 3)).size > 30 and distinct_positions(axes[:, x]).size == 6
+    found = {}
+    for name, obs in (("exact", exact), ("jittered", jittered)):
+        model = default_model(ac)
+        result = fit(ac, obs, model, noise_um=1.0)
+        d_errors, _, q0 = model_pass(ac, obs, result)
+        r = result.residuals_um.ravel()
+        found[name] = {e.code: e for e in search_periods(ac, obs, r - q0 @ (q0.T @ r), d_errors, q0) if e.axis == "X"}
+    assert found["exact"] and found["jittered"].keys() == found["exact"].keys()
+    spacing = np.min(np.diff(distinct_positions(exact.axes[:, x])))
+    for code, e in found["jittered"].items():
+        assert e.trials == pytest.approx(found["exact"][code].trials, rel=1e-3), code
+        assert e.period >= 2.0 * spacing * (1 - 1e-9), (code, e.period, spacing)
+
+
+def test_readings_a_few_micrometres_apart_are_one_position_wherever_they_fall():
+    """Three positions read 50 times each, 2 µm apart at most, one of them on the boundary of a grid of 0.1 % of the
+    span (where rounding to a grid would split it in two); a position read exactly keeps its value to the last
+    digit."""
+    from kinid.identification.positions import distinct_positions
+
+    rng = np.random.default_rng(3)
+    q = np.repeat([10.01, 20.0, 30.0], 50) + np.r_[rng.uniform(-2e-3, 2e-3, 50), np.zeros(50), rng.normal(0, 1e-3, 50)]
+    found = distinct_positions(rng.permutation(q))
+    assert found.size == 3 and found[1] == 20.0 and np.allclose(found, [10.01, 20.0, 30.0], atol=3e-3), found
+    assert distinct_positions([]).size == 0 and distinct_positions([7.5]).tolist() == [7.5]
