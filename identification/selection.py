@@ -137,8 +137,9 @@ def _why_not_added(last) -> str:
     cv = last.held_out
     if cv is not None and not cv.improves:
         if cv.gain_se >= MIN_GAIN_SE and cv.chosen_gain_se is not None:
+            bar = cv.chosen_min_gain_se
             return (f"chosen on part of the alignments, its {cv.what_chosen} does not predict the others better: a "
-                    f"gain of {cv.chosen_gain_se:.1f} standard errors")
+                    f"gain of {cv.chosen_gain_se:.1f} standard errors" + (f", {bar:g} needed" if bar > 0 else ""))
         return (f"it does not predict held-out alignments better: a gain of {cv.gain_se:.1f} standard errors, "
                 f"{MIN_GAIN_SE:g} needed")
     return last.stopped.split("; ")[0]
@@ -147,6 +148,8 @@ def _why_not_added(last) -> str:
 def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progress, robust, folds, start=None) -> list:
     """The selection loop of :func:`forward_select` from ``effects`` on ``obs`` (``aside``: set aside so far;
     ``start``: the fit of ``effects`` on ``obs`` from a cold start, when the set-aside made it)."""
+    from .searched import refined_time_constant
+
     added = None
     steps = []
     theta0 = None
@@ -175,6 +178,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         if dg.inseparable and best is not None and best.effect == dg.live[0].effect:  # it names the best candidate
             undetermined[f"time {best.effect}"] = dg.inseparable  # said when the selection stops
         stop = ""
+        name = None  # the effect added: the best candidate, a warm-up at its refined time constant
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
         elif best is None:
@@ -189,9 +193,12 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             from .crossval import cross_validate
             from .effects import parse_effect as _parse
 
-            cv = cross_validate(machine, obs, effects, _parse(best.effect, machine), folds=folds, noise_um=noise_um,
-                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, best.effect, dg.fit))
-            progress.say(f"  {'':<28} next: {best.effect}, p = {best.p_value:.2g}, {cv}")
+            name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)  # tested as it would be added
+            refined = f" (time constant refined: {name.split(':')[2]})" if name != best.effect else ""
+            cv = cross_validate(machine, obs, effects, _parse(name, machine), folds=folds, noise_um=noise_um,
+                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, name, dg.fit, best.effect,
+                                                                          dg.noise_um))
+            progress.say(f"  {'':<28} next: {best.effect}{refined}, p = {best.p_value:.2g}, {cv}")
             steps[-1] = replace(steps[-1], held_out=cv)
             if not cv.improves:
                 stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
@@ -219,14 +226,14 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             progress.say(f"  stopped: {stop}")
             break
         from .effects import parse_effect
-        from .searched import refined_time_constant
 
         if pending:  # the period is not determined: said when the selection stops
             code, why = pending
             undetermined[code] = why
-        name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)
-        if name != best.effect:
-            progress.say(f"  {'':<28} time constant refined: {best.effect} → {name}")
+        if name is None:
+            name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)
+            if name != best.effect:
+                progress.say(f"  {'':<28} time constant refined: {best.effect} → {name}")
         effects.append(parse_effect(name, machine))
         theta0 = np.r_[dg.fit.theta, np.zeros(effects[-1].n_params)]
         added = name
@@ -234,40 +241,42 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
     return steps
 
 
-def _chosen_again(machine, obs, name: str, result):
-    """For the held-out check: what the data chose among many, chosen again on each turn's training blocks — a
-    periodic candidate's period (by the period search over the periods the positions of all of ``obs`` resolve,
-    :func:`~kinid.identification.searched.period_found_on`), a local error's window (among the windows the
-    diagnosis tries on its joint, :func:`~kinid.identification.local_errors.window_found_on`); None for other
-    candidates. Each turn's error-joint Jacobian is its rows of the one at ``result``, the fit of the model on all
-    of ``obs`` (a turn's fit moves the joints by noise)."""
-    kind = (name.split(":") + [""])[1]
-    if kind not in ("periodic", "local"):
-        return None
-    from kinid.errors import DataError
+def _chosen_again(machine, obs, name: str, result, start: str | None = None, sigma: float = 1.0):
+    """For the held-out check: what the data chose among many, chosen again on each turn's training blocks
+    (:data:`CHOOSERS`, by the kind of the candidate ``name``; None for a kind the data do not choose): a function
+    (training rows, training data, the turn's fit of the model) → the turn's candidate. ``start``: the candidate the
+    diagnosis proposed, where ``name`` is it refined (a warm-up's time constant); ``sigma`` the noise σ, µm."""
+    make = CHOOSERS.get((name.split(":") + [""])[1])
+    return None if make is None else make(machine, obs, name, result, start or name, sigma)
 
-    from .effects import parse_effect
+
+def _turn_jacobian(machine, obs, result):
+    """Each turn's rows of the error-joint Jacobian at ``result``, the fit of the model on all of ``obs`` (a turn's
+    fit moves the joints by noise), made at the first turn."""
     from .leverage import error_jacobian
-    from .local_errors import local_windows, window_found_on
-    from .searched import period_found_on
 
-    code = name.split(":")[0]
-    jacobian = []  # made at the first turn
+    jacobian = []
 
     def rows_of(rows):
         if not jacobian:
             jacobian.append(error_jacobian(machine, obs, result))
         return jacobian[0][rows]
+    return rows_of
 
-    if kind == "local":
-        candidate = parse_effect(name, machine)
-        windows = [w for w in local_windows(machine, obs, code) if w.name != name] + [candidate]
-        return lambda rows, train, turn: window_found_on(machine, train, turn, windows, rows_of(rows)) or candidate
-    period = float(name.split(":")[2])
+
+def _period_again(machine, obs, name, result, start, sigma):
+    """A periodic candidate's period, by the period search over the periods the positions of all of ``obs`` resolve
+    (:func:`~kinid.identification.searched.period_found_on`); the candidate itself where the turn finds its period
+    again, within what the turn's data determine (its fit serves)."""
+    from kinid.errors import DataError
+
+    from .effects import parse_effect
+    from .searched import period_found_on
+
+    code, period, rows_of = name.split(":")[0], float(name.split(":")[2]), _turn_jacobian(machine, obs, result)
 
     def choose(rows, train, turn):
         found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=rows_of(rows))
-        # the same period, within what the turn's data determine: the candidate itself (its fit serves)
         if found is None or abs(found.period - period) <= found.period_std:
             return parse_effect(name, machine)
         try:
@@ -275,6 +284,33 @@ def _chosen_again(machine, obs, name: str, result):
         except DataError:
             return parse_effect(name, machine)
     return choose
+
+
+def _window_again(machine, obs, name, result, start, sigma):
+    """A local error's window, among the windows the diagnosis tries on its joint that the turn's rows hold up
+    (:func:`~kinid.identification.local_errors.window_found_on`)."""
+    from .effects import parse_effect
+    from .local_errors import local_windows, window_found_on
+
+    candidate, rows_of = parse_effect(name, machine), _turn_jacobian(machine, obs, result)
+    windows = [w for w in local_windows(machine, obs, name.split(":")[0]) if w.name != name] + [candidate]
+    return lambda rows, train, turn: window_found_on(machine, train, turn, windows, rows_of(rows)) or candidate
+
+
+def _time_constant_again(machine, obs, name, result, start, sigma):
+    """A warm-up's time constant, refined from ``start``'s as the selection refines it
+    (:func:`~kinid.identification.searched.refined_time_constant`)."""
+    from .effects import parse_effect
+    from .searched import refined_time_constant
+
+    if obs.t_s is None:
+        return None
+    return lambda rows, train, turn: parse_effect(refined_time_constant(machine, train, turn, start, sigma), machine)
+
+
+#: How the held-out check's turns choose again what the data chose, by the kind of candidate (the choice's name
+#: and the gain it must bring: :data:`~kinid.identification.crossval.CHOSEN_AGAIN`).
+CHOOSERS = {"periodic": _period_again, "local": _window_again, "warmup": _time_constant_again}
 
 
 def _first_determined(dg):

@@ -80,6 +80,8 @@ def _window_gains(machine, seed, bump_um):
     best = window_found_on(machine, obs, result, windows)
     cv = cross_validate(machine, obs, model, best, noise_um=1.0, theta0=result.theta,
                         choose=_chosen_again(machine, obs, best.name, result), always_choose=True)
+    # a window chosen per turn must bring the candidate's own 2 standard errors
+    assert cv.improves == (cv.rms_with_um < cv.rms_without_um and cv.gain_se >= 2.0 and cv.chosen_gain_se >= 2.0)
     return best.name, cv.gain_se, cv.chosen_gain_se
 
 
@@ -96,6 +98,13 @@ def test_a_real_bump_keeps_its_window_held_out_gain(bc):
     for seed in range(3):
         name, fixed, again = _window_gains(bc, seed, 4.0)
         assert name.startswith("EXX:local:") and again >= 2.0, (name, fixed, again)
+
+
+def test_every_kind_the_turns_choose_again_has_its_bar_and_name():
+    from kinid.identification.crossval import CHOSEN_AGAIN
+    from kinid.identification.selection import CHOOSERS
+
+    assert set(CHOOSERS) == set(CHOSEN_AGAIN)
 
 
 def test_the_selection_chooses_a_periodic_candidates_period_per_turn(bc, monkeypatch):

@@ -83,6 +83,42 @@ def test_the_held_out_check_refits_with_the_candidate():
         assert cv.rms_with_um != cv.rms_without_um, c.effect
 
 
+def test_the_held_out_check_gives_the_refits_figures(monkeypatch):
+    """The check's turns are Gauss–Newton steps from the fit on all the data, not refits: on an arm (aliased pairs
+    that differ between blocks), the A/C table and the gantry, with the best candidate and a poor one, the held-out
+    figures and the gain are those of refitting each turn to convergence, written here without the check — and
+    those of the check on data too large to hold their Jacobian, which refits every turn."""
+    import kinid.identification.crossval as crossval
+    from kinid.identification import default_model, diagnose, fit, parse_effect
+    from kinid.identification.crossval import _gain_se, cross_validate
+    from kinid.identification.residuals import design, residuals
+
+    for seed, layout, kinds in ((3, "arm6", ["gear"]), (5, "five_axis_ac", ["lead"]), (8, "gantry_dual_y", ["sag"])):
+        _, machine, obs = _data(seed, layout, kinds, misread_share=0.0)
+        effects = list(default_model(machine))
+        dg = diagnose(machine, obs, effects, noise_um=1.0)
+        for c in (dg.live[0], dg.live[len(dg.live) // 2]):
+            candidate = parse_effect(c.effect, machine)
+            cv = cross_validate(machine, obs, effects, candidate, noise_um=1.0, theta0=dg.fit.theta)
+            order = np.argsort(obs.t_s, kind="stable")
+            squares = np.zeros((2, len(obs)))
+            for k in range(4):
+                test = np.sort(order[k::4])
+                train, te = obs.subset(np.setdiff1d(np.arange(len(obs)), test)), obs.subset(test)
+                for m, model in enumerate((effects, effects + [candidate])):
+                    refit = fit(machine, train, model, noise_um=1.0)
+                    r = residuals(machine, design(machine, model, te), te, refit.theta, jacobian=False)
+                    squares[m, test] = np.sum(r**2, axis=1)
+            rms = np.sqrt(squares.sum(axis=1) / (3 * len(obs)))
+            assert cv.rms_without_um == pytest.approx(rms[0], rel=1e-6), (layout, c.effect)
+            assert cv.rms_with_um == pytest.approx(rms[1], rel=1e-6), (layout, c.effect)
+            assert cv.gain_se == pytest.approx(_gain_se(squares[0] - squares[1]), rel=1e-4, abs=1e-4), (layout, c.effect)
+            with monkeypatch.context() as m:
+                m.setattr(crossval, "LINEAR_MAX_VALUES", 0)
+                refitted = cross_validate(machine, obs, effects, candidate, noise_um=1.0, theta0=dg.fit.theta)
+            assert (refitted.rms_without_um, refitted.rms_with_um) == pytest.approx(tuple(rms), rel=1e-6)
+
+
 def _data(seed, layout, kinds, **fixed):
     """The proving ground's rows for one scenario, as kinid Observations (fit rows only)."""
     from kinid.identification.machine import machine_from_urdf
