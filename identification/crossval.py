@@ -125,9 +125,10 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
                    theta0=None, choose=None, always_choose: bool = False) -> CrossValidation:
     """Held-out RMS of ``effects`` and of ``effects + [candidate]``, fitted on all blocks but one in turn.
     ``theta0``: the fit of ``effects`` on all of ``obs`` (made here if not given). ``choose(training rows, training
-    data, fit of effects on them)``, if given, is the candidate of each turn: what the data chose (a period searched)
-    chosen again on the training blocks alone; its gain is ``chosen_gain_se``, measured once the candidate passes
-    (or ``always_choose``).
+    data, fit of effects on them, their rows of the error-joint Jacobian at ``theta0`` or None)``, if given, is the
+    candidate of each turn: what the data chose (a period searched) chosen again on the training blocks alone (a
+    turn's fit moves the joints by noise: the whole data's Jacobian serves); its gain is ``chosen_gain_se``,
+    measured once the candidate passes (or ``always_choose``).
 
     Each turn's fit is the Gauss–Newton step from the fit on all of ``obs`` over the turn's training rows: the
     residuals and Jacobian of one pass at that fit, the turn's identifiable parameters found from its rows as a fit
@@ -203,7 +204,8 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
         tr = obs.subset(train)
         # the turn's fit as the chooser reads it: the model at the turn's values, evaluated (no iteration: they are
         # the optimum already, to far below the noise), or its refit
-        own = choose(train, tr, refit or fit(machine, tr, effects, noise_um=noise_um, theta0=without, max_iter=0))
+        own = choose(train, tr, refit or fit(machine, tr, effects, noise_um=noise_um, theta0=without, max_iter=0),
+                     None if d_errors is None else d_errors[train])
         chosen.append(own.name)
         if own.name == candidate.name:  # the same effect: the same fit
             per_row[2, test] = per_row[1, test]

@@ -12,7 +12,7 @@ from .machine import Machine, evaluate
 from .observations import Observations, exact_duplicates, row_groups
 from .residuals import design, effect_columns, joint_values
 
-__all__ = ["model_pass", "error_jacobian", "studentized", "noise_from_replicates", "axis_residuals"]
+__all__ = ["model_pass", "studentized", "noise_from_replicates", "axis_residuals"]
 
 
 def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray):
@@ -40,12 +40,6 @@ def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray)
     mean = sums / count[:, None]
     dof = int(3 * np.sum(count - 1))
     return (np.sqrt(float(np.sum((r - mean[group]) ** 2)) / dof), dof) if dof else None
-
-
-def error_jacobian(machine: Machine, obs: Observations, result) -> np.ndarray:
-    """The error-joint Jacobian (N, 3, n_errors) at the fit: one Pinocchio pass."""
-    d0 = design(machine, result.effects, obs)
-    return evaluate(machine, obs.axes, joint_values(machine, d0, result.theta), offsets_mm=obs.offsets_mm)[1]
 
 
 def model_pass(machine: Machine, obs: Observations, result, d_errors=None):

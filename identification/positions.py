@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["distinct_positions", "position_starts", "POSITION_TOLERANCE"]
+__all__ = ["distinct_positions", "positions_of", "position_starts", "POSITION_TOLERANCE"]
 
 #: Readings closer than this share of the span are one position (the jitter of solved readings is no sampling).
 POSITION_TOLERANCE = 1e-3
@@ -20,12 +20,22 @@ def distinct_positions(q) -> np.ndarray:
     span (at least 0.001) of the lowest reading not yet placed count as one position, placed at the middle of
     their range (a reading repeated exactly is its own position, to the last digit). Readings a few µm apart are
     one position wherever they fall, not two when they straddle the boundary of a fixed grid."""
-    q = np.sort(np.asarray(q, float))
+    return np.unique(positions_of(q))
+
+
+def positions_of(q) -> np.ndarray:
+    """Each reading of ``q`` replaced by its position (:func:`distinct_positions`), in the readings' order."""
+    q = np.asarray(q, float)
     if q.size == 0:
-        return q
-    first = position_starts(q, max(POSITION_TOLERANCE * float(q[-1] - q[0]), 1e-3))
-    last = np.r_[first[1:], q.size] - 1
-    return 0.5 * (q[first] + q[last])
+        return q.copy()
+    order = np.argsort(q, kind="stable")
+    ordered = q[order]
+    first = position_starts(ordered, max(POSITION_TOLERANCE * float(ordered[-1] - ordered[0]), 1e-3))
+    size = np.diff(np.r_[first, q.size])
+    middle = 0.5 * (ordered[first] + ordered[first + size - 1])
+    out = np.empty(q.size)
+    out[order] = np.repeat(middle, size)
+    return out
 
 
 def position_starts(q_sorted: np.ndarray, within: float) -> np.ndarray:

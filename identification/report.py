@@ -224,15 +224,14 @@ def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
                   f"{'compensation' if fit_file else 'DIR'}).")
     else:
         best = diagnosis.live[0] if diagnosis.live else None
+        lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
+                 f"shows an effect the model lacks")
         if best is not None and best.p_value < diagnosis.threshold and selected:
-            second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
-                      f"shows an effect the model lacks; its most likely cause, {best.effect}, was not added, for the "
-                      f"reason above: measure more where it acts (kinid plan --detect {best.effect}=SIZE) and "
-                      f"identify again.")
+            second = (f"{lacks}; its most likely cause, {best.effect}, was not added, for the reason above: measure "
+                      f"more where it acts (kinid plan --detect {best.effect}=SIZE) and identify again.")
         elif best is not None and best.p_value < diagnosis.threshold:
-            second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
-                      f"shows an effect the model lacks, most likely {best.effect} (p = {best.p_value:.2g}); next: "
-                      f"kinid identify ... --add {best.effect}.")
+            second = (f"{lacks}, most likely {best.effect} (p = {best.p_value:.2g}); next: kinid identify ... "
+                      f"--add {best.effect}.")
         else:
             second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate) exceeds the noise "
                       f"(σ {diagnosis.noise_um:.3g} µm) but no candidate explains it"

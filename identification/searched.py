@@ -143,18 +143,20 @@ def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q
 TAU_REFINE_FACTOR = 3.0
 
 
-def refined_time_constant(machine: Machine, obs: Observations, result: FitResult, name: str, sigma: float) -> str:
+def refined_time_constant(machine: Machine, obs: Observations, result: FitResult, name: str, sigma: float,
+                          d_errors=None) -> str:
     """``CODE:warmup:<τ>`` with τ refined to the one whose candidate explains most of the residuals of ``result``
     (a log grid within TAU_REFINE_FACTOR of the candidate's τ, then a bounded search in log τ); any other name as
     it is. A warm-up is proposed at the τ of the library's grid (a factor 3 apart) or of the search, whose trials
-    penalty may keep a better τ out; fitted at a τ off the machine's, its amplitude misses the growth between."""
+    penalty may keep a better τ out; fitted at a τ off the machine's, its amplitude misses the growth between.
+    ``d_errors``: the error-joint Jacobian to score with (else one pass at ``result``)."""
     from .effects import parse_effect
     from .scoring import fit_side
 
     code, kind, tau = (name.split(":") + ["", ""])[:3]
     if kind != "warmup" or obs.t_s is None:
         return name
-    d_errors, _, q0 = model_pass(machine, obs, result)
+    d_errors, _, q0 = model_pass(machine, obs, result, d_errors)
     side = fit_side(machine, obs, result, sigma, d_errors, q0)  # one for the thirty-odd τ scored
 
     def named(log_tau) -> str:  # four significant digits, never in exponent notation

@@ -244,24 +244,12 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
 def _chosen_again(machine, obs, name: str, result, start: str | None = None, sigma: float = 1.0):
     """For the held-out check: what the data chose among many, chosen again on each turn's training blocks
     (:data:`CHOOSERS`, by the kind of the candidate ``name``; None for a kind the data do not choose): a function
-    (training rows, training data, the turn's fit of the model) → the turn's candidate. ``start``: the candidate the
-    diagnosis proposed, where ``name`` is it refined (a warm-up's time constant); ``sigma`` the noise σ, µm."""
+    (training rows, training data, the turn's fit of the model, their rows of the error-joint Jacobian at
+    ``result`` or None) → the turn's candidate. ``result``: the fit of the model on all of ``obs``; ``start``: the
+    candidate the diagnosis proposed, where ``name`` is it refined (a warm-up's time constant); ``sigma`` the
+    noise σ, µm."""
     make = CHOOSERS.get((name.split(":") + [""])[1])
     return None if make is None else make(machine, obs, name, result, start or name, sigma)
-
-
-def _turn_jacobian(machine, obs, result):
-    """Each turn's rows of the error-joint Jacobian at ``result``, the fit of the model on all of ``obs`` (a turn's
-    fit moves the joints by noise), made at the first turn."""
-    from .leverage import error_jacobian
-
-    jacobian = []
-
-    def rows_of(rows):
-        if not jacobian:
-            jacobian.append(error_jacobian(machine, obs, result))
-        return jacobian[0][rows]
-    return rows_of
 
 
 def _period_again(machine, obs, name, result, start, sigma):
@@ -273,10 +261,10 @@ def _period_again(machine, obs, name, result, start, sigma):
     from .effects import parse_effect
     from .searched import period_found_on
 
-    code, period, rows_of = name.split(":")[0], float(name.split(":")[2]), _turn_jacobian(machine, obs, result)
+    code, period = name.split(":")[0], float(name.split(":")[2])
 
-    def choose(rows, train, turn):
-        found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=rows_of(rows))
+    def choose(rows, train, turn, d_errors):
+        found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=d_errors)
         if found is None or abs(found.period - period) <= found.period_std:
             return parse_effect(name, machine)
         try:
@@ -292,9 +280,9 @@ def _window_again(machine, obs, name, result, start, sigma):
     from .effects import parse_effect
     from .local_errors import local_windows, window_found_on
 
-    candidate, rows_of = parse_effect(name, machine), _turn_jacobian(machine, obs, result)
+    candidate = parse_effect(name, machine)
     windows = [w for w in local_windows(machine, obs, name.split(":")[0]) if w.name != name] + [candidate]
-    return lambda rows, train, turn: window_found_on(machine, train, turn, windows, rows_of(rows)) or candidate
+    return lambda rows, train, turn, d_errors: window_found_on(machine, train, turn, windows, d_errors) or candidate
 
 
 def _time_constant_again(machine, obs, name, result, start, sigma):
@@ -305,7 +293,8 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
 
     if obs.t_s is None:
         return None
-    return lambda rows, train, turn: parse_effect(refined_time_constant(machine, train, turn, start, sigma), machine)
+    return lambda rows, train, turn, d_errors: parse_effect(
+        refined_time_constant(machine, train, turn, start, sigma, d_errors=d_errors), machine)
 
 
 #: How the held-out check's turns choose again what the data chose, by the kind of candidate (the choice's name

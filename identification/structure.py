@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .positions import POSITION_TOLERANCE
+from .observations import row_groups
+from .positions import positions_of
 
 __all__ = ["Structure", "structure_left"]
 
@@ -55,18 +56,8 @@ def _neighbours(coords: np.ndarray) -> np.ndarray:
     """Index of each row's nearest other row (Euclidean; of rows as near, the first), by chunks to bound memory."""
     if coords.shape[1] == 1:
         return _neighbours_on_a_line(coords[:, 0])
-    n = len(coords)
-    out = np.empty(n, dtype=int)
-    # a row repeated (a pose measured again) has its first other copy, at distance 0; only the others are searched
-    _, group, size = np.unique(coords, axis=0, return_inverse=True, return_counts=True)
-    group = group.ravel()
-    order = np.argsort(group, kind="stable")  # each group's rows in their order
-    starts = np.r_[0, np.cumsum(size)[:-1]]
-    first, second = order[starts], order[np.minimum(starts + 1, n - 1)]
-    rows = np.arange(n)
-    twin = size[group] > 1
-    out[twin] = np.where(first[group[twin]] == rows[twin], second[group[twin]], first[group[twin]])
-    single = np.flatnonzero(~twin)
+    out = _first_other_copy(row_groups(coords)[0])  # a pose measured again: its copy, at distance 0
+    single = np.flatnonzero(out < 0)  # only the others are searched
     for start in range(0, single.size, 512):
         which = single[start:start + 512]
         d = np.sum((coords[which][:, None, :] - coords[None, :, :]) ** 2, axis=2)
@@ -82,16 +73,11 @@ def _neighbours_on_a_line(x: np.ndarray) -> np.ndarray:
     order = np.argsort(x, kind="stable")  # equal values in the order of their rows
     ordered = x[order]
     starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
-    size = np.diff(np.r_[starts, n])
     value, first = ordered[starts], order[starts]
-    second = order[np.minimum(starts + 1, n - 1)]
     group = np.empty(n, int)
-    group[order] = np.repeat(np.arange(starts.size), size)
-    out = np.empty(n, int)
-    rows = np.arange(n)
-    twin = size[group] > 1
-    g = group[twin]
-    out[twin] = np.where(first[g] == rows[twin], second[g], first[g])
+    group[order] = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, n]))
+    out = _first_other_copy(group)
+    twin = out >= 0
     g, last = group[~twin], starts.size - 1
     left, right = np.maximum(g - 1, 0), np.minimum(g + 1, last)
     d_left = np.where(g > 0, (x[~twin] - value[left]) ** 2, np.inf)  # the squares the pairwise search compares
@@ -99,6 +85,17 @@ def _neighbours_on_a_line(x: np.ndarray) -> np.ndarray:
     out[~twin] = np.where(d_left < d_right, first[left],
                           np.where(d_right < d_left, first[right], np.minimum(first[left], first[right])))
     return out
+
+
+def _first_other_copy(group: np.ndarray) -> np.ndarray:
+    """For rows in groups of equal rows (``group``, numbered from 0): the first other row of the group, −1 for a row
+    alone in its group."""
+    n = len(group)
+    order = np.argsort(group, kind="stable")  # each group's rows in their order
+    size = np.bincount(group)
+    starts = np.r_[0, np.cumsum(size)[:-1]]
+    first, second = order[starts], order[np.minimum(starts + 1, n - 1)]
+    return np.where(size[group] < 2, -1, np.where(first[group] == np.arange(n), second[group], first[group]))
 
 
 def _ratio(r: np.ndarray, nn: np.ndarray) -> np.ndarray:
@@ -125,12 +122,14 @@ def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Struc
         keep = np.sort(rng.choice(n, MAX_ROWS, replace=False))
         r, a, t, n = r[keep], a[keep], None if t is None else t[keep], MAX_ROWS
     names = list(names) or [f"axis {k + 1}" for k in range(a.shape[1])]
-    usable = np.all(np.isfinite(a), axis=0) & (np.ptp(np.where(np.isfinite(a), a, 0.0), axis=0) > 0)
+    # readings within 0.1 % of an axis's range one position (as every test counts them: readings solved from a
+    # measurement carry its noise, so replicas micrometres apart would be neighbours through their shared noise, not
+    # through the machine); the axes read everywhere, at more than one position, each scaled by its range
+    usable = np.all(np.isfinite(a), axis=0)
     a, names = a[:, usable], [nm for nm, u in zip(names, usable) if u]
-    # every axis scaled by its range, and readings within 0.1 % of it one position (as the period check counts
-    # them): readings solved from a measurement carry its noise, so replicas micrometres apart would be neighbours
-    # through their shared noise, not through the machine
-    a = np.round(a / np.ptp(a, axis=0) / POSITION_TOLERANCE) * POSITION_TOLERANCE
+    a = np.column_stack([positions_of(a[:, k]) for k in range(a.shape[1])]) if a.shape[1] else a
+    moving = np.ptp(a, axis=0) > 0
+    a, names = a[:, moving] / np.ptp(a[:, moving], axis=0), [nm for nm, m in zip(names, moving) if m]
     looks = [("readings", a)]
     if t is not None and np.ptp(t) > 0:
         looks.append(("time", t[:, None]))
