@@ -113,7 +113,8 @@ class Basis:
     param_units : callable (effect, joint unit "µm"/"µrad", axis unit "mm"/"deg") -> list of str
     values : callable (effect, q, t_s, direction) -> array (N, n_params)
         ``q`` the axis readings (mm / deg), ``t_s`` times (s), ``direction`` ±1 of the axis; each None
-        where the basis's driver does not need it.
+        where the basis's driver does not need it. The values depend on the effect's axis and its name after the
+        joint's code only (the score test computes them once for all the joints of an axis).
     describe : callable (effect, " mm" or "") -> str
         How the effect varies, in words.
     size : callable (effect, beta, cov) -> (value, std)

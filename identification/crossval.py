@@ -136,7 +136,7 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
     noise: the held-out figures are those of refits to 10⁻⁶ of themselves or better (a refit where a turn cannot
     identify a parameter the whole data gave a value, or where the step leaves the linear model). Data whose
     Jacobian would hold more than LINEAR_MAX_VALUES numbers are refitted turn by turn, memory flat in them."""
-    from .fit import fit
+    from .fit import evaluated_fit, fit
     from .residuals import design, effect_columns, residuals
 
     n, effects = len(obs), list(effects)
@@ -157,8 +157,8 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
     turns = []
 
     def held_out(m, model, columns, names_m, train, test):
-        """``model`` (Jacobian ``columns`` at ``at``) fitted on rows ``train``: its values and its FitResult where it
-        was refitted (else None), and the held-out squared error of rows ``test`` (per row into ``per_row[m]``)."""
+        """``model`` (Jacobian ``columns`` at ``at``) fitted on rows ``train``: its FitResult (a refit, or the step
+        evaluated), and the held-out squared error of rows ``test`` (per row into ``per_row[m]``)."""
         theta = np.zeros(len(names_m))
         theta[:size] = at[:size]  # the effects' fit on all the data; a candidate's values 0
         tr = obs.subset(train)
@@ -171,17 +171,17 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
             step = theta.copy()
             step[free] += delta
             predicted = float(np.sum((r[train].ravel() + Jt[:, free] @ delta) ** 2))
-            actual = float(np.sum(residuals(machine, design(machine, model, tr), tr, step, jacobian=False) ** 2))
-            if abs(actual - predicted) <= LINEAR_TOL * predicted:  # the model is linear that far: the step is the refit
+            at_step = residuals(machine, design(machine, model, tr), tr, step, jacobian=False)
+            if abs(float(np.sum(at_step**2)) - predicted) <= LINEAR_TOL * predicted:  # linear that far: the refit
                 pred = r[test] + columns[test][:, :, free] @ delta
                 per_row[m, test] = np.sum(pred**2, axis=1)
-                return (step, None), float(np.sum(pred**2))
+                return evaluated_fit(machine, tr, model, step, at_step, free, noise_um=noise_um), float(np.sum(pred**2))
         # refitted: the model is not linear over the step (a direction the turn barely determines), or from zero
         refit = fit(machine, tr, model, noise_um=noise_um, theta0=theta)
         te = obs.subset(test)
         pred = residuals(machine, design(machine, model, te), te, refit.theta, jacobian=False)
         per_row[m, test] = np.sum(pred**2, axis=1)
-        return (refit.theta, refit), float(np.sum(pred**2))
+        return refit, float(np.sum(pred**2))
 
     models = ((effects, None if J is None else J[:, :, :size], names[:size]), (effects + [candidate], J, names))
     for k in range(folds):
@@ -200,12 +200,9 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
         return CrossValidation(folds, float(rms[0]), float(rms[1]), gain)
     # the candidate passes: is the way it was chosen as good, chosen without the held-out block?
     chosen = []
-    for train, test, (without, refit) in turns:
-        tr = obs.subset(train)
-        # the turn's fit as the chooser reads it: the model at the turn's values, evaluated (no iteration: they are
-        # the optimum already, to far below the noise), or its refit
-        own = choose(train, tr, refit or fit(machine, tr, effects, noise_um=noise_um, theta0=without, max_iter=0),
-                     None if d_errors is None else d_errors[train])
+    for train, test, turn in turns:
+        # the turn's fit as the chooser reads it: its refit, or the model evaluated at the step (the optimum)
+        own = choose(train, obs.subset(train), turn, None if d_errors is None else d_errors[train])
         chosen.append(own.name)
         if own.name == candidate.name:  # the same effect: the same fit
             per_row[2, test] = per_row[1, test]

@@ -87,6 +87,8 @@ class Diagnosis:
         Externally studentized residual norm of each alignment (χ-like, 3 dof).
     leverage : array (N,)
         Leverage of each alignment (sum over its 3 coordinates of the hat matrix diagonal).
+    hat : array (N, 3)
+        The hat matrix's diagonal, per coordinate (what the set-aside of gross errors studentizes with).
     outliers : tuple of int
         Rows whose studentized residual is beyond the Bonferroni χ²₃ quantile.
     axis_residuals_um : array (N, 3)
@@ -152,6 +154,7 @@ class Diagnosis:
         return [c for c in self.candidates if c.status == "live"]
 
     marks: tuple = ()
+    hat: np.ndarray = None
 
     def by_mark(self):
         """(mark, alignments, RMS in the workpiece frame, RMS per solved axis) for each mark, µm."""
@@ -379,15 +382,16 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0, side) if significant else ("", ())
     follows = time_follows(obs, machine)
     inseparable = _inseparable(machine, live, follows) if significant else ""
-    stud, lev = studentized(result, q0, sigma)
+    hat = np.sum(q0**2, axis=1).reshape(-1, 3)
+    stud, lev = studentized(result, None, sigma, h=hat)
     bound = chi2_isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))
     rms = float(np.sqrt(np.mean(r**2)))
     axis_r, axis_names = axis_residuals(machine, obs, result, d_axes=d_axes)
     return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
-                     axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), structure=structure,
-                     time_follows=follows, undetermined=undetermined, twins=twins, inseparable=inseparable)
+                     axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), hat=hat,
+                     structure=structure, time_follows=follows, undetermined=undetermined, twins=twins, inseparable=inseparable)
 
 
 #: Two candidates whose χ² drops differ by less than this explain the data alike (χ²₂ at 1 %).

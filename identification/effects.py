@@ -79,6 +79,9 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         Naming the effect and what is wrong (unknown joint, bad basis, a
         position basis on a set-up joint ...).
     """
+    known = machine.parsed_effects.get(name)
+    if known is not None:
+        return known
     code = name.strip().partition(":")[0]
     if code not in machine.error_codes:
         close = [c for c in machine.error_codes if c[:2] == code[:2]][:6]
@@ -87,7 +90,8 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
     joint = machine.error_joint(code)
     basis, fields = parse_name(name, joint, machine, source)
     axis = joint.axis if basis.driver in ("position", "direction", "positions") else ""
-    return Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
+    effect = machine.parsed_effects[name] = Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
+    return effect
 
 
 def check_effects(machine: Machine, effects, name: str = "effects") -> tuple:

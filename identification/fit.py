@@ -28,7 +28,7 @@ from .observations import Observations, check_observations
 from .fit_pass import model_pass_qr
 from .residuals import design, residuals
 
-__all__ = ["FitResult", "Noise", "fit", "model_effects", "FIT_FORMAT"]
+__all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "FIT_FORMAT"]
 
 FIT_FORMAT = "kinid-fit/1"
 
@@ -359,6 +359,29 @@ def fit(
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
         prior_std=None if prior_std is None else np.asarray(prior_std, float), correlation=correlation,
     )
+
+
+def evaluated_fit(machine: Machine, obs: Observations, effects, theta, residuals_um, identifiable, *,
+                  noise_um: float | None = None) -> FitResult:
+    """The model ``effects`` at the values ``theta`` on ``obs``, as a FitResult, from its residuals there (N, 3)
+    and the parameters the data identify — both already evaluated: no pass, no iteration. For code that reads a
+    model's values, residuals and identifiable set at a point known to be its optimum (the held-out check's turns,
+    Gauss–Newton steps from the whole data's fit); no standard deviations (NaN) or observability."""
+    effects = tuple(effects)
+    free = np.asarray(identifiable, bool)
+    r = np.asarray(residuals_um, float)
+    rank = int(free.sum())
+    dof = r.size - rank
+    noise = (Noise(float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan"), "residuals")
+             if noise_um is None else Noise(noise_um, "given"))
+    P = len(free)
+    return FitResult(
+        machine=machine, effects=effects, param_names=tuple(n for e in effects for n in e.param_names()),
+        units=tuple(u for e in effects for u in e.param_units(machine)), values=np.where(free, theta, np.nan),
+        std=np.full(P, np.nan), identifiable=free.copy(), aliases=(), rank=rank, condition_number=float("nan"),
+        o1=float("nan"), o3=float("nan"), residuals_um=r, n_observations=int(r.shape[0]),
+        rms_um=float(np.sqrt(np.mean(r**2))), noise=noise, dof=dof, iterations=0, success=True,
+        message="evaluated at the values given", axis_ranges=_axis_ranges(machine, obs))
 
 
 def _with_prior(J, w_prior):

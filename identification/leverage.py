@@ -67,9 +67,14 @@ def studentized(result, q0, sigma, *, h=None):
     return stud, h.sum(axis=1)
 
 
+#: Above this many numbers (3N × P), :func:`leverages` does not hold the Jacobian: two passes, memory flat.
+HELD_JACOBIAN_VALUES = 3e7
+
+
 def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
-    """The hat matrix's diagonal (N, 3) of the identifiable Jacobian at the fit, a chunk of alignments at a time
-    (two passes: the R factor, then each row's ‖J_i R⁻¹‖²): memory flat in the alignments."""
+    """The hat matrix's diagonal (N, 3) of the identifiable Jacobian at the fit: each row's ‖J_i R⁻¹‖² (R of
+    J = QR). One pass holding the Jacobian; beyond HELD_JACOBIAN_VALUES numbers a chunk of alignments at a time
+    (two passes: the R factor, then the rows), memory flat in the alignments."""
     from .fit_pass import CHUNK_ROWS, chunks, model_pass_qr
     from .residuals import residuals
 
@@ -77,6 +82,9 @@ def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
     free = result.identifiable
     if not free.any():
         return np.zeros((len(obs), 3))
+    if 3 * len(obs) * d0.n_params <= HELD_JACOBIAN_VALUES:
+        J = residuals(machine, d0, obs, result.theta)[1].reshape(-1, d0.n_params)[:, free]
+        return np.sum(np.linalg.qr(J, mode="reduced")[0] ** 2, axis=1).reshape(-1, 3)
     R = model_pass_qr(machine, d0, obs, result.theta).R[:, free]
     Rf = np.linalg.qr(R, mode="r")[: int(free.sum())]
     out = []

@@ -57,9 +57,9 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
 
     from .effects import axis_dependent_joints
 
-    maps, grids = [], {}
+    maps, grids, axes = [], {}, {}
     for code, axis in axis_dependent_joints(machine):
-        grid = _map_grid(machine, obs, code, axis)
+        grid = _map_grid(machine, obs, code, axis, axes)
         if grid is None:
             continue
         whole, q, distinct, support = grid
@@ -79,12 +79,15 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
         c.effect.split(":")[0] for c in sorted((c for c in scored if c.status == "live"), key=lambda c: c.log10_p)[:LOCAL_MAPS]]
     codes = [c for c in dict.fromkeys(codes) if c in grids]
     windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
-    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known,
-                                         d_errors=d_errors, q0=q0, side=side) if c.status == "live"] if windows else []
+    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known, d_errors=d_errors,
+                                         q0=q0, side=side, notes=False) if c.status == "live"] if windows else []
     if local:
         # near ties (within a factor LOCAL_TIE in p) go to the joint of the best map, where the structure was seen
         home = codes[0]
         best_local = min(local, key=lambda c: c.log10_p - (math.log10(LOCAL_TIE) if c.effect.startswith(home + ":") else 0.0))
+        said = score_candidates(machine, obs, result, [next(w for w in windows if w.name == best_local.effect)], sigma,
+                                sigma_known=known, d_errors=d_errors, q0=q0, side=side)[0]
+        best_local = replace(best_local, note=said.note)  # in words, for the one kept
         trials = float(len(windows))
         log10_local = best_local.log10_p + math.log10(trials)
         if best is None or log10_local < best.log10_p + math.log10(len(fresh)):
@@ -96,27 +99,35 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
     return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
 
 
-def _map_grid(machine, obs, code: str, axis: str):
+def _map_grid(machine, obs, code: str, axis: str, axes=None):
     """(the whole map of error joint ``code`` over the range its axis's readings cover, the readings, their distinct
     positions, the readings each of the map's knots rests on), or None where the axis is read at too few positions
-    for maps and local errors."""
+    for maps and local errors. ``axes``: a dict keeping what is the same for every joint of an axis."""
     from kinid.errors import DataError
 
     from .effects import parse_effect
 
-    q = obs.axes[:, machine.axis_names.index(axis)]
-    lo, hi = float(np.min(q)), float(np.max(q))
-    distinct = distinct_positions(q)  # jitter of the readings is not a finer sampling
-    if not hi > lo or distinct.size < LOCAL_MIN_POSITIONS:
+    if axes is None or axis not in axes:
+        q = obs.axes[:, machine.axis_names.index(axis)]
+        lo, hi = float(np.min(q)), float(np.max(q))
+        distinct = distinct_positions(q)  # jitter of the readings is not a finer sampling
+        grid = None
+        if hi > lo and distinct.size >= LOCAL_MIN_POSITIONS:
+            step = _nice_step(hi - lo)
+            lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
+            knots = np.arange(lo, hi + step / 2, step)
+            grid = (step, lo, hi, q, distinct, _hat_support(q, knots[0], step, len(knots)))
+        if axes is None:
+            axes = {}
+        axes[axis] = grid
+    if axes[axis] is None:
         return None
-    step = _nice_step(hi - lo)
-    lo, hi = math.floor(lo / step) * step, math.ceil(hi / step) * step
-    knots = np.arange(lo, hi + step / 2, step)
+    step, lo, hi, q, distinct, support = axes[axis]
     try:
         whole = parse_effect(f"{code}:map:{step:g}:{lo:g}:{hi:g}", machine)
     except DataError:
         return None
-    return whole, q, distinct, _hat_support(q, knots[0], step, len(knots))
+    return whole, q, distinct, support
 
 
 def local_windows(machine, obs, code: str) -> list:
@@ -160,7 +171,7 @@ def window_found_on(machine, obs, result, windows, d_errors=None):
         return None
     d_errors, _, q0 = model_pass(machine, obs, result, d_errors)
     live = [c for c in score_candidates(machine, obs, result, windows, 1.0, sigma_known=False, d_errors=d_errors,
-                                        q0=q0) if c.status == "live"]
+                                        q0=q0, notes=False) if c.status == "live"]
     best = min(live, key=lambda c: c.log10_p, default=None)
     return None if best is None else next(w for w in windows if w.name == best.effect)
 

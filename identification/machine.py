@@ -133,6 +133,12 @@ class Machine:
     def error_codes(self) -> tuple:
         return tuple(e.code for e in self.error_joints)
 
+    @functools.cached_property
+    def parsed_effects(self) -> dict:
+        """Effect names parsed against this machine (:func:`~kinid.identification.effects.parse_effect`), by
+        name: a diagnosis parses the names of its ~800 candidates again in each of its tests."""
+        return {}
+
 
 def load_machine(path) -> Machine:
     """Load a machine URDF and check it against docs/machines.md.

@@ -51,10 +51,12 @@ def set_aside_outliers(machine, obs: Observations, effects, *, noise_um=None, al
 
 
 def set_aside_with_fit(machine, obs: Observations, effects, *, noise_um=None, alpha: float = OUTLIER_ALPHA,
-                       free_fraction: float = 0.02, max_fraction: float = 0.10, rounds: int = 4, first=None):
+                       free_fraction: float = 0.02, max_fraction: float = 0.10, rounds: int = 4, first=None,
+                       first_hat=None):
     """:func:`set_aside_outliers`, and the fit of ``effects`` on the alignments kept (None when the last round set
     rows aside: those kept were not fitted again). ``first``: a fit of ``effects`` on ``obs`` the first round
-    takes instead of fitting (the selection has one when it stops, and uses the fit returned for its first step)."""
+    takes instead of fitting (the selection has one when it stops, and uses the fit returned for its first step);
+    ``first_hat``: its hat matrix's diagonal (N, 3), if known (a diagnosis of ``first`` has it)."""
     from kinid.stats import chi2_isf
 
     from .leverage import leverages, studentized
@@ -72,7 +74,8 @@ def set_aside_with_fit(machine, obs: Observations, effects, *, noise_um=None, al
         sigma = 1.4826 * float(np.median(np.abs(r)))
         if not sigma > 0:
             break
-        stud, _ = studentized(result, None, sigma, h=leverages(machine, kept, result))
+        h = first_hat if first_hat is not None and result is first else leverages(machine, kept, result)
+        stud, _ = studentized(result, None, sigma, h=h)
         bound = chi2_isf(alpha / len(kept), 3)
         bad = np.flatnonzero(stud**2 > bound)
         total = len(out) + bad.size

@@ -55,6 +55,10 @@ CHUNK_BYTES = 8 * 1024 * 1024
 #: On the frequency grid, readings within this share of the shortest period searched count as one position (a
 #: phase error of at most π·10⁻³: the grid's Δ moves by ~10⁻⁵ of itself, and only points at the peak refined).
 GRID_MERGE = 1e-3
+#: With ``refine=k``, the joints refined are those whose Δ on the grid is at least this share of the k-th largest:
+#: refining raises a joint's Δ by a few per cent (at most 6 % on the grids of the speed benchmark's data and its
+#: subsets; the grid is oversampled), so no joint left on its grid peak can rise among the k best.
+REFINE_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -175,7 +179,8 @@ def _axis_groups(joints):
 
 
 def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, d_errors: np.ndarray,
-                   q0: np.ndarray, sigma: float = 1.0, codes=None, range_of: Observations | None = None) -> list:
+                   q0: np.ndarray, sigma: float = 1.0, codes=None, range_of: Observations | None = None,
+                   joint_series=None, refine: int | None = None) -> list:
     """Best period of every position-dependent error joint, refined, best first.
 
     Parameters
@@ -191,6 +196,12 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
     range_of : Observations, optional
         The readings whose positions set the periods searched (the shortest, the longest), if not ``obs``'s: a
         part of a data set is searched over the whole set's range.
+    joint_series : callable (error joint index) -> tuple, optional
+        The series of the score test's fit side (:meth:`~kinid.identification.scoring.FitSide.joint_series`) at
+        these residuals, σ and basis: what the search sums, computed once for both (here if not given).
+    refine : int, optional
+        Refine only the joints that can be among the ``refine`` best (:data:`REFINE_SHARE`); the others' estimates
+        are their grid peaks (period on the grid, ``period_std`` NaN). Default: refine every joint.
 
     Returns
     -------
@@ -204,6 +215,18 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
 
     varying = {code for code, _ in axis_dependent_joints(machine) if codes is None or code in codes}
     found = {}
+
+    def stacked(joints):  # per joint (N, J): products with the residual, squared norms; (N, J, rank) with q0's rows
+        if joint_series is not None:
+            parts = [joint_series(j)[:3] for j in joints]
+            return tuple(np.stack(s, axis=1) for s in ([p[1] for p in parts], [p[0] for p in parts],
+                                                         [p[2] for p in parts]))
+        cols = [d_errors[:, :, j] / sigma for j in joints]  # (N, 3) each
+        return (np.stack([np.sum(c * R, axis=1) for c in cols], axis=1),
+                np.stack([np.sum(c * c, axis=1) for c in cols], axis=1),
+                np.stack([np.einsum("nkr,nk->nr", Q, c) for c in cols], axis=1))
+
+    grids = []  # per axis: its readings, joints searched, frequency grid, their Δ on it, and what refining needs
     # the joints of one axis share its readings, so the sines and cosines of the frequency grid: one per axis
     for axis, group in _axis_groups([(j, joint) for j, joint in enumerate(machine.error_joints)
                                      if joint.code in varying]).items():
@@ -223,16 +246,12 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         p_max = 360.0 if rotary else span
         if span <= 0 or p_max <= p_min:
             continue
-        series = {}
-        for j, joint in group:
-            col = d_errors[:, :, j] / sigma  # (N, 3)
-            nrm = np.sum(col * col, axis=1)
-            if np.any(nrm > 0):
-                series[j] = (np.sum(col * R, axis=1), nrm, np.einsum("nkr,nk->nr", Q, col))
-        if not series:
+        w, nrm, g = stacked([j for j, _ in group])
+        joints = [j for (j, _), live in zip(group, np.any(nrm > 0, axis=0)) if live]
+        if not joints:
             continue
-        w, nrm, g = (np.stack(s, axis=1) for s in zip(*series.values()))  # (N, J), (N, J), (N, J, rank)
-        exact = _collapsed(q, w, nrm, g)
+        if len(joints) < len(group):
+            w, nrm, g = stacked(joints)
         # the grid only points at the best frequency (refined, and Δ evaluated, on the exact positions): readings
         # within GRID_MERGE of the shortest period are one there (a plan measured again, read micrometres apart)
         near = _collapsed(q, w, nrm, g, within=GRID_MERGE * p_min)
@@ -243,9 +262,21 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         deltas = np.concatenate([_delta(*_grid_phasors(near[0], freq[k:k + chunk]), *near[1:])
                                  for k in range(0, len(freq), chunk)], axis=1)
         trials = max(extent * (1.0 / p_min - 1.0 / p_max), 1.0)
-        for j, estimate in zip(series, _refined([machine.error_joints[j] for j in series], freq, deltas, df, *exact,
-                                                trials, "deg" if rotary else "mm")):
-            found[j] = estimate
+        grids.append((q, joints, freq, deltas, df, trials, "deg" if rotary else "mm"))
+    peaks = sorted((float(p) for grid in grids for p in grid[3].max(axis=1)), reverse=True)
+    bar = REFINE_SHARE * peaks[refine - 1] if refine is not None and len(peaks) >= refine else -np.inf
+    for q, joints, freq, deltas, df, trials, unit in grids:
+        peak = deltas.max(axis=1)
+        kept = np.flatnonzero(peak >= bar)
+        if kept.size:
+            exact = _collapsed(q, *stacked([joints[i] for i in kept]))
+            for i, estimate in zip(kept, _refined([machine.error_joints[joints[i]] for i in kept], freq, deltas[kept],
+                                                  df, *exact, trials, unit)):
+                found[joints[i]] = estimate
+        for i in np.flatnonzero((peak < bar) & (peak > 0)):  # cannot be among the best: its grid peak
+            joint = machine.error_joints[joints[i]]
+            found[joints[i]] = PeriodEstimate(joint.code, joint.axis, float(1.0 / freq[np.argmax(deltas[i])]),
+                                              float("nan"), float(peak[i]), float(trials), unit)
     out = [found[j] for j in sorted(found) if found[j] is not None]  # in the joints' order (ties keep it)
     # by decreasing Δ; joints whose columns coincide on these data tie to rounding (9 digits): the first joint first
     out.sort(key=lambda e: -float(f"{e.statistic:.9g}"))

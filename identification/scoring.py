@@ -22,7 +22,7 @@ parameters ...", Proc. Cambridge Phil. Soc. 44, 1948 (score test).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -102,6 +102,27 @@ SCORE_BLOCK_BYTES = 64 * 1024 * 1024
 EXACT_BELOW = 1e-4
 
 
+#: Memory a fit side keeps for what many score tests read (basis values shared by the joints of an axis, each
+#: joint's series), bytes; beyond it they are computed each time they are needed (memory flat in N).
+MEMO_BYTES = 64 * 1024 * 1024
+
+
+class _Memo:
+    """Arrays (or tuples of arrays) computed once per fit side, by key, up to MEMO_BYTES in all."""
+
+    def __init__(self):
+        self.values, self.bytes = {}, 0
+
+    def get(self, key, make):
+        out = self.values.get(key)
+        if out is None:
+            out = make()
+            size = sum(a.nbytes for a in (out if isinstance(out, tuple) else (out,)))
+            if self.bytes + size <= MEMO_BYTES:
+                self.values[key], self.bytes = out, self.bytes + size
+        return out
+
+
 @dataclass(frozen=True)
 class FitSide:
     """What the score test of any candidate needs of the fit (:func:`fit_side`): made once per fit and σ, and
@@ -119,6 +140,7 @@ class FitSide:
         RMS lever arm of each error joint to the tool point, m/rad (1 for translations).
     visible_floor : float
         Norm below which a candidate's column is invisible.
+    memo : what the score tests at this fit compute once (:class:`_Memo`)
     """
 
     result: FitResult
@@ -131,6 +153,13 @@ class FitSide:
     model_names: list
     lever: np.ndarray
     visible_floor: float
+    memo: _Memo = field(default_factory=_Memo, compare=False, repr=False)
+
+    def joint_series(self, joint: int) -> tuple:
+        """Series over the alignments of error joint ``joint`` (:func:`_joint_series`), computed once."""
+        q0r = self.memo.get("q0r", lambda: self.q0.T @ self.r)
+        return self.memo.get(("series", joint), lambda: _joint_series(self.d_errors[:, :, joint] / self.sigma,
+                                                                      self.q0, self.r, q0r))
 
 
 def fit_side(machine: Machine, obs: Observations, result: FitResult, sigma: float, d_errors=None, q0=None) -> FitSide:
@@ -149,7 +178,7 @@ def fit_side(machine: Machine, obs: Observations, result: FitResult, sigma: floa
 
 @blas_single_threaded
 def score_candidates(machine: Machine, obs: Observations, result: FitResult, candidates, sigma: float, *, sigma_known: bool,
-                     d_errors=None, q0=None, side: FitSide | None = None):
+                     d_errors=None, q0=None, side: FitSide | None = None, notes: bool = True):
     """Score test of each candidate effect at the fit ``result`` (see module docstring).
 
     A candidate's column is its error joint's column times a basis value, so every sum over alignments the
@@ -167,6 +196,9 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     side : FitSide, optional
         The fit's side of the test, made once by :func:`fit_side` for many calls (made here if not given, or if
         it is of another fit or σ).
+    notes : bool
+        Say in words where a local candidate's error is (:attr:`Candidate.note`); False for a search that keeps
+        only the best of hundreds.
 
     Returns
     -------
@@ -178,12 +210,12 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     d_errors, Q0, r, J0, lever, visible_floor = side.d_errors, side.q0, side.r, side.J0, side.lever, side.visible_floor
     M = result.residuals_um.size
     rss = float(r @ r)
-    test = _Test(machine, result, sigma, sigma_known, M, rss, J0, side.model_names, side.G0)
+    test = _Test(machine, result, sigma, sigma_known, M, rss, J0, side.model_names, side.G0, notes)
     n = len(obs)
     out = [None] * len(candidates)
     pending = []  # (position, effect, unit, alive, scale, projected Gram matrix, joint, projected product with r)
     joint, series = None, None
-    for group in _column_groups(machine, obs, candidates):
+    for group in _column_groups(machine, obs, candidates, side.memo):
         units = [e.param_units(machine)[-1] for _, e, _ in group.members]  # a polynomial sizes its highest term
         if lever[group.joint] < INVISIBLE_LEVER_M:
             for (i, e, _), unit in zip(group.members, units):
@@ -191,7 +223,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             continue
         if group.joint != joint:  # the groups come joint by joint: one joint's series at a time
             joint = group.joint
-            series = _joint_series(d_errors[:, :, joint] / sigma, Q0, r)
+            series = side.joint_series(joint)
         norm2, A, bvec, grams = _group_sums(group, series, n)
         for (i, e, ix), unit, gram in zip(group.members, units, grams):
             norm_c = np.sqrt(norm2[ix])
@@ -218,7 +250,8 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             exact.setdefault(items[m][6], []).append(m)
         batch = max(EXACT_COLUMNS // k, 1)  # one joint's candidates of k parameters projected together, so many
         for j, ms in [(j, ms[a:a + batch]) for j, ms in exact.items() for a in range(0, len(ms), batch)]:
-            col, basis = d_errors[:, :, j] / sigma, design(machine, [items[m][1] for m in ms], obs).basis
+            col = d_errors[:, :, j] / sigma
+            basis = np.concatenate([_basis_values(machine, obs, items[m][1], slice(0, n), side.memo) for m in ms], axis=1)
             grams, bvec[ms] = _projected_exactly(col, basis, k, Q0, r)
             for m, gram, b in zip(ms, grams, range(0, basis.shape[1], k)):
                 gs[m], w[m], V[m] = _normalized(gram, alive[m], scale[m])
@@ -258,10 +291,11 @@ class _Columns:
     shared: bool
 
 
-def _column_groups(machine, obs, candidates) -> list:
+def _column_groups(machine, obs, candidates, memo: _Memo) -> list:
     """``candidates`` in groups of one error joint (:class:`_Columns`), joint by joint: local errors by knot grid
     (each window's columns a subset of the grid's B-splines, computed once), every other candidate with the
-    other candidates of its joint."""
+    other candidates of its joint (each basis's values over a chunk of alignments computed once in ``memo``, for
+    all the joints of its axis)."""
     from .bsplines import local_column_index, local_columns, local_grid
 
     codes = machine.error_codes
@@ -274,16 +308,16 @@ def _column_groups(machine, obs, candidates) -> list:
         else:
             plain.setdefault(j, []).append((i, e))
 
-    def rows_of(c):  # the observations of a slice of rows (all of them, most often)
-        return obs if c.start == 0 and c.stop >= n else obs.subset(np.arange(c.start, c.stop))
+    def basis(e, c):
+        return _basis_values(machine, obs, e, c, memo)
 
     groups = []
     for j, members in plain.items():
         effects = [e for _, e in members]
         edges = np.cumsum([0] + [e.n_params for e in effects])
         groups.append(_Columns(j, [(i, e, np.arange(a, b)) for (i, e), a, b in zip(members, edges[:-1], edges[1:])],
-                               int(edges[-1]), lambda c, effects=effects: design(machine, effects, rows_of(c)).basis,
-                               False))
+                               int(edges[-1]), lambda c, effects=effects: np.concatenate([basis(e, c) for e in effects],
+                                                                                         axis=1), False))
     for (j, axis, _), members in grids.items():
         effects = [e for _, e in members]
         q = obs.axes[:, machine.axis_names.index(axis)]
@@ -295,14 +329,34 @@ def _column_groups(machine, obs, candidates) -> list:
     return groups
 
 
-def _joint_series(col, Q0, r) -> tuple:
+def _basis_values(machine, obs, e, c: slice, memo: _Memo) -> np.ndarray:
+    """The basis values of candidate ``e`` at the alignments ``c`` of ``obs``, computed once in ``memo`` by the
+    basis's name after the joint's code and its axis (the same for every joint of the axis); a basis driven by an
+    axis read at a few positions (a table's angles) evaluated once per position."""
+    from .effects import basis_values
+
+    def make():
+        part = obs if c.start == 0 and c.stop >= len(obs) else obs.subset(np.arange(c.start, c.stop))
+        if basis_of(e).driver == "position":
+            k = machine.axis_names.index(e.axis)
+            at, back = memo.get(("positions", k, c.start, c.stop), lambda: np.unique(part.axes[:, k],
+                                                                                     return_inverse=True))
+            if 4 * at.size <= len(part):
+                axes = np.zeros((at.size, part.axes.shape[1]))
+                axes[:, k] = at
+                return basis_values(e, machine, axes)[back]
+        return basis_values(e, machine, part.axes, t_s=part.t_s, directions=part.directions)
+    return memo.get(("basis", e.axis, e.name.partition(":")[2], c.start, c.stop), make)
+
+
+def _joint_series(col, Q0, r, q0r) -> tuple:
     """Series over the N alignments of one error joint whose whitened column is ``col`` (N, 3): its squared norm,
-    its product with the residual and with the model's orthonormal basis (N, rank); and Q0ᵀ r."""
+    its product with the residual and with the model's orthonormal basis (N, rank); and Q0ᵀ r (``q0r``)."""
     n = col.shape[0]
     nrm = np.einsum("nk,nk->n", col, col)
     rw = np.einsum("nk,nk->n", col, r.reshape(n, 3))
     g = np.einsum("nkr,nk->nr", Q0.reshape(n, 3, -1), col)
-    return nrm, rw, g, Q0.T @ r
+    return nrm, rw, g, q0r
 
 
 def _group_sums(group: _Columns, series, n: int) -> tuple:
@@ -399,6 +453,7 @@ class _Test:
     J0: np.ndarray
     model_names: list
     G0: np.ndarray
+    notes: bool = True
 
     def judge(self, effects, units, alive, scale, gs, w, V, bvec, products) -> list:
         """The candidates ``effects`` of k parameters each, from their projected, normalized Gram matrices ``gs``
@@ -437,7 +492,7 @@ class _Test:
                     log_sf = _chi2_logsf(F * kd, kd)
             basis = basis_of(e)
             size, size_std = basis.size(e, beta[m], cov[m])
-            note = "" if basis.note is None else basis.note(e, beta[m], _axis_unit(machine, e.axis))
+            note = "" if basis.note is None or not self.notes else basis.note(e, beta[m], _axis_unit(machine, e.axis))
             out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / np.log(10)),
                                  float(rms_after[m]), size, size_std, unit, note=note))
         return out

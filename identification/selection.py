@@ -26,10 +26,13 @@ WARM_START_ITERATIONS = 15
 
 def _set_aside(machine, obs, effects, noise_um, progress, before: tuple, first=None):
     """``obs`` without its gross errors, the tuple of all set aside so far (rows of the original data), and the fit of
-    ``effects`` on the rows kept (None if not made); ``first``: a fit of ``effects`` on ``obs`` to start from."""
+    ``effects`` on the rows kept (None if not made); ``first``: a Diagnosis of ``effects`` on ``obs`` to start from
+    (its fit and leverages)."""
     from .outliers import set_aside_with_fit
 
-    kept, new, result = set_aside_with_fit(machine, obs, effects, noise_um=noise_um, first=first)
+    kept, new, result = set_aside_with_fit(machine, obs, effects, noise_um=noise_um,
+                                           first=None if first is None else first.fit,
+                                           first_hat=None if first is None else first.hat)
     if not new:
         return obs, before, result
     if before:  # rows of ``obs`` -> rows of the data as read: keep the first record's numbering
@@ -209,7 +212,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         if stop:
             if robust:  # a misread may stand out only once the model is complete
                 # the step's fit is the first round's: the model and rows are those the set-aside fits
-                kept, more, _ = _set_aside(machine, obs, effects, noise_um, progress, aside, first=dg.fit)
+                kept, more, _ = _set_aside(machine, obs, effects, noise_um, progress, aside, first=dg)
                 if more != aside:
                     obs, aside = kept, more
                     dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,

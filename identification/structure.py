@@ -105,6 +105,17 @@ def _ratio(r: np.ndarray, nn: np.ndarray) -> np.ndarray:
     return num / np.where(den > 0, den, 1.0)
 
 
+def _null_ratios(r: np.ndarray, perms: np.ndarray, nn: np.ndarray) -> np.ndarray:
+    """:func:`_ratio` of the residuals ``r`` (N, 3) with their rows permuted by each row of ``perms`` (P, N), from
+    their Gram matrix: ‖r_a − r_b‖² = s_a + s_b − 2 r_a·r_b gathers P × N numbers, not P × N × 3 twice."""
+    gram = r @ r.T
+    s = np.einsum("nk,nk->n", r, r)
+    other = perms[:, nn]
+    total = float(np.sum(s))
+    num = (total + np.sum(s[other], axis=1) - 2.0 * np.sum(gram[perms, other], axis=1)) / len(r)
+    return num / (2.0 * total / len(r)) if total > 0 else num
+
+
 def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Structure | None:
     """The nearest-neighbour test of ``residuals_um`` (N, 3) over readings ``axes`` (N, n_axes) and times.
 
@@ -133,14 +144,14 @@ def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Struc
     looks = [("readings", a)]
     if t is not None and np.ptp(t) > 0:
         looks.append(("time", t[:, None]))
-    perms = np.stack([r[rng.permutation(n)] for _ in range(PERMUTATIONS)])
+    perms = np.stack([rng.permutation(n) for _ in range(PERMUTATIONS)])
     best = None
     for along, coords in looks:
         if coords.shape[1] == 0:
             continue
         nn = _neighbours(coords)
         ratio = float(_ratio(r, nn))
-        null = _ratio(perms, nn)
+        null = _null_ratios(r, perms, nn)
         p = (1 + int(np.sum(null <= ratio))) / (PERMUTATIONS + 1)
         if best is None or p < best.p_value:
             best = Structure(ratio, p, along)

@@ -184,3 +184,44 @@ def test_degenerate_candidate_columns_are_not_ranked_with_absurd_sizes(bc):
         assert np.isfinite(c.size) and abs(c.size) < 1e6 and np.isfinite(c.size_std) and c.size_std < 1e6, c
     c90 = [c for c in dg.candidates if c.effect.endswith("C:periodic:90")]
     assert c90 and all(c.status != "live" or c.k == 2 for c in c90)
+
+
+def test_what_the_diagnosis_computes_once_is_what_it_would_compute_each_time(bc, monkeypatch):
+    """The score test keeps basis values (shared by the joints of an axis) and each joint's series per fit, up to a
+    memory budget; with no budget every one is computed where it is needed: the same candidates, statistics, sizes
+    and notes to the last digit. Effect names are parsed once per machine: the same effect, and a bad name still
+    raises each time."""
+    from kinid.errors import DataError
+    from kinid.identification import scoring
+
+    obs = _data(bc, ("EXX:periodic:10", [2.0, 1.0]), seed=5)
+    kept = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    monkeypatch.setattr(scoring, "MEMO_BYTES", 0)
+    fresh = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert [(c.effect, c.status, c.statistic, c.size, c.note) for c in kept.candidates] == \
+        [(c.effect, c.status, c.statistic, c.size, c.note) for c in fresh.candidates]
+    assert kept.live[0].effect.startswith("EXX:periodic:")
+    assert parse_effect("EXX:periodic:10", bc) is parse_effect("EXX:periodic:10", bc)
+    for _ in range(2):
+        with pytest.raises(DataError, match="not an error joint"):
+            parse_effect("EQQ:periodic:10", bc)
+
+
+def test_the_leverages_are_the_hat_matrix_in_one_pass_or_in_chunks(bc, monkeypatch):
+    """The hat matrix's diagonal from the Jacobian held in one pass, from two passes in chunks (data too large to
+    hold it), and the diagnosis's (what the set-aside of gross errors reuses when the selection stops) agree, and
+    are the diagonal of J (JᵀJ)⁻¹ Jᵀ formed directly."""
+    from kinid.identification import leverage
+    from kinid.identification.residuals import design, residuals
+
+    obs = _data(bc, None, seed=8)
+    result = fit(bc, obs, default_model(bc), noise_um=SIGMA)
+    held = leverage.leverages(bc, obs, result)
+    monkeypatch.setattr(leverage, "HELD_JACOBIAN_VALUES", 0)
+    chunked = leverage.leverages(bc, obs, result)
+    d = design(bc, result.effects, obs)
+    J = residuals(bc, d, obs, result.theta)[1].reshape(-1, d.n_params)[:, result.identifiable]
+    direct = np.einsum("ij,jk,ik->i", J, np.linalg.inv(J.T @ J), J).reshape(-1, 3)
+    assert np.allclose(held, direct, atol=1e-10) and np.allclose(chunked, direct, atol=1e-10)
+    assert np.allclose(diagnose(bc, obs, default_model(bc), noise_um=SIGMA, result=result).hat, direct, atol=1e-10)
+    assert abs(held.sum() - result.rank) < 1e-8

@@ -67,3 +67,20 @@ def test_replicas_solved_from_noisy_alignments_are_not_structure(tmp_path):
     lacking = structure_left(fit(machine, obs, default_model(machine), noise_um=1.0).residuals_um, obs.axes, obs.t_s,
                              names=names)
     assert lacking.p_value < 0.01, lacking
+
+
+def test_the_permutation_null_from_the_gram_matrix_is_the_direct_one():
+    """The structure test's null (each permutation's neighbour ratio) from the residuals' Gram matrix equals the
+    ratio computed on the permuted residuals themselves, on residuals of any scale, neighbours with repeats."""
+    from kinid.identification.structure import _null_ratios, _ratio
+
+    rng = np.random.default_rng(4)
+    for k in range(60):
+        n = int(rng.integers(12, 400))
+        r = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-3, 3)
+        nn = _neighbours(np.round(rng.uniform(0, 1, (n, 2)), 1))
+        perms = np.stack([rng.permutation(n) for _ in range(20)])
+        direct = _ratio(r[perms], nn)
+        assert np.allclose(_null_ratios(r, perms, nn), direct, rtol=1e-12, atol=1e-14), k
+    zero = np.zeros((20, 3))
+    assert np.all(_null_ratios(zero, np.stack([rng.permutation(20) for _ in range(5)]), np.arange(20)[::-1]) == 0.0)

@@ -439,3 +439,28 @@ def test_readings_a_few_micrometres_apart_are_one_position_wherever_they_fall():
     found = distinct_positions(rng.permutation(q))
     assert found.size == 3 and found[1] == 20.0 and np.allclose(found, [10.01, 20.0, 30.0], atol=3e-3), found
     assert distinct_positions([]).size == 0 and distinct_positions([7.5]).tolist() == [7.5]
+
+
+def test_refining_the_best_few_gives_them_as_refining_all_does(bc):
+    """The diagnosis refines only the joints that can be among its four best periods: those come out as refining
+    every joint gives them (period, its std, Δ), in the same order; the others keep their grid peak (std NaN) and
+    are still counted (the trials multiply by the joints searched)."""
+    from kinid.identification.leverage import model_pass
+    from kinid.identification.periods import search_periods
+
+    rng = np.random.default_rng(21)
+    effects, theta = _location_truth(bc, rng)
+    obs = _with_x_error(bc, simulate(bc, patent_plan(bc), effects, theta, noise_um=SIGMA, rng=rng), 3.0, 13.3, 0.4)
+    result = fit(bc, obs, default_model(bc), noise_um=SIGMA)
+    d_errors, _, q0 = model_pass(bc, obs, result)
+    r = result.residuals_um.ravel() / SIGMA
+    r = r - q0 @ (q0.T @ r)
+    every = search_periods(bc, obs, r, d_errors, q0, SIGMA)
+    few = search_periods(bc, obs, r, d_errors, q0, SIGMA, refine=4)
+    assert len(few) == len(every) > 8
+    for a, b in zip(every[:4], few[:4]):
+        assert (a.code, a.period, a.period_std, a.statistic) == (b.code, b.period, b.period_std, b.statistic)
+    assert every[0].code == "EXX" and abs(every[0].period - 13.3) < 0.1
+    rest = [e for e in few if np.isnan(e.period_std)]
+    assert rest and all(e.statistic <= 0.5 * few[3].statistic for e in rest)
+    assert {e.code for e in rest} | {e.code for e in few[:4]} <= {e.code for e in every}
