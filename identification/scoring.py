@@ -35,6 +35,8 @@ from .leverage import model_pass
 from .machine import Machine
 from .observations import Observations
 from .residuals import design, effect_columns
+from . import score_sums
+from .score_sums import EXACT_COLUMNS, Memo, basis_values_once, column_groups, group_sums, model_products, projected_exactly
 
 __all__ = ["Candidate", "FitSide", "fit_side", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
 
@@ -91,36 +93,11 @@ class Candidate:
     trials: float = 1.0
 
 
-#: Memory for the basis values of one group of candidates over a chunk of alignments in the score test, bytes
-#: (diagnosis memory stays flat in N).
-SCORE_BLOCK_BYTES = 64 * 1024 * 1024
-
 
 #: A candidate whose projected Gram matrix (columns scaled to unit norm) has an eigenvalue below this is scored
 #: again from its explicitly projected columns: the Gram matrix from sums over alignments, CᵀC − AᵀA, loses the
 #: digits that the projection off a model which nearly explains the candidate cancels.
 EXACT_BELOW = 1e-4
-
-
-#: Memory a fit side keeps for what many score tests read (basis values shared by the joints of an axis, each
-#: joint's series), bytes; beyond it they are computed each time they are needed (memory flat in N).
-MEMO_BYTES = 64 * 1024 * 1024
-
-
-class _Memo:
-    """Arrays (or tuples of arrays) computed once per fit side, by key, up to MEMO_BYTES in all."""
-
-    def __init__(self):
-        self.values, self.bytes = {}, 0
-
-    def get(self, key, make):
-        out = self.values.get(key)
-        if out is None:
-            out = make()
-            size = sum(a.nbytes for a in (out if isinstance(out, tuple) else (out,)))
-            if self.bytes + size <= MEMO_BYTES:
-                self.values[key], self.bytes = out, self.bytes + size
-        return out
 
 
 @dataclass(frozen=True)
@@ -140,7 +117,7 @@ class FitSide:
         RMS lever arm of each error joint to the tool point, m/rad (1 for translations).
     visible_floor : float
         Norm below which a candidate's column is invisible.
-    memo : what the score tests at this fit compute once (:class:`_Memo`)
+    memo : what the score tests at this fit compute once (:class:`Memo`)
     """
 
     result: FitResult
@@ -153,13 +130,14 @@ class FitSide:
     model_names: list
     lever: np.ndarray
     visible_floor: float
-    memo: _Memo = field(default_factory=_Memo, compare=False, repr=False)
+    memo: Memo = field(default_factory=Memo, compare=False, repr=False)
 
     def joint_series(self, joint: int) -> tuple:
-        """Series over the alignments of error joint ``joint`` (:func:`_joint_series`), computed once."""
-        q0r = self.memo.get("q0r", lambda: self.q0.T @ self.r)
-        return self.memo.get(("series", joint), lambda: _joint_series(self.d_errors[:, :, joint] / self.sigma,
-                                                                      self.q0, self.r, q0r))
+        """Series over the alignments of error joint ``joint`` (:func:`~.score_sums.joint_series`), computed once."""
+        def make():
+            q0r = self.memo.get("q0r", lambda: self.q0.T @ self.r)
+            return score_sums.joint_series(self.d_errors[:, :, joint] / self.sigma, self.q0, self.r, q0r)
+        return self.memo.get(("series", joint), make)
 
 
 def fit_side(machine: Machine, obs: Observations, result: FitResult, sigma: float, d_errors=None, q0=None) -> FitSide:
@@ -183,9 +161,9 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
 
     A candidate's column is its error joint's column times a basis value, so every sum over alignments the
     test needs is a sum over the N alignments of basis values times a few series of its joint (computed once
-    per joint, :func:`_joint_series`), not over the 3N coordinates of each column. The candidates of one joint
-    are summed together (:func:`_column_groups`); local errors on one knot grid share its B-splines, and each
-    window's sums are a sub-block of the grid's.
+    per joint and fit, :func:`~.score_sums.joint_series`), not over the 3N coordinates of each column. The
+    candidates of one joint are summed together (:func:`~.score_sums.column_groups`); local errors on one knot
+    grid share its B-splines, and each window's sums are a sub-block of the grid's.
 
     Parameters
     ----------
@@ -215,7 +193,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     out = [None] * len(candidates)
     pending = []  # (position, effect, unit, alive, scale, projected Gram matrix, joint, projected product with r)
     joint, series = None, None
-    for group in _column_groups(machine, obs, candidates, side.memo):
+    for group in column_groups(machine, obs, candidates, side.memo):
         units = [e.param_units(machine)[-1] for _, e, _ in group.members]  # a polynomial sizes its highest term
         if lever[group.joint] < INVISIBLE_LEVER_M:
             for (i, e, _), unit in zip(group.members, units):
@@ -224,7 +202,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         if group.joint != joint:  # the groups come joint by joint: one joint's series at a time
             joint = group.joint
             series = side.joint_series(joint)
-        norm2, A, bvec, grams = _group_sums(group, series, n)
+        norm2, A, bvec, grams = group_sums(group, series, n)
         for (i, e, ix), unit, gram in zip(group.members, units, grams):
             norm_c = np.sqrt(norm2[ix])
             if not np.any(norm_c > visible_floor):
@@ -251,186 +229,19 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         batch = max(EXACT_COLUMNS // k, 1)  # one joint's candidates of k parameters projected together, so many
         for j, ms in [(j, ms[a:a + batch]) for j, ms in exact.items() for a in range(0, len(ms), batch)]:
             col = d_errors[:, :, j] / sigma
-            basis = np.concatenate([_basis_values(machine, obs, items[m][1], slice(0, n), side.memo) for m in ms], axis=1)
-            grams, bvec[ms] = _projected_exactly(col, basis, k, Q0, r)
+            basis = np.concatenate([basis_values_once(machine, obs, items[m][1], slice(0, n), side.memo) for m in ms],
+                                   axis=1)
+            grams, bvec[ms] = projected_exactly(col, basis, k, Q0, r)
             for m, gram, b in zip(ms, grams, range(0, basis.shape[1], k)):
                 gs[m], w[m], V[m] = _normalized(gram, alive[m], scale[m])
                 # the product with the model's columns serves only aliased candidates, all scored exactly (an
                 # aliased candidate's eigenvalues are below ALIAS_TOL² < EXACT_BELOW)
-                products[m] = lambda col=col, basis=basis[:, b:b + k]: _model_products(col, basis, J0)
+                products[m] = lambda col=col, basis=basis[:, b:b + k]: model_products(col, basis, J0)
         judged = test.judge([item[1] for item in items], [item[2] for item in items], alive, scale, gs, w, V, bvec,
                             products)
         for item, c in zip(items, judged):
             out[item[0]] = c
     return out
-
-
-@dataclass(frozen=True)
-class _Columns:
-    """The basis values of candidates of one error joint, summed together.
-
-    Attributes
-    ----------
-    joint : int
-        The error joint (index in ``machine.error_joints``).
-    members : list of (int, Effect, array of int)
-        Each candidate's position in the list scored, the effect, and its columns among the group's.
-    width : int
-        Columns of the group.
-    values : callable (slice of rows) -> array (rows, width)
-        The group's basis values at those alignments.
-    shared : bool
-        The members share columns (windows of one knot grid): their Gram matrices are sub-blocks of the group's.
-        Otherwise each member's columns are its own, and only its block of the Gram matrix is summed.
-    """
-
-    joint: int
-    members: list
-    width: int
-    values: object
-    shared: bool
-
-
-def _column_groups(machine, obs, candidates, memo: _Memo) -> list:
-    """``candidates`` in groups of one error joint (:class:`_Columns`), joint by joint: local errors by knot grid
-    (each window's columns a subset of the grid's B-splines, computed once), every other candidate with the
-    other candidates of its joint (each basis's values over a chunk of alignments computed once in ``memo``, for
-    all the joints of its axis)."""
-    from .bsplines import local_column_index, local_columns, local_grid
-
-    codes = machine.error_codes
-    n = len(obs)
-    plain, grids = {}, {}
-    for i, e in enumerate(candidates):
-        j = codes.index(e.code)
-        if e.basis == "local":
-            grids.setdefault((j, e.axis, local_grid(e)), []).append((i, e))
-        else:
-            plain.setdefault(j, []).append((i, e))
-
-    def basis(e, c):
-        return _basis_values(machine, obs, e, c, memo)
-
-    groups = []
-    for j, members in plain.items():
-        effects = [e for _, e in members]
-        edges = np.cumsum([0] + [e.n_params for e in effects])
-        groups.append(_Columns(j, [(i, e, np.arange(a, b)) for (i, e), a, b in zip(members, edges[:-1], edges[1:])],
-                               int(edges[-1]), lambda c, effects=effects: np.concatenate([basis(e, c) for e in effects],
-                                                                                         axis=1), False))
-    for (j, axis, _), members in grids.items():
-        effects = [e for _, e in members]
-        q = obs.axes[:, machine.axis_names.index(axis)]
-        index = local_column_index(effects, q)
-        groups.append(_Columns(j, [(i, e, ix) for (i, e), ix in zip(members, index)],
-                               local_columns(effects, q, slice(0, 0)).shape[1],
-                               lambda c, effects=effects, q=q: local_columns(effects, q, c), True))
-    groups.sort(key=lambda g: g.joint)  # stable: in the candidates' order within a joint
-    return groups
-
-
-def _basis_values(machine, obs, e, c: slice, memo: _Memo) -> np.ndarray:
-    """The basis values of candidate ``e`` at the alignments ``c`` of ``obs``, computed once in ``memo`` by the
-    basis's name after the joint's code and its axis (the same for every joint of the axis); a basis driven by an
-    axis read at a few positions (a table's angles) evaluated once per position."""
-    from .effects import basis_values
-
-    def make():
-        part = obs if c.start == 0 and c.stop >= len(obs) else obs.subset(np.arange(c.start, c.stop))
-        if basis_of(e).driver == "position":
-            k = machine.axis_names.index(e.axis)
-            at, back = memo.get(("positions", k, c.start, c.stop), lambda: np.unique(part.axes[:, k],
-                                                                                     return_inverse=True))
-            if 4 * at.size <= len(part):
-                axes = np.zeros((at.size, part.axes.shape[1]))
-                axes[:, k] = at
-                return basis_values(e, machine, axes)[back]
-        return basis_values(e, machine, part.axes, t_s=part.t_s, directions=part.directions)
-    return memo.get(("basis", e.axis, e.name.partition(":")[2], c.start, c.stop), make)
-
-
-def _joint_series(col, Q0, r, q0r) -> tuple:
-    """Series over the N alignments of one error joint whose whitened column is ``col`` (N, 3): its squared norm,
-    its product with the residual and with the model's orthonormal basis (N, rank); and Q0ᵀ r (``q0r``)."""
-    n = col.shape[0]
-    nrm = np.einsum("nk,nk->n", col, col)
-    rw = np.einsum("nk,nk->n", col, r.reshape(n, 3))
-    g = np.einsum("nkr,nk->nr", Q0.reshape(n, 3, -1), col)
-    return nrm, rw, g, q0r
-
-
-def _group_sums(group: _Columns, series, n: int) -> tuple:
-    """For the columns of ``group``: squared norms (width,), products with the model's orthonormal basis
-    (rank, width), the projected columns' product with the residual (width,), and each member's Gram matrix
-    CᵀC (not yet projected); summed over chunks of alignments whose basis values fit SCORE_BLOCK_BYTES."""
-    nrm, rw, g, s0 = series
-    width = group.width
-    rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 4 * max(width, 1))))
-    norm2, A, rwB = np.zeros(width), np.zeros((g.shape[1], width)), np.zeros(width)
-    # members by their number of columns: their blocks of the Gram matrix summed at once
-    sizes = {}
-    for m, (_, _, ix) in enumerate(group.members):
-        sizes.setdefault(ix.size, []).append(m)
-    gram = np.zeros((width, width)) if group.shared else {k: np.zeros((len(ms), k, k)) for k, ms in sizes.items()}
-    for a in range(0, n, rows):
-        c = slice(a, min(a + rows, n))
-        B = group.values(c)
-        norm2 += nrm[c] @ (B * B)
-        A += g[c].T @ B
-        rwB += rw[c] @ B
-        if group.shared:
-            gram += (B * nrm[c, None]).T @ B
-        else:
-            for k, ms in sizes.items():
-                Bk = B[:, np.array([group.members[m][2] for m in ms])]  # (rows, members, k)
-                gram[k] += np.einsum("nmi,nmj->mij", Bk * nrm[c, None, None], Bk)
-    bvec = rwB - A.T @ s0  # (C − Q0 A)ᵀ r, with Q0ᵀ r ≈ 0
-    if group.shared:
-        grams = [gram[np.ix_(ix, ix)] for _, _, ix in group.members]
-    else:
-        grams = [None] * len(group.members)
-        for k, ms in sizes.items():
-            for m, block in zip(ms, gram[k]):
-                grams[m] = block
-    return norm2, A, bvec, grams
-
-
-#: Alignments per chunk of the explicitly projected columns (memory flat in N), and columns projected at once (a
-#: chunk of them is 3 × EXACT_ROWS × EXACT_COLUMNS numbers, 12.6 MB).
-EXACT_ROWS = 8192
-EXACT_COLUMNS = 64
-
-
-def _projected_exactly(col, basis, k, Q0, r) -> tuple:
-    """For candidates of ``k`` columns each, ``col`` × ``basis`` of one joint (col (N, 3), basis (N, m·k), a
-    candidate's basis values side by side): their Gram matrices projected off the model (m, k, k) and the projected
-    columns' products with r (m, k), from the projected columns, in chunks of alignments."""
-    n, width = basis.shape
-    m = width // k
-    chunks = [slice(a, min(a + EXACT_ROWS, n)) for a in range(0, n, EXACT_ROWS)]
-
-    def columns(c):
-        return (col[c, :, None] * basis[c, None, :]).reshape(-1, width)
-
-    def rows(c):
-        return slice(3 * c.start, 3 * c.stop)
-
-    kept = columns(chunks[0]) if len(chunks) == 1 else None  # one chunk: its columns serve both passes
-    A = sum(Q0[rows(c)].T @ (columns(c) if kept is None else kept) for c in chunks)
-    grams, bvec = np.zeros((m, k, k)), np.zeros(width)
-    for c in chunks:
-        Cp = (columns(c) if kept is None else kept) - Q0[rows(c)] @ A
-        bvec += Cp.T @ r[rows(c)]
-        Cp = Cp.reshape(-1, m, k).transpose(1, 0, 2)  # (m, rows, k): one matrix product per candidate
-        grams += np.matmul(Cp.transpose(0, 2, 1), Cp)
-    return grams, bvec.reshape(m, k)
-
-
-def _model_products(col, basis, J0) -> np.ndarray:
-    """The product (p0, k) of the model's columns ``J0`` with the columns ``col`` × ``basis`` of one joint."""
-    n, k = basis.shape
-    return sum(J0[3 * a:3 * min(a + EXACT_ROWS, n)].T @ (col[a:a + EXACT_ROWS, :, None] * basis[a:a + EXACT_ROWS, None, :]).reshape(-1, k)
-               for a in range(0, n, EXACT_ROWS))
 
 
 def _normalized(gram, alive, scale) -> tuple:

@@ -192,11 +192,11 @@ def test_what_the_diagnosis_computes_once_is_what_it_would_compute_each_time(bc,
     and notes to the last digit. Effect names are parsed once per machine: the same effect, and a bad name still
     raises each time."""
     from kinid.errors import DataError
-    from kinid.identification import scoring
+    from kinid.identification import score_sums
 
     obs = _data(bc, ("EXX:periodic:10", [2.0, 1.0]), seed=5)
     kept = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
-    monkeypatch.setattr(scoring, "MEMO_BYTES", 0)
+    monkeypatch.setattr(score_sums, "MEMO_BYTES", 0)
     fresh = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
     assert [(c.effect, c.status, c.statistic, c.size, c.note) for c in kept.candidates] == \
         [(c.effect, c.status, c.statistic, c.size, c.note) for c in fresh.candidates]
