@@ -21,12 +21,12 @@ import sys
 CHILD = r"""
 import resource, sys, time, numpy as np
 import importlib
-dg = importlib.import_module("kinid.identification.diagnose")  # the module (the package attribute is the function)
+sums = importlib.import_module("kinid.identification.score_sums")  # where the score test's block size is read
 from kinid.identification import load_machine, default_model, fit, diagnose
 from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 n, block = int(sys.argv[1]), float(sys.argv[2])
-dg.SCORE_BLOCK_BYTES = block
+sums.SCORE_BLOCK_BYTES = block
 m = load_machine(path("five_axis_bc"))
 plan = patent_plan(m)
 plan = plan.subset(np.arange(n) % len(plan))

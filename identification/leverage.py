@@ -67,8 +67,9 @@ def studentized(result, q0, sigma, *, h=None):
     return stud, h.sum(axis=1)
 
 
-#: Above this many numbers (3N × P), :func:`leverages` does not hold the Jacobian: two passes, memory flat.
-HELD_JACOBIAN_VALUES = 3e7
+#: Above this many numbers (3N × P: 16 MB, its QR three times that), :func:`leverages` does not hold the Jacobian:
+#: two passes, memory flat in the alignments (`kinid identify` on 10⁵ alignments and more).
+HELD_JACOBIAN_VALUES = 2e6
 
 
 def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
