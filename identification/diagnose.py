@@ -427,7 +427,7 @@ def _inseparable(machine, live, follows) -> str:
     axis = ", ".join(sorted(axes))
     return (f"{best.effect} and {other.effect} explain these data alike (χ² drops {best.statistic:.1f} and "
             f"{other.statistic:.1f}): time follows {axis} in the order of these alignments, so an error that grows with "
-            f"time and one of {axis}'s position cannot be told apart; --auto adds the better, {best.effect} — measure "
+            f"time and one of {axis}'s position cannot be told apart; --auto adds neither — measure "
             f"in another order (serpentine or random over {axis}, or a reference pose repeated through the run) to "
             f"tell them apart")
 

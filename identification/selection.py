@@ -178,8 +178,9 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
         best, pending = _first_determined(dg)
-        if dg.inseparable and best is not None and best.effect == dg.live[0].effect:  # it names the best candidate
-            undetermined[f"time {best.effect}"] = dg.inseparable  # said when the selection stops
+        # time follows an axis and the best candidate explains the data no better than one of the other kind: the
+        # plan cannot tell which it is, and a model of either would compensate the wrong cause
+        inseparable = bool(dg.inseparable) and best is not None and best.effect == dg.live[0].effect
         stop = ""
         name = None  # the effect added: the best candidate, a warm-up at its refined time constant
         if dg.verdict == "noise":
@@ -190,6 +191,8 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         elif best.p_value >= dg.threshold:
             stop = (f"no candidate is significant: the best, {best.effect}, has p = {best.p_value:.2g} above the "
                     f"threshold {dg.threshold:.2g}" + (f"; {dg.note}" if dg.note else ""))
+        elif inseparable:
+            stop = f"the best candidate, {best.effect} (p = {best.p_value:.2g}), is not added: {dg.inseparable}"
         elif len(steps) > max_steps:
             stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
         elif folds:
