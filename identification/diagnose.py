@@ -391,7 +391,8 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     return Diagnosis(fit=result, verdict=verdict, note=note, rms_um=rms, noise=noise, chi2_p=chi2_p, threshold=threshold,
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), hat=hat,
-                     structure=structure, time_follows=follows, undetermined=undetermined, twins=twins, inseparable=inseparable)
+                     structure=structure, time_follows=follows, undetermined=undetermined, twins=twins,
+                     inseparable=inseparable)
 
 
 #: Two candidates whose χ² drops differ by less than this explain the data alike (χ²₂ at 1 %).
@@ -427,7 +428,7 @@ def _inseparable(machine, live, follows) -> str:
     axis = ", ".join(sorted(axes))
     return (f"{best.effect} and {other.effect} explain these data alike (χ² drops {best.statistic:.1f} and "
             f"{other.statistic:.1f}): time follows {axis} in the order of these alignments, so an error that grows with "
-            f"time and one of {axis}'s position cannot be told apart; --auto adds neither — measure "
+            f"time and one of {axis}'s position cannot be told apart (--auto adds neither) — measure "
             f"in another order (serpentine or random over {axis}, or a reference pose repeated through the run) to "
             f"tell them apart")
 

@@ -207,5 +207,6 @@ def projected_exactly(col, basis, k, Q0, r) -> tuple:
 def model_products(col, basis, J0) -> np.ndarray:
     """The product (p0, k) of the model's columns ``J0`` with the columns ``col`` × ``basis`` of one joint."""
     n, k = basis.shape
-    return sum(J0[3 * a:3 * min(a + EXACT_ROWS, n)].T @ (col[a:a + EXACT_ROWS, :, None] * basis[a:a + EXACT_ROWS, None, :]).reshape(-1, k)
+    return sum(J0[3 * a:3 * min(a + EXACT_ROWS, n)].T
+               @ (col[a:a + EXACT_ROWS, :, None] * basis[a:a + EXACT_ROWS, None, :]).reshape(-1, k)
                for a in range(0, n, EXACT_ROWS))

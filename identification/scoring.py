@@ -36,7 +36,8 @@ from .machine import Machine
 from .observations import Observations
 from .residuals import design, effect_columns
 from . import score_sums
-from .score_sums import EXACT_COLUMNS, Memo, basis_values_once, column_groups, group_sums, model_products, projected_exactly
+from .score_sums import (EXACT_COLUMNS, Memo, basis_values_once, column_groups, group_sums, model_products,
+                         projected_exactly)
 
 __all__ = ["Candidate", "FitSide", "fit_side", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
 

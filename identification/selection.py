@@ -138,6 +138,8 @@ def _why_not_added(last) -> str:
     from .crossval import MIN_GAIN_SE
 
     cv = last.held_out
+    if cv is None and last.diagnosis.inseparable:  # time follows an axis: the plan cannot tell the two apart
+        return last.diagnosis.inseparable.split(" (--auto adds neither)")[0]
     if cv is not None and not cv.improves:
         if cv.gain_se >= MIN_GAIN_SE and cv.chosen_gain_se is not None:
             bar = cv.chosen_min_gain_se

@@ -317,14 +317,18 @@ def test_the_last_word_says_why_a_significant_candidate_stayed_out_in_whole_word
     why = _why_not_added(SimpleNamespace(held_out=CrossValidation(4, 1.332, 1.275, 1.6), stopped=stopped))
     assert why == "it does not predict held-out alignments better: a gain of 1.6 standard errors, 2 needed"
     other = "adding EXX:map:10 needs EXX:map:10 = 7235 µm, beyond 1000 µm: the observations look inconsistent; not added"
-    assert _why_not_added(SimpleNamespace(held_out=None, stopped=other + "; also: x")) == other.split("; ")[0]
+    assert _why_not_added(SimpleNamespace(held_out=None, stopped=other + "; also: x",
+                                          diagnosis=SimpleNamespace(inseparable=""))) == other.split("; ")[0]
 
 
 def test_a_drift_and_an_error_of_the_axis_time_follows_are_named_inseparable():
     """Class 2: a drift of the tool, the plan visited tilt-major (time follows B). An error of B's position explains
     the data as well as the drift: the diagnosis names both and the plan's order as the cause, in the text, the
-    JSON and the selection's last word. Visited at random, the same drift is found without that note."""
+    JSON and the selection's last word; the selection adds neither (a model of either would compensate what may
+    be the other), and its verdict is that an effect remains. Visited at random, the same drift is found without
+    that note, and added."""
     from kinid.identification import default_model, diagnose, forward_select
+    from kinid.identification.selection import what_is_left
 
     _, machine, obs = _data(12, "five_axis_bc", ["drift"], plan_kind="patent", order="axis-major", misread_share=0.0)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
@@ -336,10 +340,16 @@ def test_a_drift_and_an_error_of_the_axis_time_follows_are_named_inseparable():
     assert kinds == {True, False}  # one driven by time, the other by B's position
     assert "inseparable: " in dg.text() and dg.summary()["inseparable"] == dg.inseparable
     steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
-    assert "time follows B" in steps[-1].stopped
+    assert "time follows B" in steps[-1].stopped and f"{dg.live[0].effect} (p = " in steps[-1].stopped
+    assert len(steps) == 1 and steps[-1].diagnosis.verdict == "missing-effect"
+    last = what_is_left(steps)
+    print(last)
+    assert "structure remains" in last and "cannot be told apart" in last and "(--auto adds neither)" not in last
     _, machine, obs = _data(12, "five_axis_bc", ["drift"], plan_kind="patent", order="random", misread_share=0.0)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
     assert ":drift" in dg.live[0].effect and not dg.inseparable
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
+    assert any(":drift" in (s.added or "") for s in steps)
 
 
 def test_a_warm_up_is_added_at_its_own_time_constant():
