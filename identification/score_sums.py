@@ -28,17 +28,18 @@ MEMO_BYTES = 64 * 1024 * 1024
 
 
 class Memo:
-    """Arrays (or tuples of arrays) computed once per fit side, by key, up to MEMO_BYTES in all."""
+    """Arrays (or tuples of arrays) computed once per fit side, by key, up to MEMO_BYTES in all; ``always``: kept
+    whatever the budget (what is small and read for every other value: an axis's positions)."""
 
     def __init__(self):
         self.values, self.bytes = {}, 0
 
-    def get(self, key, make):
+    def get(self, key, make, always: bool = False):
         out = self.values.get(key)
         if out is None:
             out = make()
             size = sum(a.nbytes for a in (out if isinstance(out, tuple) else (out,)))
-            if self.bytes + size <= MEMO_BYTES:
+            if always or self.bytes + size <= MEMO_BYTES:
                 self.values[key], self.bytes = out, self.bytes + size
         return out
 
@@ -113,17 +114,16 @@ def basis_values_once(machine, obs, e, c: slice, memo: Memo) -> np.ndarray:
     axis read at a few positions (a table's angles) evaluated once per position."""
     from .effects import basis_values
 
-    def make():
-        part = obs if c.start == 0 and c.stop >= len(obs) else obs.subset(np.arange(c.start, c.stop))
+    def make():  # the rows' readings as views (no Observations.subset: it copies every column, marks included)
         if basis_of(e).driver == "position":
             k = machine.axis_names.index(e.axis)
-            at, back = memo.get(("positions", k, c.start, c.stop), lambda: np.unique(part.axes[:, k],
-                                                                                     return_inverse=True))
-            if 4 * at.size <= len(part):
-                axes = np.zeros((at.size, part.axes.shape[1]))
+            at, back = memo.get(("positions", k), lambda: np.unique(obs.axes[:, k], return_inverse=True), always=True)
+            if 4 * at.size <= len(obs):
+                axes = np.zeros((at.size, obs.axes.shape[1]))
                 axes[:, k] = at
-                return basis_values(e, machine, axes)[back]
-        return basis_values(e, machine, part.axes, t_s=part.t_s, directions=part.directions)
+                return basis_values(e, machine, axes)[back[c]]
+        return basis_values(e, machine, obs.axes[c], t_s=None if obs.t_s is None else np.asarray(obs.t_s)[c],
+                            directions={a: np.asarray(d)[c] for a, d in (obs.directions or {}).items()})
     return memo.get(("basis", e.axis, e.name.partition(":")[2], c.start, c.stop), make)
 
 

@@ -136,7 +136,7 @@ class FitSide:
     def joint_series(self, joint: int) -> tuple:
         """Series over the alignments of error joint ``joint`` (:func:`~.score_sums.joint_series`), computed once."""
         def make():
-            q0r = self.memo.get("q0r", lambda: self.q0.T @ self.r)
+            q0r = self.memo.get("q0r", lambda: self.q0.T @ self.r, always=True)
             return score_sums.joint_series(self.d_errors[:, :, joint] / self.sigma, self.q0, self.r, q0r)
         return self.memo.get(("series", joint), make)
 

@@ -201,6 +201,13 @@ def test_what_the_diagnosis_computes_once_is_what_it_would_compute_each_time(bc,
     assert [(c.effect, c.status, c.statistic, c.size, c.note) for c in kept.candidates] == \
         [(c.effect, c.status, c.statistic, c.size, c.note) for c in fresh.candidates]
     assert kept.live[0].effect.startswith("EXX:periodic:")
+    # in chunks of 64 alignments (what a large data set gets): the same tests, the sums in another order
+    monkeypatch.setattr(score_sums, "SCORE_BLOCK_BYTES", 1)
+    chunked = {c.effect: c for c in diagnose(bc, obs, default_model(bc), noise_um=SIGMA).candidates}
+    assert chunked.keys() == {c.effect for c in kept.candidates}
+    for c in kept.candidates:
+        assert chunked[c.effect].status == c.status, c.effect
+        assert chunked[c.effect].statistic == pytest.approx(c.statistic, rel=1e-7, abs=1e-9), c.effect
     assert parse_effect("EXX:periodic:10", bc) is parse_effect("EXX:periodic:10", bc)
     for _ in range(2):
         with pytest.raises(DataError, match="not an error joint"):
