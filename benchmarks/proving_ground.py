@@ -25,8 +25,8 @@ and each hidden effect's exact shape with its size free (a basis registered for 
 the same rows with the misreads known and left out. A scenario with hidden effects passes when the
 final held-out 3-D RMS is ≤ 1.5× the oracle's, or the final verdict is "missing-effect" naming an
 axis the hidden effect involves (the axis of an error whose period the selection says the positions do not
-determine; else its best candidate's when that is significant; else the axis along which the neighbour test
-finds the residual most structured). Printed per class: pass rate, median
+determine; else its best candidate's when that is significant — and the other's of a pair it names inseparable
+and adds neither of; else the axis along which the neighbour test finds the residual most structured). Printed per class: pass rate, median
 and worst held-out/oracle, the share worse than the default model (by > 5 %), on no-effect
 scenarios with σ given correctly the share that added anything, and the pass rate against the
 stricter floor of earlier runs ("pass/floor": the default model fitted on rows of the machine
@@ -401,6 +401,8 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
         named = set().union(*(_named_axes(code, machine) for code in final.undetermined))
     elif dg.live and dg.live[0].p_value < dg.threshold:
         named = _named_axes(dg.live[0].effect, machine)
+        if dg.inseparable and " is not added: " in final.stopped:  # the selection stopped naming a pair: both
+            named |= _named_axes(dg.inseparable.split(" and ", 1)[1].split(" ", 1)[0], machine)
     else:
         named = {dg.structure.axis} if dg.structure is not None and dg.structure.axis else set()
     wanted = {a for h in sc.hidden for a in h.axes}
