@@ -80,7 +80,7 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         position basis on a set-up joint ...).
     """
     known = machine.parsed_effects.get(name)
-    if known is not None:
+    if known is not None and known.basis in BASES:  # (a basis taken out of the registry parses no more)
         return known
     code = name.strip().partition(":")[0]
     if code not in machine.error_codes:

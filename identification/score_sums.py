@@ -95,15 +95,15 @@ def column_groups(machine, obs, candidates, memo: Memo) -> list:
         effects = [e for _, e in members]
         edges = np.cumsum([0] + [e.n_params for e in effects])
         groups.append(Columns(j, [(i, e, np.arange(a, b)) for (i, e), a, b in zip(members, edges[:-1], edges[1:])],
-                               int(edges[-1]), lambda c, effects=effects: np.concatenate([basis(e, c) for e in effects],
-                                                                                         axis=1), False))
+                              int(edges[-1]), lambda c, effects=effects: np.concatenate([basis(e, c) for e in effects],
+                                                                                        axis=1), False))
     for (j, axis, _), members in grids.items():
         effects = [e for _, e in members]
         q = obs.axes[:, machine.axis_names.index(axis)]
         index = local_column_index(effects, q)
         groups.append(Columns(j, [(i, e, ix) for (i, e), ix in zip(members, index)],
-                               local_columns(effects, q, slice(0, 0)).shape[1],
-                               lambda c, effects=effects, q=q: local_columns(effects, q, c), True))
+                              local_columns(effects, q, slice(0, 0)).shape[1],
+                              lambda c, effects=effects, q=q: local_columns(effects, q, c), True))
     groups.sort(key=lambda g: g.joint)  # stable: in the candidates' order within a joint
     return groups
 

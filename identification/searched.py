@@ -54,7 +54,8 @@ def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side
             listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
     out = []
     estimates = search_periods(machine, obs, r, d_errors, q0, sigma, refine=FOUND_PERIODS,
-                               joint_series=None if side is None or side.sigma != sigma else side.joint_series)
+                               joint_series=side.joint_series if side is not None and side.result is result
+                               and side.sigma == sigma else None)
     joints = max(len(estimates), 1)  # the best of every joint's search is taken: the trials multiply
     for est in estimates[:FOUND_PERIODS]:
         listed = ROTARY_PERIODS_DEG if est.unit == "deg" else LINEAR_PERIODS_MM

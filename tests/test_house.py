@@ -188,3 +188,17 @@ def test_results_print_short():
     for thing in (machine, fit(machine, obs), diagnose(machine, obs, effects)):
         text = repr(thing)
         assert len(text) < 200 and "\n" not in text and "<robot" not in text, text
+
+
+def test_a_name_parsed_once_is_refused_once_its_basis_leaves_the_registry():
+    """Effect names are parsed once per machine; a basis taken out of the registry parses no more."""
+    from kinid.identification.effects import parse_effect
+
+    m = load_machine(urdf_path("five_axis_bc"))
+    register_basis(TRIANGLE)
+    try:
+        assert parse_effect("EXX:triangle:12", m) is parse_effect("EXX:triangle:12", m)
+    finally:
+        BASES.pop("triangle")
+    with pytest.raises(Exception, match="expected poly<k>"):
+        parse_effect("EXX:triangle:12", m)
