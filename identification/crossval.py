@@ -124,8 +124,8 @@ class CrossValidation:
 def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int = 4, noise_um=None,
                    theta0=None, choose=None, always_choose: bool = False) -> CrossValidation:
     """Held-out RMS of ``effects`` and of ``effects + [candidate]``, fitted on all blocks but one in turn.
-    ``theta0``: the fit of ``effects`` on all of ``obs`` (made here if not given). ``choose(training rows, training
-    data, fit of effects on them, their rows of the error-joint Jacobian at ``theta0`` or None)``, if given, is the
+    ``theta0``: the fit of ``effects`` on all of ``obs`` (made here if not given). ``choose(training data, fit of
+    effects on them, their rows of the error-joint Jacobian at ``theta0`` or None)``, if given, is the
     candidate of each turn: what the data chose (a period searched) chosen again on the training blocks alone (a
     turn's fit moves the joints by noise: the whole data's Jacobian serves); its gain is ``chosen_gain_se``,
     measured once the candidate passes (or ``always_choose``).
@@ -156,12 +156,12 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
     per_row = np.full((3, n), np.nan)  # each alignment's held-out squared error: without, with, with the turn's own
     turns = []
 
-    def held_out(m, model, columns, names_m, train, test):
-        """``model`` (Jacobian ``columns`` at ``at``) fitted on rows ``train``: its FitResult (a refit, or the step
-        evaluated), and the held-out squared error of rows ``test`` (per row into ``per_row[m]``)."""
+    def held_out(m, model, columns, names_m, train, tr, test):
+        """``model`` (Jacobian ``columns`` at ``at``) fitted on rows ``train`` (their data ``tr``): its FitResult (a
+        refit, or the step evaluated), and the held-out squared error of rows ``test`` (per row into
+        ``per_row[m]``)."""
         theta = np.zeros(len(names_m))
         theta[:size] = at[:size]  # the effects' fit on all the data; a candidate's values 0
-        tr = obs.subset(train)
         Jt = None if columns is None else columns[train].reshape(-1, len(names_m))
         free = None if Jt is None else analyse(np.linalg.qr(Jt, mode="r"), names_m, tol=RANK_TOL,
                                                 rows=Jt.shape[0]).identifiable
@@ -189,27 +189,28 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
         train = np.setdiff1d(np.arange(n), test)
         if test.size == 0 or train.size == 0:
             continue
-        (without, ss0), (_, ss1) = (held_out(m, model, columns, names_m, train, test)
+        tr = obs.subset(train)
+        (without, ss0), (_, ss1) = (held_out(m, model, columns, names_m, train, tr, test)
                                     for m, (model, columns, names_m) in enumerate(models))
         ss += (ss0, ss1)
         count += 3 * test.size
-        turns.append((train, test, without))
+        turns.append((train, tr, test, without))
     rms = np.sqrt(ss / max(count, 1))
     gain = _gain_se(per_row[0] - per_row[1])
     if choose is None or not (always_choose or rms[1] < rms[0] and gain >= MIN_GAIN_SE):
         return CrossValidation(folds, float(rms[0]), float(rms[1]), gain)
     # the candidate passes: is the way it was chosen as good, chosen without the held-out block?
     chosen = []
-    for train, test, turn in turns:
+    for train, tr, test, turn in turns:
         # the turn's fit as the chooser reads it: its refit, or the model evaluated at the step (the optimum)
-        own = choose(train, obs.subset(train), turn, None if d_errors is None else d_errors[train])
+        own = choose(tr, turn, None if d_errors is None else d_errors[train])
         chosen.append(own.name)
         if own.name == candidate.name:  # the same effect: the same fit
             per_row[2, test] = per_row[1, test]
         else:
             own_d = design(machine, [own], obs)
             columns = None if J is None else np.concatenate([J[:, :, :size], effect_columns(d_errors, own_d)], axis=2)
-            held_out(2, effects + [own], columns, names[:size] + own_d.param_names(), train, test)
+            held_out(2, effects + [own], columns, names[:size] + own_d.param_names(), train, tr, test)
     return CrossValidation(folds, float(rms[0]), float(rms[1]), gain, _gain_se(per_row[0] - per_row[2]), tuple(chosen))
 
 

@@ -30,7 +30,7 @@ from kinid.threads import blas_single_threaded
 
 from .effects import check_effects
 from .fit import FitResult, fit
-from .leverage import axis_residuals, model_pass, noise_from_replicates, studentized
+from .leverage import axis_residuals, hat_diagonal, model_pass, noise_from_replicates, studentized
 from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
@@ -382,7 +382,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0, side) if significant else ("", ())
     follows = time_follows(obs, machine)
     inseparable = _inseparable(machine, live, follows) if significant else ""
-    hat = np.sum(q0**2, axis=1).reshape(-1, 3)
+    hat = hat_diagonal(q0)
     stud, lev = studentized(result, None, sigma, h=hat)
     bound = chi2_isf(alpha / len(obs), 3)
     outliers = tuple(int(i) for i in np.flatnonzero(stud**2 > bound))

@@ -12,7 +12,7 @@ from .machine import Machine, evaluate
 from .observations import Observations, exact_duplicates, row_groups
 from .residuals import design, effect_columns, joint_values
 
-__all__ = ["model_pass", "studentized", "noise_from_replicates", "axis_residuals"]
+__all__ = ["model_pass", "hat_diagonal", "studentized", "noise_from_replicates", "axis_residuals"]
 
 
 def noise_from_replicates(machine: Machine, obs: Observations, r_um: np.ndarray):
@@ -57,12 +57,17 @@ def model_pass(machine: Machine, obs: Observations, result, d_errors=None):
     return d_errors, d_axes, Q0
 
 
+def hat_diagonal(q) -> np.ndarray:
+    """The hat matrix's diagonal (N, 3) from an orthonormal basis ``q`` (3N, rank) of the identifiable columns."""
+    return np.sum(q**2, axis=1).reshape(-1, 3)
+
+
 def studentized(result, q0, sigma, *, h=None):
     """Per-alignment studentized residual norm and leverage (hat matrix Q0 Q0ᵀ of the identifiable Jacobian;
     ``h`` (N, 3) instead of ``q0``: its diagonal, from :func:`leverages`)."""
     r = result.residuals_um
     N = r.shape[0]
-    h = np.sum(q0**2, axis=1).reshape(N, 3) if h is None else h
+    h = hat_diagonal(q0) if h is None else h
     stud = np.sqrt(np.sum(r**2 / np.maximum(1 - h, 1e-12), axis=1)) / sigma
     return stud, h.sum(axis=1)
 
@@ -85,7 +90,7 @@ def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
         return np.zeros((len(obs), 3))
     if 3 * len(obs) * d0.n_params <= HELD_JACOBIAN_VALUES:
         J = residuals(machine, d0, obs, result.theta)[1].reshape(-1, d0.n_params)[:, free]
-        return np.sum(np.linalg.qr(J, mode="reduced")[0] ** 2, axis=1).reshape(-1, 3)
+        return hat_diagonal(np.linalg.qr(J, mode="reduced")[0])
     R = model_pass_qr(machine, d0, obs, result.theta).R[:, free]
     Rf = np.linalg.qr(R, mode="r")[: int(free.sum())]
     out = []

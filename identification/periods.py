@@ -207,24 +207,20 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
     -------
     list of PeriodEstimate, by decreasing Δ.
     """
-    n = len(obs)
-    rank = q0.shape[1]
-    Q = q0.reshape(n, 3, rank)
-    R = residual_w.reshape(n, 3)
     from .effects import axis_dependent_joints
 
     varying = {code for code, _ in axis_dependent_joints(machine) if codes is None or code in codes}
     found = {}
 
+    if joint_series is None:  # the score test's series of each joint (squared norm, products with r and q0)
+        from .score_sums import joint_series as series_of
+
+        def joint_series(j):
+            return series_of(d_errors[:, :, j] / sigma, q0, residual_w, None)
+
     def stacked(joints):  # per joint (N, J): products with the residual, squared norms; (N, J, rank) with q0's rows
-        if joint_series is not None:
-            parts = [joint_series(j)[:3] for j in joints]
-            return tuple(np.stack(s, axis=1) for s in ([p[1] for p in parts], [p[0] for p in parts],
-                                                         [p[2] for p in parts]))
-        cols = [d_errors[:, :, j] / sigma for j in joints]  # (N, 3) each
-        return (np.stack([np.sum(c * R, axis=1) for c in cols], axis=1),
-                np.stack([np.sum(c * c, axis=1) for c in cols], axis=1),
-                np.stack([np.einsum("nkr,nk->nr", Q, c) for c in cols], axis=1))
+        parts = [joint_series(j)[:3] for j in joints]
+        return tuple(np.stack(s, axis=1) for s in ([p[1] for p in parts], [p[0] for p in parts], [p[2] for p in parts]))
 
     grids = []  # per axis: its readings, joints searched, frequency grid, their Δ on it, and what refining needs
     # the joints of one axis share its readings, so the sines and cosines of the frequency grid: one per axis
@@ -247,11 +243,11 @@ def search_periods(machine: Machine, obs: Observations, residual_w: np.ndarray, 
         if span <= 0 or p_max <= p_min:
             continue
         w, nrm, g = stacked([j for j, _ in group])
-        joints = [j for (j, _), live in zip(group, np.any(nrm > 0, axis=0)) if live]
+        live = np.any(nrm > 0, axis=0)  # a joint these readings do not move is not searched
+        joints = [j for (j, _), moved in zip(group, live) if moved]
         if not joints:
             continue
-        if len(joints) < len(group):
-            w, nrm, g = stacked(joints)
+        w, nrm, g = w[:, live], nrm[:, live], g[:, live]
         # the grid only points at the best frequency (refined, and Δ evaluated, on the exact positions): readings
         # within GRID_MERGE of the shortest period are one there (a plan measured again, read micrometres apart)
         near = _collapsed(q, w, nrm, g, within=GRID_MERGE * p_min)

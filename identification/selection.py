@@ -252,8 +252,8 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
 def _chosen_again(machine, obs, name: str, result, start: str | None = None, sigma: float = 1.0):
     """For the held-out check: what the data chose among many, chosen again on each turn's training blocks
     (:data:`CHOOSERS`, by the kind of the candidate ``name``; None for a kind the data do not choose): a function
-    (training rows, training data, the turn's fit of the model, their rows of the error-joint Jacobian at
-    ``result`` or None) → the turn's candidate. ``result``: the fit of the model on all of ``obs``; ``start``: the
+    (training data, the turn's fit of the model, their rows of the error-joint Jacobian at ``result`` or None) →
+    the turn's candidate. ``result``: the fit of the model on all of ``obs``; ``start``: the
     candidate the diagnosis proposed, where ``name`` is it refined (a warm-up's time constant); ``sigma`` the
     noise σ, µm."""
     make = CHOOSERS.get((name.split(":") + [""])[1])
@@ -271,7 +271,7 @@ def _period_again(machine, obs, name, result, start, sigma):
 
     code, period = name.split(":")[0], float(name.split(":")[2])
 
-    def choose(rows, train, turn, d_errors):
+    def choose(train, turn, d_errors):
         found = period_found_on(machine, train, turn, code, range_of=obs, d_errors=d_errors)
         if found is None or abs(found.period - period) <= found.period_std:
             return parse_effect(name, machine)
@@ -290,7 +290,7 @@ def _window_again(machine, obs, name, result, start, sigma):
 
     candidate = parse_effect(name, machine)
     windows = [w for w in local_windows(machine, obs, name.split(":")[0]) if w.name != name] + [candidate]
-    return lambda rows, train, turn, d_errors: window_found_on(machine, train, turn, windows, d_errors) or candidate
+    return lambda train, turn, d_errors: window_found_on(machine, train, turn, windows, d_errors) or candidate
 
 
 def _time_constant_again(machine, obs, name, result, start, sigma):
@@ -301,7 +301,7 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
 
     if obs.t_s is None:
         return None
-    return lambda rows, train, turn, d_errors: parse_effect(
+    return lambda train, turn, d_errors: parse_effect(
         refined_time_constant(machine, train, turn, start, sigma, d_errors=d_errors), machine)
 
 
