@@ -82,7 +82,7 @@ def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chun
     """Residuals and the R factor of the Jacobian of ``d``'s parameters at ``theta``, chunk by chunk."""
     theta = np.asarray(theta, float)
     P = d.n_params
-    used, column = np.unique(d.joint_index, return_inverse=True)  # the joints the parameters sit on
+    used, column = d.joints[:2]  # the joints the parameters sit on
     one_each = np.array_equal(column, np.arange(P))  # each parameter on its own joint, in order: no gather
     parts = []
     top = np.zeros((0, P + 1))

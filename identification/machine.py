@@ -133,6 +133,14 @@ class Machine:
     def error_codes(self) -> tuple:
         return tuple(e.code for e in self.error_joints)
 
+    @functools.cached_property  # every pass of a fit asks
+    def velocity_columns(self) -> tuple:
+        """(error joints' velocity indices, axes' velocity indices, the axes' scale from the SI derivative (m per m,
+        m per rad) to µm per mm or µm per deg)."""
+        return (np.array([e.v_index for e in self.error_joints], dtype=int),
+                np.array([a.v_index for a in self.axes], dtype=int),
+                np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in self.axes]))
+
     @functools.cached_property
     def parsed_effects(self) -> dict:
         """Effect names parsed against this machine (:func:`~kinid.identification.effects.parse_effect`), by
@@ -321,11 +329,9 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
     data = _pinocchio_data(machine)
     n = axes_user.shape[0]
     errors_user = np.broadcast_to(errors_user, (n, len(machine.error_joints)))
-    ev = np.array([e.v_index for e in machine.error_joints], dtype=int)[slice(None) if error_columns is None else
-                                                                         np.asarray(error_columns, dtype=int)]
-    av = np.array([a.v_index for a in machine.axes] if axes_jacobian else [], dtype=int)
-    # SI derivative (m per m, m per rad) -> µm per µm, µm per µrad (errors); µm per mm, µm per deg (axes)
-    axis_scale = np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in machine.axes])
+    ev_all, av, axis_scale = machine.velocity_columns
+    ev = ev_all if error_columns is None else ev_all[np.asarray(error_columns, dtype=int)]
+    av = av if axes_jacobian else av[:0]
     p = np.empty((n, 3))
     d_err = np.empty((n, 3, len(ev))) if jacobian else None
     d_ax = np.empty((n, 3, len(av))) if jacobian and axes_jacobian else None

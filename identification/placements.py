@@ -112,7 +112,7 @@ def _evaluate_chunk(machine, data, qs: np.ndarray, jacobian: bool, offsets_m=Non
         return p
     k = len(columns)
     # component-major (2, 3, k, n): the arithmetic below runs along all poses at once, not k at a time
-    W, X = np.take(B, c.take, axis=1).T.copy().reshape(2, 3, k, n)  # R_k e_c, p_k
+    W, X = B.T[c.take].reshape(2, 3, k, n)  # R_k e_c, p_k (a copy)
     X -= pt.T[:, None, :]  # p_k − p_t
     D = np.empty((3, k, n))  # velocity of p_t: R_k e_c × (p_t − p_k) (= p_k × ω − p_t × ω) or R_k e_c (sliding)
     D[0] = X[1] * W[2] - X[2] * W[1]

@@ -9,6 +9,7 @@ from one kinematic pass.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +45,15 @@ class Design:
     def param_names(self) -> list[str]:
         return [n for e in self.effects for n in e.param_names()]
 
+    @functools.cached_property  # every pass of a fit asks; the fields are frozen
+    def joints(self) -> tuple:
+        """(used, column, first, more): the error joints the parameters sit on (sorted), each parameter's place
+        among them, each used joint's first parameter and the parameters after a joint's first."""
+        used, first, column = np.unique(self.joint_index, return_index=True, return_inverse=True)
+        more = np.ones(len(self.joint_index), dtype=bool)
+        more[first] = False
+        return used, column, first, np.flatnonzero(more)
+
 
 def design(machine: Machine, effects, obs: Observations, axes_user: np.ndarray | None = None) -> Design:
     """Basis values of ``effects`` at the poses of ``obs`` (axes from ``axes_user`` if given)."""
@@ -65,11 +75,9 @@ def joint_values(machine: Machine, d: Design, theta: np.ndarray) -> np.ndarray:
         return values
     bt = d.basis * theta
     index = d.joint_index
-    _, first = np.unique(index, return_index=True)  # each joint's first parameter
-    values[:, index[first]] = bt[:, first]
-    more = np.ones(len(index), dtype=bool)
-    more[first] = False
-    for k in np.flatnonzero(more):  # the joint's further parameters, added in order
+    used, _, first, more = d.joints
+    values[:, used] = bt[:, first]
+    for k in more:  # the joint's further parameters, added in order
         values[:, index[k]] += bt[:, k]
     return values
 
