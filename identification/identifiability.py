@@ -117,14 +117,18 @@ def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float
     aliases = []
     if P:
         acc = np.flatnonzero(accepted)
+        # a held column as a combination of the accepted ones before it: least squares by the QR of the accepted
+        # columns (independent: each passed the rank test), whose first k columns' are its first k
+        Q, Ra = np.linalg.qr(Jn[:, acc]) if len(acc) < P else (None, None)
         for j in range(P):
             if accepted[j]:
                 continue
             if not visible[j]:
                 aliases.append(Alias(names[j], "invisible", (), f"{names[j]} has no effect on these data (held fixed)"))
                 continue
-            earlier = acc[acc < j]
-            c = np.linalg.lstsq(Jn[:, earlier], Jn[:, j], rcond=None)[0] if len(earlier) else np.zeros(0)
+            k = int(np.searchsorted(acc, j))
+            earlier = acc[:k]
+            c = np.linalg.solve(Ra[:k, :k], Q[:, :k].T @ Jn[:, j]) if k else np.zeros(0)
             order = np.argsort(-np.abs(c))
             partners = tuple((names[earlier[i]], float(c[i] * norms[j] / norms[earlier[i]])) for i in order if abs(c[i]) > 1e-3)
             aliases.append(Alias(names[j], "aliased", partners, _describe(names[j], partners)))

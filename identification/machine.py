@@ -137,9 +137,19 @@ class Machine:
     def velocity_columns(self) -> tuple:
         """(error joints' velocity indices, axes' velocity indices, the axes' scale from the SI derivative (m per m,
         m per rad) to µm per mm or µm per deg)."""
-        return (np.array([e.v_index for e in self.error_joints], dtype=int),
-                np.array([a.v_index for a in self.axes], dtype=int),
-                np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in self.axes]))
+        parts = (np.array([e.v_index for e in self.error_joints], dtype=int),
+                 np.array([a.v_index for a in self.axes], dtype=int),
+                 np.array([1e3 if a.kind == "prismatic" else 1e6 * np.pi / 180.0 for a in self.axes]))
+        for a in parts:
+            a.flags.writeable = False
+        return parts
+
+    @functools.cached_property  # every pass of a fit asks
+    def configuration_parts(self) -> tuple:
+        """(Pinocchio's neutral configuration, the error joints' places in a configuration)."""
+        neutral = pin.neutral(self.model)
+        neutral.flags.writeable = False
+        return neutral, np.array([e.q_index for e in self.error_joints], dtype=int)
 
     @functools.cached_property
     def parsed_effects(self) -> dict:
@@ -236,16 +246,17 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
 
 def _configurations(machine: Machine, axes_si: np.ndarray, errors_si: np.ndarray) -> np.ndarray:
     """Pinocchio configurations (N, nq) for N poses at once (SI, machine order)."""
-    n = axes_si.shape[0]
-    q = np.tile(pin.neutral(machine.model), (n, 1))
+    neutral, error_q = machine.configuration_parts
+    q = np.empty((axes_si.shape[0], len(neutral)))
+    q[:] = neutral
     for j, a in enumerate(machine.axes):
         if a.nq == 2:
             q[:, a.q_index] = np.cos(axes_si[:, j])
             q[:, a.q_index + 1] = np.sin(axes_si[:, j])
         else:
             q[:, a.q_index] = axes_si[:, j]
-    if machine.error_joints:
-        q[:, [e.q_index for e in machine.error_joints]] = errors_si
+    if len(error_q):
+        q[:, error_q] = errors_si
     return q
 
 
