@@ -117,8 +117,8 @@ def analyse(J: np.ndarray, names, *, tol: float = RANK_TOL, invisible_tol: float
     aliases = []
     if P:
         acc = np.flatnonzero(accepted)
-        # a held column as a combination of the accepted ones before it: least squares by the QR of the accepted
-        # columns (independent: each passed the rank test), whose first k columns' are its first k
+        # a held column as a combination of the accepted ones before it, by least squares: from one QR of the
+        # accepted columns (independent: each passed the rank test), as the QR of their first k is its first k columns
         Q, Ra = np.linalg.qr(Jn[:, acc]) if len(acc) < P else (None, None)
         for j in range(P):
             if accepted[j]:
