@@ -32,10 +32,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .bases import basis_of
-from .effects import basis_values
+from .effects import basis_values, parse_effect
 
-__all__ = ["Implausible", "implausible_effects", "warning_lines", "machine_limit", "share_of_limit", "LIMITS",
-           "PRIOR_MULTIPLE"]
+__all__ = ["Implausible", "implausible_effects", "implausible_candidate", "warning_lines", "machine_limit",
+           "share_of_limit", "LIMITS", "PRIOR_MULTIPLE"]
 
 #: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
 LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
@@ -152,6 +152,20 @@ def implausible_effects(result, names=None) -> tuple:
             index.append(k - 1)
     out = _weak_partners(out, index, theta, getattr(result, "correlation", None))
     return tuple(a for a in out if names is None or a.effect in names)
+
+
+def implausible_candidate(machine, candidate, axis_ranges) -> Implausible | None:
+    """A scored candidate (:class:`~kinid.identification.scoring.Candidate`) whose size at the values the score test
+    estimates is beyond :data:`LIMITS`, as for a fitted effect (its largest value over ``axis_ranges``, the fitted
+    range of its axis); None when it is within them or its values are not known."""
+    if not candidate.coefficients:
+        return None
+    effect = parse_effect(candidate.effect, machine)
+    theta = np.asarray(candidate.coefficients, float)
+    if theta.shape != (effect.n_params,):
+        return None
+    size, limit = _size(effect, theta, machine, axis_ranges), machine_limit(machine, effect.code, effect.unit)
+    return Implausible(effect.name, size, limit, "µm" if effect.unit == "um" else "µrad") if size > limit else None
 
 
 def _weak_partners(flagged: list, index: list, theta, correlation) -> list:

@@ -77,6 +77,9 @@ class Candidate:
         How the candidate was found when it is not from the library (a period search).
     trials : float
         Alternatives searched to find it (its p-value is multiplied by this); 1 for the library.
+    coefficients : tuple of float
+        For ``live``: its parameters' values the test estimates (the effect's units): the least-squares values
+        of the candidate added to the model, to first order.
     """
 
     effect: str
@@ -92,6 +95,7 @@ class Candidate:
     aliases_with: tuple = ()
     note: str = ""
     trials: float = 1.0
+    coefficients: tuple = ()
 
 
 
@@ -306,7 +310,8 @@ class _Test:
             size, size_std = basis.size(e, beta[m], cov[m])
             note = "" if basis.note is None or not self.notes else basis.note(e, beta[m], _axis_unit(machine, e.axis))
             out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / np.log(10)),
-                                 float(rms_after[m]), size, size_std, unit, note=note))
+                                 float(rms_after[m]), size, size_std, unit, note=note,
+                                 coefficients=tuple(float(v) for v in beta[m])))
         return out
 
     def _aliases(self, BJ, k) -> tuple:

@@ -15,7 +15,7 @@ from .effects import check_effects
 from .fit import FitResult
 from .machine import Machine, check_machine
 from .observations import Observations, check_observations
-from .plausibility import implausible_effects
+from .plausibility import implausible_candidate, implausible_effects
 
 __all__ = ["SelectionStep", "forward_select", "what_is_left"]
 
@@ -120,11 +120,15 @@ def what_is_left(steps) -> str:
             f"{first.rms_um:#.3g} → {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)"
             if len(steps) > 1 else
             f"no effect was added (RMS {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)")
-    best = final.live[0] if final.live else None
+    best, passed = _plausible_first(final)
     st = final.structure
     if best is not None and best.p_value < final.threshold:
         return text + (f"; structure remains: {best.effect} is significant (p = {best.p_value:.2g}) but was not "
                        f"added ({_why_not_added(steps[-1])})")
+    if passed and passed[0][0].p_value < final.threshold:
+        c, odd = passed[0]
+        return text + (f"; structure remains: {c.effect} is significant (p = {c.p_value:.2g}) but was not added (it "
+                       f"would need {odd.describe()})")
     if final.verdict == "missing-effect":
         return text + f"; structure remains: {final.note}" if final.note else text + "; structure remains"
     if st is not None:
@@ -179,14 +183,19 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         steps.append(SelectionStep(added, dg.fit, dg, data=obs))
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
-        best, pending = _first_determined(dg)
+        best, passed, pending = _first_determined(dg)
         # time follows an axis and the best candidate explains the data no better than one of the other kind: the
         # plan cannot tell which it is, and a model of either would compensate the wrong cause
         inseparable = bool(dg.inseparable) and best is not None and best.effect == dg.live[0].effect
         stop = ""
         name = None  # the effect added: the best candidate, a warm-up at its refined time constant
+        plausible_next = best is not None and best.p_value < dg.threshold
+        if passed and plausible_next and dg.verdict != "noise":
+            progress.say(f"  {'':<28} passed over: " + "; ".join(_passed_over(p) for p in passed[:3]))
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
+        elif passed and not plausible_next:  # only sizes no machine has explain the structure
+            stop = f"the best candidate, {_passed_over(passed[0])}: {passed[0][1].remedy}; not added"
         elif best is None:
             stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
                     "from the model: see the aliased candidates")
@@ -310,17 +319,39 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
 CHOOSERS = {"periodic": _period_again, "local": _window_again, "warmup": _time_constant_again}
 
 
+def _plausible_first(dg) -> tuple:
+    """The best live candidate of a diagnosis that a machine could have, and the better ones passed over as
+    (candidate, :class:`~kinid.identification.plausibility.Implausible`): the size the score test estimates for
+    them is beyond what a machine has (a candidate nearly aliased with the model explains a little more of the
+    residual than a plausible one only with such a size: 1.2 mrad/mm of pitch where a 0.06 µm/mm scale error
+    explains the same). The rule :func:`forward_select` applies to a fitted addition, applied before adding it."""
+    machine, passed = dg.fit.machine, []
+    for c in dg.live:
+        odd = implausible_candidate(machine, c, dg.fit.axis_ranges)
+        if odd is None:
+            return c, tuple(passed)
+        passed.append((c, odd))
+    return None, tuple(passed)
+
+
+def _passed_over(passed) -> str:
+    """A candidate :func:`_plausible_first` passed over, and the size it would need, in words."""
+    c, odd = passed
+    return f"{c.effect} (p = {c.p_value:.2g}), would need {odd.describe()}"
+
+
 def _first_determined(dg):
-    """The best live candidate, and (error joint, why) when the diagnosis found it periodic with a period the
+    """The best live candidate a machine could have (:func:`_plausible_first`), the better ones passed over, and
+    (error joint, why) when the diagnosis found it periodic with a period the
     positions measured do not determine (:mod:`.ambiguity`), else None. Such a candidate is named by the longest of
     the periods that fit as well — it reproduces every position measured as well as any of them, and between them
     it is the smoothest (the convention of the period search: of aliases, the lowest frequency) — and on a rotary
     axis by the longest of those that make a whole number of cycles per turn, if any does: a gear has whole teeth,
     and such a model does not jump where a table's readings come round (191.9° fits six table angles as well as
     180°)."""
-    best = dg.live[0] if dg.live else None
-    if best is None or not dg.undetermined:
-        return best, None
+    best, passed = _plausible_first(dg)
+    if best is None or not dg.undetermined or best is not dg.live[0]:  # the diagnosis's periods are its best's
+        return best, passed, None
     code, _, period = best.effect.split(":")[:3]
     periods, which = (float(period),) + tuple(dg.twins), "the longest of them"
     machine = dg.fit.machine
@@ -330,4 +361,4 @@ def _first_determined(dg):
     longest = max(periods)
     name = best.effect if longest == float(period) else f"{code}:periodic:{longest:.6g}"
     why = dg.undetermined.replace(" — measure", f"; {name} added, {which} — measure")
-    return replace(best, effect=name), (code, why)
+    return replace(best, effect=name), passed, (code, why)
