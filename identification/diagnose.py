@@ -35,7 +35,7 @@ from .machine import Machine, check_machine
 from .noise import Noise, resolve_noise
 from .observations import Observations, check_observations
 from .local_errors import proposed_maps
-from .plausibility import share_of_limit, warning_lines
+from .plausibility import implausible_candidate, share_of_limit, warning_lines
 from .scoring import Candidate, _f_log10_p, fit_side
 from .searched import score_all
 from .structure import structure_left
@@ -153,6 +153,22 @@ class Diagnosis:
     def live(self) -> list:
         return [c for c in self.candidates if c.status == "live"]
 
+    @property
+    def advised(self) -> tuple:
+        """(the best live candidate a machine could have, or None; the better ones passed over, as (candidate,
+        :class:`~kinid.identification.plausibility.Implausible`)). A candidate whose size at the values the score
+        test estimates is beyond what a machine has (:func:`~kinid.identification.plausibility.implausible_candidate`)
+        is not one to add: nearly aliased with the model, it explains a little more of the residual than a plausible
+        candidate only with such a size (a pitch of 1.2 mrad/mm where a scale error of 0.06 µm/mm explains the
+        same) — the rule ``--auto`` applies to a fitted addition, applied before adding it."""
+        passed = []
+        for c in self.live:
+            odd = implausible_candidate(self.fit.machine, c, self.fit.axis_ranges)
+            if odd is None:
+                return c, tuple(passed)
+            passed.append((c, odd))
+        return None, tuple(passed)
+
     marks: tuple = ()
     hat: np.ndarray = None
 
@@ -204,18 +220,24 @@ class Diagnosis:
         elif self.verdict == "noise":
             lines.append("verdict: noise — no candidate effect is significant and the residual is consistent with the noise")
         else:
-            best = self.live[0] if self.live else None
-            if best is not None and best.p_value < self.threshold and self.undetermined:
+            best, passed = self.advised
+            significant = best is not None and best.p_value < self.threshold
+            if significant and self.undetermined and self.live and best is self.live[0]:
                 lines.append(f"verdict: missing-effect — {self.undetermined}")
-            elif best is not None and best.p_value < self.threshold:
+            elif significant:
                 lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {_p(best)} < {self.threshold:.3g})")
                 lines.append(f"  add it:  kinid identify ... --add {best.effect}")
+            elif passed and passed[0][0].p_value < self.threshold:
+                c, odd = passed[0]
+                lines.append(f"verdict: missing-effect — the best candidate, {c.effect} (p = {_p(c)}), would need "
+                             f"{odd.describe()}: {odd.remedy}")
             elif self.note:
                 lines.append(f"verdict: missing-effect — {self.note}")
             else:
                 lines.append("verdict: missing-effect — the residual exceeds the noise, but no candidate in the library explains it")
         lines.append("")
         w = max([len(c.effect) for c in self.live[:top]] + [6])
+        passed_over = {} if self.verdict == "noise" else {id(c): odd for c, odd in self.advised[1]}
         lines.append(f"{'rank':>4}  {'effect':<{w}}  {'k':>2}  {'Δχ²':>10}  {'p-value':>9}  {'RMS after':>9}  size ± std")
         for i, c in enumerate(self.live[:top], 1):
             lines.append(
@@ -223,6 +245,9 @@ class Diagnosis:
             )
             if c.note:
                 lines.append(f"{'':>4}  {'':<{w}}  ({c.note})")
+            if id(c) in passed_over:
+                lines.append(f"{'':>4}  {'':<{w}}  (would need {passed_over[id(c)].describe()}: a size no machine has, "
+                             f"not advised)")
         aliased = [c for c in self.candidates if c.status != "live"]
         if aliased:
             lines.append("")

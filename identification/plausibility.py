@@ -157,13 +157,17 @@ def implausible_effects(result, names=None) -> tuple:
 def implausible_candidate(machine, candidate, axis_ranges) -> Implausible | None:
     """A scored candidate (:class:`~kinid.identification.scoring.Candidate`) whose size at the values the score test
     estimates is beyond :data:`LIMITS`, as for a fitted effect (its largest value over ``axis_ranges``, the fitted
-    range of its axis); None when it is within them or its values are not known."""
+    range of its axis); None when it is within them or its values are not known. Only values the data determine
+    count (beyond twice their standard deviation): a term along a direction the model nearly holds takes any value
+    the noise gives it (a polynomial's linear term beside the model's squareness), and the fit holds it."""
     if not candidate.coefficients:
         return None
     effect = parse_effect(candidate.effect, machine)
     theta = np.asarray(candidate.coefficients, float)
-    if theta.shape != (effect.n_params,):
+    std = np.asarray(candidate.coefficient_std, float) if candidate.coefficient_std else np.zeros_like(theta)
+    if theta.shape != (effect.n_params,) or std.shape != theta.shape:
         return None
+    theta = np.where(np.abs(theta) > 2.0 * std, theta, 0.0)
     size, limit = _size(effect, theta, machine, axis_ranges), machine_limit(machine, effect.code, effect.unit)
     return Implausible(effect.name, size, limit, "µm" if effect.unit == "um" else "µrad") if size > limit else None
 

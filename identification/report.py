@@ -223,7 +223,7 @@ def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
                   f"compensation (kinid compensate --fit {fit_file or 'FIT.json'} --out "
                   f"{'compensation' if fit_file else 'DIR'}).")
     else:
-        best = diagnosis.live[0] if diagnosis.live else None
+        best = diagnosis.advised[0]
         lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
                  f"shows an effect the model lacks")
         if best is not None and best.p_value < diagnosis.threshold and selected:

@@ -77,9 +77,9 @@ class Candidate:
         How the candidate was found when it is not from the library (a period search).
     trials : float
         Alternatives searched to find it (its p-value is multiplied by this); 1 for the library.
-    coefficients : tuple of float
-        For ``live``: its parameters' values the test estimates (the effect's units): the least-squares values
-        of the candidate added to the model, to first order.
+    coefficients, coefficient_std : tuple of float
+        For ``live``: its parameters' values the test estimates (the effect's units) — the least-squares values
+        of the candidate added to the model, to first order — and their standard deviations.
     """
 
     effect: str
@@ -96,6 +96,7 @@ class Candidate:
     note: str = ""
     trials: float = 1.0
     coefficients: tuple = ()
+    coefficient_std: tuple = ()
 
 
 
@@ -311,7 +312,8 @@ class _Test:
             note = "" if basis.note is None or not self.notes else basis.note(e, beta[m], _axis_unit(machine, e.axis))
             out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / np.log(10)),
                                  float(rms_after[m]), size, size_std, unit, note=note,
-                                 coefficients=tuple(float(v) for v in beta[m])))
+                                 coefficients=tuple(float(v) for v in beta[m]),
+                                 coefficient_std=tuple(float(v) for v in np.sqrt(np.maximum(np.diag(cov[m]), 0.0)))))
         return out
 
     def _aliases(self, BJ, k) -> tuple:

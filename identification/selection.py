@@ -15,7 +15,7 @@ from .effects import check_effects
 from .fit import FitResult
 from .machine import Machine, check_machine
 from .observations import Observations, check_observations
-from .plausibility import implausible_candidate, implausible_effects
+from .plausibility import implausible_effects
 
 __all__ = ["SelectionStep", "forward_select", "what_is_left"]
 
@@ -120,7 +120,7 @@ def what_is_left(steps) -> str:
             f"{first.rms_um:#.3g} → {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)"
             if len(steps) > 1 else
             f"no effect was added (RMS {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)")
-    best, passed = _plausible_first(final)
+    best, passed = final.advised
     st = final.structure
     if best is not None and best.p_value < final.threshold:
         return text + (f"; structure remains: {best.effect} is significant (p = {best.p_value:.2g}) but was not "
@@ -319,29 +319,15 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
 CHOOSERS = {"periodic": _period_again, "local": _window_again, "warmup": _time_constant_again}
 
 
-def _plausible_first(dg) -> tuple:
-    """The best live candidate of a diagnosis that a machine could have, and the better ones passed over as
-    (candidate, :class:`~kinid.identification.plausibility.Implausible`): the size the score test estimates for
-    them is beyond what a machine has (a candidate nearly aliased with the model explains a little more of the
-    residual than a plausible one only with such a size: 1.2 mrad/mm of pitch where a 0.06 µm/mm scale error
-    explains the same). The rule :func:`forward_select` applies to a fitted addition, applied before adding it."""
-    machine, passed = dg.fit.machine, []
-    for c in dg.live:
-        odd = implausible_candidate(machine, c, dg.fit.axis_ranges)
-        if odd is None:
-            return c, tuple(passed)
-        passed.append((c, odd))
-    return None, tuple(passed)
-
-
 def _passed_over(passed) -> str:
-    """A candidate :func:`_plausible_first` passed over, and the size it would need, in words."""
+    """A candidate the diagnosis passed over (:attr:`~kinid.identification.diagnose.Diagnosis.advised`), and the
+    size it would need, in words."""
     c, odd = passed
     return f"{c.effect} (p = {c.p_value:.2g}), would need {odd.describe()}"
 
 
 def _first_determined(dg):
-    """The best live candidate a machine could have (:func:`_plausible_first`), the better ones passed over, and
+    """The best live candidate a machine could have (``dg.advised``), the better ones passed over, and
     (error joint, why) when the diagnosis found it periodic with a period the
     positions measured do not determine (:mod:`.ambiguity`), else None. Such a candidate is named by the longest of
     the periods that fit as well — it reproduces every position measured as well as any of them, and between them
@@ -349,7 +335,7 @@ def _first_determined(dg):
     axis by the longest of those that make a whole number of cycles per turn, if any does: a gear has whole teeth,
     and such a model does not jump where a table's readings come round (191.9° fits six table angles as well as
     180°)."""
-    best, passed = _plausible_first(dg)
+    best, passed = dg.advised
     if best is None or not dg.undetermined or best is not dg.live[0]:  # the diagnosis's periods are its best's
         return best, passed, None
     code, _, period = best.effect.split(":")[:3]

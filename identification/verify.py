@@ -98,7 +98,7 @@ class Verification:
 
     def summary(self) -> dict:
         """The JSON object of ``kinid verify --json`` (docs/cli.md)."""
-        best = self.diagnosis.live[0] if self.diagnosis.live else None
+        best = self.diagnosis.advised[0]
         return {"n_observations": self.n_observations, "before_um": self.before_um,
                 "before_source": self.before_source, "after_um": self.after_um,
                 "noise_um": self.noise.value_um, "noise_source": self.noise.source,
@@ -131,7 +131,7 @@ class Verification:
                          + (f"; {removed:.0%} of the 3-D error removed" if np.isfinite(removed) and removed > 0.1
                             else "; the error is as large as before: check that the compensation is loaded and "
                                  "active (the axes referenced)"))
-            best = self.diagnosis.live[0] if self.diagnosis.live else None
+            best = self.diagnosis.advised[0]
             if best is not None and best.p_value < self.diagnosis.threshold:
                 lines.append(f"  what remains looks like {best.effect} (p = {best.p_value:.3g}; "
                              f"{best.rms_after_um:.3g} µm RMS per coordinate after adding it): identify it on this run "

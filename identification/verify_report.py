@@ -59,7 +59,7 @@ def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
                    f"({v.noise_level_3d_um:.3g} µm).",
                    "Nothing to do; measure again when the machine has been moved, repaired or after a season."]
     else:
-        best = v.diagnosis.live[0] if v.diagnosis.live else None
+        best = v.diagnosis.advised[0]
         summary = [f"Error remains: {v.after_um['3d']:.3g} µm 3-D RMS against {v.noise_level_3d_um:.3g} µm from "
                    f"noise (it was {v.before_um['3d']:.3g} µm before).",
                    (f"What remains looks like {best.effect}: identify it on this run and compensate again."

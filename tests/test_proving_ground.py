@@ -401,3 +401,50 @@ def test_of_candidates_the_data_cannot_tell_apart_the_one_a_machine_could_have_c
         assert shares[0] == min(shares)
         tied_seen += len(tied) > 1
     assert tied_seen >= 1
+
+
+def test_a_candidate_only_a_size_no_machine_has_explains_is_passed_over():
+    """A bump of Z's position on the B-head's fine plan (proving-ground seed 47 #129, drawn whole): the score test
+    ranks first a pitch of Z (EAZ:poly1) that explains a little more than a scale error of Z (EZZ:poly1), but only
+    at 44 mrad over Z's range — nearly aliased with the model, it needs a size no machine has. --auto added it
+    (the fitted size it then reached passed, the model's EA0Z went to 47 mrad) and ended at 2.6× the oracle's
+    held-out error. The selection now passes it over, says so, and adds the scale error that a machine could have;
+    when only such sizes explain the structure, it stops and says why (the rule a fitted addition meets)."""
+    import io
+
+    from kinid.identification import default_model, diagnose, forward_select
+    from kinid.identification.plausibility import implausible_candidate, implausible_effects
+    from kinid.identification.selection import _first_determined, _passed_over
+
+    _, machine, obs = _data(47 * 100003 + 129, layout=None, kinds=None)
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    odd = implausible_candidate(machine, dg.live[0], dg.fit.axis_ranges)
+    assert odd is not None and odd.size > odd.limit and dg.live[0].p_value < dg.threshold
+    best, passed, _ = _first_determined(dg)
+    assert passed[0][0] is dg.live[0] and best is dg.live[len(passed)] and best.p_value < dg.threshold
+    assert implausible_candidate(machine, best, dg.fit.axis_ranges) is None
+    said = io.StringIO()
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0, progress=said)
+    added = [s.added for s in steps[1:]]
+    assert added and added[0] == best.effect and dg.live[0].effect not in added
+    assert f"passed over: {_passed_over(passed[0])}" in said.getvalue()
+    assert not implausible_effects(steps[-1].fit, names=tuple(added))
+
+
+def test_a_selection_only_sizes_no_machine_has_would_explain_stops_and_says_so(monkeypatch):
+    """Every candidate sized beyond what a machine has (the check made to say so): nothing is added, the last word
+    names the best candidate and the size it would need, and the final text says structure remains."""
+    from kinid.identification import default_model, forward_select
+    from kinid.identification.plausibility import Implausible
+
+    monkeypatch.setattr(sys.modules["kinid.identification.diagnose"], "implausible_candidate",
+                        lambda machine, c, ranges: Implausible(c.effect, 2e4, 1e4, "µrad"))
+    _, machine, obs = _data(47 * 100003 + 129, layout=None, kinds=None)
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
+    best = steps[0].diagnosis.live[0]
+    assert len(steps) == 1 and steps[-1].stopped.startswith(f"the best candidate, {best.effect} (p = ")
+    assert "would need " in steps[-1].stopped and steps[-1].stopped.endswith("; not added")
+    left = sys.modules["kinid.identification.selection"].what_is_left(steps)
+    text = steps[0].diagnosis.text()  # the diagnosis advises no addition, and says why
+    assert "--add" not in text and f"the best candidate, {best.effect} (p = " in text and "would need" in text
+    assert f"structure remains: {best.effect} is significant" in left and "would need" in left
