@@ -201,6 +201,10 @@ class Diagnosis:
         if self.structure is not None:
             st = self.structure
             out["structure"] = {"ratio": float(st.ratio), "p_value": float(st.p_value), "along": st.along, "axis": st.axis}
+        passed = self.advised[1] if self.verdict != "noise" else ()
+        if passed:  # only when better candidates than the one advised need sizes no machine has (docs/cli.md)
+            out["passed_over"] = [{"effect": c.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit}
+                                  for c, a in passed]
         odd = self.fit.implausible()
         if odd:  # only when the fit needs sizes no machine has (docs/cli.md)
             out["implausible"] = [{"effect": a.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit,

@@ -420,6 +420,7 @@ def test_a_candidate_only_a_size_no_machine_has_explains_is_passed_over():
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
     odd = implausible_candidate(machine, dg.live[0], dg.fit.axis_ranges)
     assert odd is not None and odd.size > odd.limit and dg.live[0].p_value < dg.threshold
+    assert dg.summary()["passed_over"][0]["effect"] == dg.live[0].effect and "not advised" in dg.text()
     best, passed, _ = _first_determined(dg)
     assert passed[0][0] is dg.live[0] and best is dg.live[len(passed)] and best.p_value < dg.threshold
     assert implausible_candidate(machine, best, dg.fit.axis_ranges) is None

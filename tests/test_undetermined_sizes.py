@@ -94,3 +94,25 @@ def test_the_weak_direction_is_judged_together_and_only_its_share_is_excused():
     assert on_line.undetermined and on_line.partners == ("EA0Z",)
     assert not judged(-1300.0, 0.0).undetermined  # nothing shared: B's size is its own
     assert not judged(+2600.0, 0.98).undetermined  # the determined remainder is beyond the limit
+
+
+def test_a_candidate_is_judged_by_the_size_its_determined_coefficients_give():
+    """A scored candidate's size, as a fitted effect's, is its largest value over the fitted range of its axis, from
+    the coefficients the data determine (beyond twice their standard deviation): a term the noise alone can make
+    large (a direction the model nearly holds) is not evidence of a size no machine has."""
+    from kinid.identification.machine import load_machine
+    from kinid.identification.plausibility import implausible_candidate
+    from kinid.identification.scoring import Candidate
+
+    machine = load_machine(urdf_path("five_axis_bc"))
+    ranges = {"X": (-100.0, 100.0)}
+
+    def scored(coefficients, std):
+        return Candidate("EAX:poly2", "live", 2, 50.0, 1e-10, -10.0, 1.0, 0.0, 0.0, "µrad/mm²",
+                         coefficients=coefficients, coefficient_std=std)
+
+    odd = implausible_candidate(machine, scored((150.0, 0.0), (10.0, 1.0)), ranges)  # 150 µrad/mm over ±100 mm
+    assert odd is not None and abs(odd.size - 15000.0) < 1.0 and odd.limit == 10000.0
+    assert implausible_candidate(machine, scored((150.0, 0.0), (80.0, 1.0)), ranges) is None  # within 2σ of zero
+    assert implausible_candidate(machine, scored((50.0, 0.0), (1.0, 1.0)), ranges) is None  # 5 000 µrad: a machine's
+    assert implausible_candidate(machine, scored((), ()), ranges) is None  # values not known
