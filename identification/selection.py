@@ -194,7 +194,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             progress.say(f"  {'':<28} passed over: " + "; ".join(_passed_over(p) for p in passed[:3]))
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
-        elif passed and not plausible_next:  # only sizes no machine has explain the structure
+        elif passed and not plausible_next and passed[0][0].p_value < dg.threshold:  # only sizes no machine has
             stop = f"the best candidate, {_passed_over(passed[0])}: {passed[0][1].remedy}; not added"
         elif best is None:
             stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
