@@ -113,6 +113,9 @@ class Diagnosis:
     inseparable : str
         When time follows an axis and the best candidate is a drift or warm-up while an error of that axis
         explains the data about as well (or the reverse): the two, and the plan's order as the cause.
+    advised : (Candidate or None, tuple of (Candidate, Implausible))
+        The best live candidate a machine could have, and the better-ranked ones passed over with the size they
+        would need (:func:`advise`); ``undetermined`` and ``inseparable`` are about the one advised.
     """
 
     fit: FitResult
@@ -153,24 +156,9 @@ class Diagnosis:
     def live(self) -> list:
         return [c for c in self.candidates if c.status == "live"]
 
-    @property
-    def advised(self) -> tuple:
-        """(the best live candidate a machine could have, or None; the better ones passed over, as (candidate,
-        :class:`~kinid.identification.plausibility.Implausible`)). A candidate whose size at the values the score
-        test estimates is beyond what a machine has (:func:`~kinid.identification.plausibility.implausible_candidate`)
-        is not one to add: nearly aliased with the model, it explains a little more of the residual than a plausible
-        candidate only with such a size (a pitch of 1.2 mrad/mm where a scale error of 0.06 µm/mm explains the
-        same) — the rule ``--auto`` applies to a fitted addition, applied before adding it."""
-        passed = []
-        for c in self.live:
-            odd = implausible_candidate(self.fit.machine, c, self.fit.axis_ranges)
-            if odd is None:
-                return c, tuple(passed)
-            passed.append((c, odd))
-        return None, tuple(passed)
-
     marks: tuple = ()
     hat: np.ndarray = None
+    advised: tuple = (None, ())
 
     def by_mark(self):
         """(mark, alignments, RMS in the workpiece frame, RMS per solved axis) for each mark, µm."""
@@ -226,22 +214,21 @@ class Diagnosis:
         else:
             best, passed = self.advised
             significant = best is not None and best.p_value < self.threshold
-            if significant and self.undetermined and self.live and best is self.live[0]:
+            if significant and self.undetermined:
                 lines.append(f"verdict: missing-effect — {self.undetermined}")
             elif significant:
                 lines.append(f"verdict: missing-effect — best candidate {best.effect} (p = {_p(best)} < {self.threshold:.3g})")
                 lines.append(f"  add it:  kinid identify ... --add {best.effect}")
             elif passed and passed[0][0].p_value < self.threshold:
-                c, odd = passed[0]
-                lines.append(f"verdict: missing-effect — the best candidate, {c.effect} (p = {_p(c)}), would need "
-                             f"{odd.describe()}: {odd.remedy}")
+                lines.append(f"verdict: missing-effect — the best candidate, {passed_over(*passed[0])}: "
+                             f"{passed[0][1].remedy}")
             elif self.note:
                 lines.append(f"verdict: missing-effect — {self.note}")
             else:
                 lines.append("verdict: missing-effect — the residual exceeds the noise, but no candidate in the library explains it")
         lines.append("")
         w = max([len(c.effect) for c in self.live[:top]] + [6])
-        passed_over = {} if self.verdict == "noise" else {id(c): odd for c, odd in self.advised[1]}
+        flagged = {} if self.verdict == "noise" else {id(c): odd for c, odd in self.advised[1]}
         lines.append(f"{'rank':>4}  {'effect':<{w}}  {'k':>2}  {'Δχ²':>10}  {'p-value':>9}  {'RMS after':>9}  size ± std")
         for i, c in enumerate(self.live[:top], 1):
             lines.append(
@@ -249,8 +236,8 @@ class Diagnosis:
             )
             if c.note:
                 lines.append(f"{'':>4}  {'':<{w}}  ({c.note})")
-            if id(c) in passed_over:
-                lines.append(f"{'':>4}  {'':<{w}}  (would need {passed_over[id(c)].describe()}: a size no machine has, "
+            if id(c) in flagged:
+                lines.append(f"{'':>4}  {'':<{w}}  (would need {flagged[id(c)].describe()}: a size no machine has, "
                              f"not advised)")
         aliased = [c for c in self.candidates if c.status != "live"]
         if aliased:
@@ -408,9 +395,12 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
             note = (f"the residual exceeds the noise σ given (χ² p = {chi2_p:.2g}) and no candidate or neighbour "
                     f"test explains it: an effect remains that the data cannot single out{where}, or the noise is "
                     f"about {apparent:.2g} µm, not {sigma:.2g} µm as given (if so, give --noise-um {apparent:.2g})")
-    undetermined, twins = _undetermined(machine, obs, result, live[0], sigma, d_errors, q0, side) if significant else ("", ())
+    advised = advise(machine, live, result.axis_ranges)
+    best, passed = advised
+    chosen = best is not None and best.p_value < threshold  # the candidate advised, significant
+    undetermined, twins = _undetermined(machine, obs, result, best, sigma, d_errors, q0, side) if chosen else ("", ())
     follows = time_follows(obs, machine)
-    inseparable = _inseparable(machine, live, follows) if significant else ""
+    inseparable = _inseparable(machine, live[len(passed):], follows) if chosen else ""
     hat = hat_diagonal(q0)
     stud, lev = studentized(result, None, sigma, h=hat)
     bound = chi2_isf(alpha / len(obs), 3)
@@ -421,7 +411,29 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), hat=hat,
                      structure=structure, time_follows=follows, undetermined=undetermined, twins=twins,
-                     inseparable=inseparable)
+                     inseparable=inseparable, advised=advised)
+
+
+def advise(machine: Machine, live, axis_ranges) -> tuple:
+    """(the best of the live candidates ``live`` (best first) a machine could have, or None; the better ones passed
+    over, as (candidate, :class:`~kinid.identification.plausibility.Implausible`)). A candidate whose size at the
+    values the score test estimates is beyond what a machine has
+    (:func:`~kinid.identification.plausibility.implausible_candidate`, over the fitted ranges ``axis_ranges``) is
+    not one to add: nearly aliased with the model, it explains a little more of the residual than a plausible
+    candidate only with such a size (a pitch of 1.2 mrad/mm where a scale error of 0.06 µm/mm explains the same) —
+    the rule ``--auto`` applies to a fitted addition, applied before adding it."""
+    passed = []
+    for c in live:
+        odd = implausible_candidate(machine, c, axis_ranges)
+        if odd is None:
+            return c, tuple(passed)
+        passed.append((c, odd))
+    return None, tuple(passed)
+
+
+def passed_over(c, odd) -> str:
+    """A candidate passed over (:func:`advise`) and the size it would need, in words."""
+    return f"{c.effect} (p = {c.p_value:.2g}), would need {odd.describe()}"
 
 
 #: Two candidates whose χ² drops differ by less than this explain the data alike (χ²₂ at 1 %).

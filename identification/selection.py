@@ -10,7 +10,7 @@ from kinid.checks import check_positive
 from kinid.progress import as_progress
 from kinid.threads import blas_single_threaded
 
-from .diagnose import ALPHA, Diagnosis, diagnose
+from .diagnose import ALPHA, Diagnosis, diagnose, passed_over
 from .effects import check_effects
 from .fit import FitResult
 from .machine import Machine, check_machine
@@ -186,16 +186,16 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         best, passed, pending = _first_determined(dg)
         # time follows an axis and the best candidate explains the data no better than one of the other kind: the
         # plan cannot tell which it is, and a model of either would compensate the wrong cause
-        inseparable = bool(dg.inseparable) and best is not None and best.effect == dg.live[0].effect
+        inseparable = bool(dg.inseparable) and best is not None and best.effect == dg.advised[0].effect
         stop = ""
         name = None  # the effect added: the best candidate, a warm-up at its refined time constant
         plausible_next = best is not None and best.p_value < dg.threshold
         if passed and plausible_next and dg.verdict != "noise":
-            progress.say(f"  {'':<28} passed over: " + "; ".join(_passed_over(p) for p in passed[:3]))
+            progress.say(f"  {'':<28} passed over: " + "; ".join(passed_over(*p) for p in passed[:3]))
         if dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
         elif passed and not plausible_next and passed[0][0].p_value < dg.threshold:  # only sizes no machine has
-            stop = f"the best candidate, {_passed_over(passed[0])}: {passed[0][1].remedy}; not added"
+            stop = f"the best candidate, {passed_over(*passed[0])}: {passed[0][1].remedy}; not added"
         elif best is None:
             stop = ("the data ask for more than the model holds, but no candidate of the library can be separated "
                     "from the model: see the aliased candidates")
@@ -319,13 +319,6 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
 CHOOSERS = {"periodic": _period_again, "local": _window_again, "warmup": _time_constant_again}
 
 
-def _passed_over(passed) -> str:
-    """A candidate the diagnosis passed over (:attr:`~kinid.identification.diagnose.Diagnosis.advised`), and the
-    size it would need, in words."""
-    c, odd = passed
-    return f"{c.effect} (p = {c.p_value:.2g}), would need {odd.describe()}"
-
-
 def _first_determined(dg):
     """The best live candidate a machine could have (``dg.advised``), the better ones passed over, and
     (error joint, why) when the diagnosis found it periodic with a period the
@@ -336,7 +329,7 @@ def _first_determined(dg):
     and such a model does not jump where a table's readings come round (191.9° fits six table angles as well as
     180°)."""
     best, passed = dg.advised
-    if best is None or not dg.undetermined or best is not dg.live[0]:  # the diagnosis's periods are its best's
+    if best is None or not dg.undetermined:
         return best, passed, None
     code, _, period = best.effect.split(":")[:3]
     periods, which = (float(period),) + tuple(dg.twins), "the longest of them"

@@ -414,7 +414,9 @@ def test_a_candidate_only_a_size_no_machine_has_explains_is_passed_over():
 
     from kinid.identification import default_model, diagnose, forward_select
     from kinid.identification.plausibility import implausible_candidate, implausible_effects
-    from kinid.identification.selection import _first_determined, _passed_over
+
+    passed_over = sys.modules["kinid.identification.diagnose"].passed_over
+    from kinid.identification.selection import _first_determined
 
     _, machine, obs = _data(47 * 100003 + 129, layout=None, kinds=None)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
@@ -428,7 +430,7 @@ def test_a_candidate_only_a_size_no_machine_has_explains_is_passed_over():
     steps = forward_select(machine, obs, default_model(machine), noise_um=1.0, progress=said)
     added = [s.added for s in steps[1:]]
     assert added and added[0] == best.effect and dg.live[0].effect not in added
-    assert f"passed over: {_passed_over(passed[0])}" in said.getvalue()
+    assert f"passed over: {passed_over(*passed[0])}" in said.getvalue()
     assert not implausible_effects(steps[-1].fit, names=tuple(added))
 
 
