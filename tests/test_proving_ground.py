@@ -56,6 +56,10 @@ def test_rates_on_drawn_scenarios(capsys):
     assert np.mean(hidden) >= 0.80  # 84 % (21 of 25)
     assert everything["worse_than_default"] == 0.0
     assert everything["worse_on_plan"] == 0.0  # the same judged on every pose of the plan (noise-free truth)
+    # the paired statistic is of the same poses and the same 5 %: above zero exactly when the ratio is above 1.05
+    for sc in scenarios:
+        r = sc.result
+        assert (r["worse_z"] > 0) == (r["held_out_um"] > 1.05 * r["default_um"]), _line(sc)
     none = [sc for sc in scenarios if not sc.hidden and sc.sigma_declared == pg.NOISE_UM]
     assert none and all(not sc.result["added"] for sc in none)
 
