@@ -292,13 +292,14 @@ def _period_again(machine, obs, name, result, start, sigma):
 
 
 def _window_again(machine, obs, name, result, start, sigma):
-    """A local error's window, among the windows the diagnosis tries on its joint that the turn's rows hold up
-    (:func:`~kinid.identification.local_errors.window_found_on`)."""
+    """A local error's window, among the windows the diagnosis tries on its joint and around the candidate that the
+    turn's rows hold up (:func:`~kinid.identification.local_errors.window_found_on`)."""
     from .effects import parse_effect
     from .local_errors import local_windows, window_found_on
 
     candidate = parse_effect(name, machine)
-    windows = [w for w in local_windows(machine, obs, name.split(":")[0]) if w.name != name] + [candidate]
+    windows = [w for w in local_windows(machine, obs, name.split(":")[0], near=candidate)
+               if w.name != name] + [candidate]
     return lambda train, turn, d_errors: window_found_on(machine, train, turn, windows, d_errors) or candidate
 
 

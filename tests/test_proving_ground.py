@@ -246,6 +246,28 @@ def test_a_local_error_rests_on_readings_per_coefficient_not_per_knot():
     assert sc.result["held_out_um"] <= 1.5 * sc.result["oracle_um"]
 
 
+def test_a_bump_narrower_than_the_windows_knots_is_found_with_knots_twice_as_close():
+    """Class 6 on a long axis: a 5.9 µm bump of the gantry's Y (FWHM 8–20 mm) in its large plan, Y read every 0.7 mm
+    over 440 mm (proving ground seed 31 #53). The map's step is 20 mm and the finest windows tried had knots every
+    10 mm: the best of them took 2.1× the oracle's held-out error and left a residual the tests call noise. Around
+    the likeliest window the diagnosis now tries knots twice as close."""
+    from kinid.identification import diagnose, default_model
+    from kinid.identification.local_errors import local_windows
+
+    sc = pg.run(31 * 100003 + 53)
+    print(_line(sc))
+    assert sc.layout == "gantry_dual_y" and sc.kinds == "bump"
+    assert [a.split(":")[:3] for a in sc.result["added"]] == [["EYY", "local", "5"]]
+    assert sc.result["held_out_um"] <= 1.2 * sc.result["oracle_um"]  # 1.10 when written (2.08 with 10 mm knots)
+    # the windows tried everywhere have knots every 10, 20 and 40 mm; the diagnosis's own proposal has 5 mm ones
+    _, machine, obs = _data(31 * 100003 + 53, None, None)
+    steps = {float(w.name.split(":")[2]) for w in local_windows(machine, obs, "EYY")}
+    assert steps == {10.0, 20.0, 40.0}
+    dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
+    best = [c for c in dg.live if ":local:" in c.effect]
+    assert best and best[0].effect.startswith("EYY:local:5:")
+
+
 def test_misreads_are_judged_against_the_residuals_scale_not_a_sigma_given_too_large():
     """Class 4: 5 % misreads of 10–40 µm with σ given as 2.7 µm where the noise is 1 µm. Judged against the given σ,
     a misread of 10 µm is 3.6 σ and stayed in (9 of 13 set aside); against the residuals' robust scale all go."""
