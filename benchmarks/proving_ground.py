@@ -577,7 +577,7 @@ def main(argv=None):
 
         from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullLocator
 
-        keys = [k for k in summary if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all"))]
+        keys = [k for k in summary if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
         failed_label = "failed"
         for i, key in enumerate(keys):
