@@ -366,7 +366,8 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
         sc.result = {"verdict": f"crash: {type(exc).__name__}: {exc}", "added": [], "stopped": "", "set_aside": 0,
                      "misreads": int(len(bad)), "held_out_um": float("inf"), "default_um": float("nan"),
                      "oracle_um": float("nan"), "floor_um": float("nan"), "plan_um": float("inf"),
-                     "default_plan_um": float("nan"), "worse_z": float("inf"), "named": [], "wanted": [], "seconds": time.perf_counter() - started}
+                     "default_plan_um": float("nan"), "worse_z": float("inf"), "named": [], "wanted": [],
+                     "seconds": time.perf_counter() - started}
         return sc
     seconds = time.perf_counter() - started
     final = steps[-1]
@@ -417,7 +418,10 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     # poses of a small plan hold a 5 % difference only when it is far larger than the spread between the poses
     d = pose_errors_um2(final.fit, final.fit.effects) - 1.05**2 * pose_errors_um2(steps[0].fit, steps[0].fit.effects)
     spread = float(np.std(d, ddof=1) / np.sqrt(len(d))) if len(d) > 1 else 0.0
-    worse_z = float(np.mean(d) / spread) if spread > 0 else float(np.sign(np.mean(d)) * np.inf) if len(d) else 0.0
+    if spread > 0:
+        worse_z = float(np.mean(d) / spread)
+    else:  # one pose, or poses alike: as sure as the sign of the difference (none: no evidence either way)
+        worse_z = float(np.copysign(np.inf, np.mean(d))) if len(d) and np.mean(d) != 0 else 0.0
     sc.result = {
         "verdict": dg.verdict, "added": added, "stopped": final.stopped, "set_aside": len(final.fit.set_aside),
         "misreads": int(len(bad)), "held_out_um": held_out_um(final.fit, final.fit.effects),
@@ -577,7 +581,8 @@ def main(argv=None):
 
         from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullLocator
 
-        keys = [k for k in summary if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
+        keys = [k for k in summary
+                if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
         failed_label = "failed"
         for i, key in enumerate(keys):
