@@ -584,6 +584,7 @@ def main(argv=None):
         keys = [k for k in summary
                 if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
+        colours = plt.get_cmap("turbo")(np.linspace(0.05, 0.95, len(keys)))  # one hue per class, however many
         failed_label = "failed"
         for i, key in enumerate(keys):
             items = [(v["ratio"], v["pass"]) for v in (verdict_of(sc) for sc in scenarios
@@ -591,7 +592,7 @@ def main(argv=None):
                      if np.isfinite(v["ratio"])]
             x = np.full(len(items), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(items))
             ratio, ok = np.array([r for r, _ in items]), np.array([p for _, p in items], bool)
-            ax.scatter(x[ok], ratio[ok], s=12, color=f"C{i % 10}")
+            ax.scatter(x[ok], ratio[ok], s=12, color=colours[i])
             if (~ok).any():
                 ax.scatter(x[~ok], ratio[~ok], s=28, marker="x", color="k", lw=1.2, label=failed_label)
                 failed_label = None

@@ -303,6 +303,24 @@ def test_the_held_out_check_asks_for_a_gain_beyond_its_scatter():
     assert cv.improves and cv.gain_se > 5, cv
 
 
+def test_a_period_that_only_the_held_out_blocks_noise_chose_is_not_added(monkeypatch):
+    """No hidden effect, σ not given, the B-head's random-half plan (proving ground seed 23 #428): the best searched
+    period, 5 mm of the Z straightness along X, gains 2.1 standard errors on the held-out blocks chosen on all the
+    data and 0.1 chosen again on each turn's training blocks. Added, it predicted held-out poses 2.3× worse than
+    the default model; the turns' own choices must bring one standard error."""
+    from kinid.identification import crossval
+
+    sc = pg.run(23 * 100003 + 428)
+    print(_line(sc))
+    assert not sc.hidden and sc.sigma_declared is None
+    assert sc.result["added"] == [] and sc.result["held_out_um"] == sc.result["default_um"]
+    # the same scenario with a gain above zero asked of the period chosen per turn, as before: the period goes in
+    monkeypatch.setitem(crossval.CHOSEN_AGAIN, "periodic", ("period", 0.0))
+    before = pg.run(23 * 100003 + 428)
+    assert [a.split(":")[:2] for a in before.result["added"]] == [["EZX", "periodic"]]
+    assert before.result["held_out_um"] > 2.0 * before.result["default_um"]
+
+
 def test_misreads_that_stand_out_only_at_the_end_do_not_steer_the_selection():
     """Class 4: a sag and a straightness error of the gantry with 5 % misreads. The two effects' residual hides
     the misreads at the start, they steered the selection to a cross-axis term and a yaw (held-out 3.5× the
