@@ -416,7 +416,9 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     # how surely the final model is more than 5 % worse than the default one on these held-out poses: the paired
     # difference of their squared errors pose by pose (final − 1.05² × default) in its standard errors — a dozen
     # poses of a small plan hold a 5 % difference only when it is far larger than the spread between the poses
-    d = pose_errors_um2(final.fit, final.fit.effects) - 1.05**2 * pose_errors_um2(steps[0].fit, steps[0].fit.effects)
+    final_um2 = pose_errors_um2(final.fit, final.fit.effects)
+    default_um2 = pose_errors_um2(steps[0].fit, steps[0].fit.effects)
+    d = final_um2 - 1.05**2 * default_um2
     spread = float(np.std(d, ddof=1) / np.sqrt(len(d))) if len(d) > 1 else 0.0
     if spread > 0:
         worse_z = float(np.mean(d) / spread)
@@ -424,8 +426,8 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
         worse_z = float(np.copysign(np.inf, np.mean(d))) if len(d) and np.mean(d) != 0 else 0.0
     sc.result = {
         "verdict": dg.verdict, "added": added, "stopped": final.stopped, "set_aside": len(final.fit.set_aside),
-        "misreads": int(len(bad)), "held_out_um": held_out_um(final.fit, final.fit.effects),
-        "default_um": held_out_um(steps[0].fit, steps[0].fit.effects), "oracle_um": oracle, "floor_um": floor,
+        "misreads": int(len(bad)), "held_out_um": float(np.sqrt(np.mean(final_um2))),
+        "default_um": float(np.sqrt(np.mean(default_um2))), "oracle_um": oracle, "floor_um": floor,
         "plan_um": held_out_um(final.fit, final.fit.effects, plan_obs),
         "default_plan_um": held_out_um(steps[0].fit, steps[0].fit.effects, plan_obs),
         "worse_z": worse_z, "named": sorted(named), "wanted": sorted(wanted), "seconds": seconds,

@@ -400,6 +400,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     chosen = best is not None and best.p_value < threshold  # the candidate advised, significant
     undetermined, twins = _undetermined(machine, obs, result, best, sigma, d_errors, q0, side) if chosen else ("", ())
     follows = time_follows(obs, machine)
+    # from the candidate advised on: those passed over are the ones ranked before it
     inseparable = _inseparable(machine, live[len(passed):], follows) if chosen else ""
     hat = hat_diagonal(q0)
     stud, lev = studentized(result, None, sigma, h=hat)

@@ -150,16 +150,18 @@ def _map_grid(machine, obs, code: str, axis: str, axes=None):
 
 def local_windows(machine, obs, code: str, near=None) -> list:
     """The local windows the diagnosis tries on error joint ``code`` with the readings of ``obs`` (its axis read at
-    too few positions: none); with ``near`` (a local error of that joint), also those around it with its knots and
-    with knots twice as close: the diagnosis tries the finer ones around its likeliest window, and ``near`` may be
-    one of them."""
+    too few positions: none); with ``near`` (a local error of that joint), also the finer ones it tries around its
+    likeliest window: knots twice as close around ``near`` where that has the knots of the windows tried
+    everywhere, else (``near`` is one of the finer ones) its own knots around it."""
     grid = _map_grid(machine, obs, code, machine.error_joint(code).axis)
     if grid is None:
         return []
     out = _local_windows(*grid[:3], machine)
     if near is not None:
         seen = {w.name for w in out}
-        out += [w for w in _finer_windows(*grid[:3], near, machine, (1.0, 0.5)) if w.name not in seen]
+        step = near.knots[1] - near.knots[0]
+        finer = 0.5 if any(math.isclose(w.knots[1] - w.knots[0], step, rel_tol=1e-9) for w in out) else 1.0
+        out += [w for w in _finer_windows(*grid[:3], near, machine, finer) if w.name not in seen]
     return out
 
 
@@ -256,13 +258,13 @@ def _bspline_support(q, first: float, step: float, count: int) -> np.ndarray:
         (2, f**3 / 6)))
 
 
-def _finer_windows(whole, q, distinct, window, machine, factors=(0.5,)) -> list:
-    """Windows of ``LOCAL_WIDTHS`` knot intervals with knots every ``factors`` times the step of the local error
+def _finer_windows(whole, q, distinct, window, machine, factor: float = 0.5) -> list:
+    """Windows of ``LOCAL_WIDTHS`` knot intervals with knots every ``factor`` times the step of the local error
     ``window`` (half: twice as close), from a step before its window to a step after it (inside the range of the map
     ``whole``), that rest on the readings ``q`` (:func:`_rests_on_readings`)."""
     step = window.knots[1] - window.knots[0]
     lo, hi = max(window.knots[0] - step, whole.knots[0]), min(window.knots[-1] + step, whole.knots[-1])
-    return [w for f in factors for w in _windows_at(whole.code, step * f, lo, hi, q, distinct, machine)]
+    return _windows_at(whole.code, step * factor, lo, hi, q, distinct, machine)
 
 
 def _local_windows(whole, q, distinct, machine) -> list:
