@@ -18,6 +18,18 @@ SIZE, PIXEL_MM, N = (512, 512), 0.03, 12
 BOARD = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
 
 
+@pytest.fixture(autouse=True)
+def _no_connection_left_behind():
+    """A scheduler that never answers leaves kinid's connecting thread running past its time-out: each test waits
+    for it to give up before the next one starts a client (its failed client is closed in that thread)."""
+    import threading
+
+    yield
+    for thread in threading.enumerate():
+        if thread.name == "kinid-dask-connect":
+            thread.join(60.0)
+
+
 @pytest.fixture(scope="module")
 def frames(tmp_path_factory):
     root = tmp_path_factory.mktemp("dask")
@@ -91,3 +103,38 @@ def test_a_scheduler_that_cannot_serve_is_one_line_within_the_time_out(frames, t
     assert status == 2 and "--scheduler" in err and "cannot reach the Dask scheduler" in err, err
     assert len([line for line in err.splitlines() if line.strip()]) == 1, err
     assert seconds < 30 and not (tmp_path / "a.csv").exists()
+
+
+def test_a_refused_connection_leaves_no_client_that_hangs_a_later_one():
+    """A tls:// address without TLS settings makes Dask's client fail in its constructor; its finaliser closes it
+    under a lock every client shares. Collected inside a later client's start (which holds that lock), it waited
+    for the lock forever: the suite hung under load. Here the later start collects the garbage on purpose (as a
+    collection at that moment would), in a process of its own, bounded in time."""
+    import subprocess
+    import sys
+
+    script = """
+import gc
+import kinid.stages.contour.frames as frames
+from dask.distributed import Client, LocalCluster
+from distributed.utils import LoopRunner
+
+gc.disable()  # the failed clients stay garbage until collected on purpose
+for _ in range(2):
+    try:
+        frames._remote_client(Client, "tls://127.0.0.1:9")
+    except TypeError:
+        pass
+start = LoopRunner._start_unlocked
+def collecting_start(self):
+    gc.collect()
+    return start(self)
+LoopRunner._start_unlocked = collecting_start
+LocalCluster(n_workers=0, processes=False, dashboard_address=None).close(timeout=10)
+print("started and closed")
+"""
+    try:
+        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    except subprocess.TimeoutExpired:
+        pytest.fail("a local cluster after a refused connection hung")
+    assert done.returncode == 0 and "started and closed" in done.stdout, done.stderr[-2000:]

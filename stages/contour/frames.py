@@ -252,6 +252,7 @@ def _remote_client(Client, scheduler):
     Dask's own time-out covers the connection but not an address that accepts it and never answers (any TCP
     server), so the client is made in a daemon thread watched here; a scheduler without workers would take
     the frames and never return them."""
+    import gc
     import threading
 
     box = {}
@@ -259,8 +260,14 @@ def _remote_client(Client, scheduler):
     def connect():
         try:
             box["client"] = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
-        except BaseException as exc:  # handed to the caller's thread
+        except BaseException as exc:  # handed to the caller's thread, without the frames of the failed client
+            exc.__traceback__ = exc.__context__ = exc.__cause__ = None
             box["error"] = exc
+            # the failed client's finaliser closes it under a lock every Dask client shares: run it here, where this
+            # thread holds none. Left to a later garbage collection, it can run inside another client's start,
+            # which holds that lock, and wait for it forever (seen in the tests, under load: every later use of
+            # Dask in the process hung)
+            gc.collect()
 
     thread = threading.Thread(target=connect, name="kinid-dask-connect", daemon=True)
     thread.start()
