@@ -219,12 +219,12 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, add_alpha, max_ste
         elif best.p_value >= dg.threshold:
             stop = (f"no candidate is significant: the best, {best.effect}, has p = {best.p_value:.2g} above the "
                     f"threshold {dg.threshold:.2g}" + (f"; {dg.note}" if dg.note else ""))
-        elif inseparable:
-            stop = f"the best candidate, {best.effect} (p = {best.p_value:.2g}), is not added: {dg.inseparable}"
         elif best.p_value >= dg.threshold * add_alpha / alpha:  # flagged by the diagnosis, too weak to add
             stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), {TOO_WEAK}an addition needs p "
                     f"below {dg.threshold * add_alpha / alpha:.2g} (α = {add_alpha:g}, where the diagnosis flags at "
                     f"{alpha:g})")
+        elif inseparable:
+            stop = f"the best candidate, {best.effect} (p = {best.p_value:.2g}), is not added: {dg.inseparable}"
         elif len(steps) > max_steps:
             stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
         elif folds:
