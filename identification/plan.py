@@ -29,6 +29,8 @@ __all__ = ["Plan", "Candidates", "plan_measurement", "volume_weight", "tool_poin
 
 #: Reading noise assumed when the user gives none, µm.
 NOISE_UM = 1.0
+#: Significance of the diagnosis's test of one candidate effect (before Bonferroni over the library).
+ALPHA = 0.01
 
 
 @dataclass(frozen=True)
@@ -187,8 +189,7 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
     count : int, optional
         A fixed number of alignments instead of targets.
     detect : dict effect name -> size, optional
-        Effects the diagnosis must find at this size (norm of the parameter vector) with ``power``, significant
-        enough for ``identify --auto`` to add them (:data:`~kinid.identification.selection.ADD_ALPHA`).
+        Effects the diagnosis must detect at this size (norm of the parameter vector) with ``power``.
     travel : TravelModel
     blocks, reference
         See :func:`~kinid.identification.plan_order.order_for_time`.
@@ -253,11 +254,9 @@ def _keep_detectable(machine, effects, candidates, J, index, detect, noise_um, p
     """Add candidates until every effect of ``detect`` reaches ``power`` at its size (weakest effect first)."""
     from .effects import candidate_library, parse_effect
     from .residuals import design, residuals
-    from .selection import ADD_ALPHA
 
-    # detected: significant enough for ``identify --auto`` to add it (the verdict flags it at ALPHA, looser)
     library = len(candidate_library(machine, effects, has_directions=False, has_time=True))
-    alpha = ADD_ALPHA / max(library, 1)
+    alpha = ALPHA / max(library, 1)
     blocks = {}
     have = {e.name for e in effects}
     for name, size in detect.items():

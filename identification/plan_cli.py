@@ -40,8 +40,8 @@ def register(sub) -> None:
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT",
                    help="effects to identify besides the default model, e.g. EXX:periodic:10")
     p.add_argument("--detect", action="append", default=[], metavar="EFFECT=SIZE",
-                   help="an effect the diagnosis must find, significant enough for identify --auto to add it, at "
-                        "this size (norm of its parameters, their unit), e.g. EXX:periodic:10=1")
+                   help="an effect the diagnosis must detect at this size (norm of its parameters, their unit), "
+                        "e.g. EXX:periodic:10=1")
     p.add_argument("--power", type=float, default=0.9, help="with --detect: the probability of detecting (default 0.9)")
     p.add_argument("--speed-mm-s", type=float, default=100.0, help="linear axes' positioning speed (default 100)")
     p.add_argument("--accel-mm-s2", type=float, default=500.0, help="linear axes' acceleration (default 500)")

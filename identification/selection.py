@@ -22,14 +22,6 @@ __all__ = ["SelectionStep", "forward_select", "what_is_left"]
 
 #: A warm-started refit taking more iterations than this is redone from a cold start.
 WARM_START_ITERATIONS = 15
-#: The significance an effect needs to be added to a model, before Bonferroni over the live candidates as for the
-#: verdict, which flags a candidate at :data:`~kinid.identification.diagnose.ALPHA` (0.01). A flag asks the user to
-#: look; an addition goes into the machine's compensation, and an effect fitted to noise predicts worse than the
-#: model without it. At the verdict's level, a warm-up fitted to noise passed the held-out check too (p = 5.7e-5
-#: against the threshold 8.6e-5, a gain of 2.4 standard errors) and predicted the held-out poses 1.45× worse.
-ADD_ALPHA = 1e-3
-#: What the stop message says of a candidate the verdict flags but too weak to be added.
-TOO_WEAK = "is too weak to be added: "
 
 
 def _set_aside(machine, obs, effects, noise_um, progress, before: tuple, first=None):
@@ -77,16 +69,11 @@ class SelectionStep:
 
 @blas_single_threaded
 def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=None, alpha: float = ALPHA,
-                   add_alpha: float = ADD_ALPHA, max_steps: int = 8, progress=None, robust: bool = True,
-                   folds: int = 4) -> list:
+                   max_steps: int = 8, progress=None, robust: bool = True, folds: int = 4) -> list:
     """Add the best candidate, refit the full nonlinear model, rescore; until the verdict is ``noise``.
 
     Parameters
     ----------
-    alpha, add_alpha : float
-        The significance the diagnosis flags a candidate at (its verdict ``missing-effect``), and the one a
-        candidate needs to be added (:data:`ADD_ALPHA`; at most ``alpha``), each before Bonferroni over the live
-        candidates. A candidate between the two is named in the final step's verdict, not added.
     progress : Progress, text stream or None
         Where to say one line per step (the RMS falling against σ); see :func:`kinid.progress.as_progress`.
     robust : bool
@@ -112,8 +99,7 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
     aside, start = (), None
     if robust:
         obs, aside, start = _set_aside(machine, obs, effects, noise_um, progress, aside)
-    settings = dict(noise_um=noise_um, alpha=alpha, add_alpha=min(add_alpha, alpha), max_steps=max_steps,
-                    progress=progress, robust=robust, folds=folds)
+    settings = dict(noise_um=noise_um, alpha=alpha, max_steps=max_steps, progress=progress, robust=robust, folds=folds)
     steps = _select(machine, obs, list(effects), aside, start=start, **settings)
     last = steps[-1]
     if robust and len(steps) > 1 and len(last.fit.set_aside) > len(aside):
@@ -156,8 +142,6 @@ def _why_not_added(last) -> str:
     from .crossval import MIN_GAIN_SE
 
     cv = last.held_out
-    if TOO_WEAK in last.stopped:  # flagged by the diagnosis, below the significance an addition needs
-        return last.stopped.split(TOO_WEAK, 1)[1].split(" (α")[0]
     if cv is None and last.diagnosis.inseparable:  # time follows an axis: the plan cannot tell the two apart
         return last.diagnosis.inseparable.split(" (--auto adds neither)")[0]
     if cv is not None and not cv.improves:
@@ -170,8 +154,7 @@ def _why_not_added(last) -> str:
     return last.stopped.split("; ")[0]
 
 
-def _select(machine, obs, effects, aside, *, noise_um, alpha, add_alpha, max_steps, progress, robust, folds,
-            start=None) -> list:
+def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progress, robust, folds, start=None) -> list:
     """The selection loop of :func:`forward_select` from ``effects`` on ``obs`` (``aside``: set aside so far;
     ``start``: the fit of ``effects`` on ``obs`` from a cold start, when the set-aside made it)."""
     from .searched import refined_time_constant
@@ -219,10 +202,6 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, add_alpha, max_ste
         elif best.p_value >= dg.threshold:
             stop = (f"no candidate is significant: the best, {best.effect}, has p = {best.p_value:.2g} above the "
                     f"threshold {dg.threshold:.2g}" + (f"; {dg.note}" if dg.note else ""))
-        elif best.p_value >= dg.threshold * add_alpha / alpha:  # flagged by the diagnosis, too weak to add
-            stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), {TOO_WEAK}an addition needs p "
-                    f"below {dg.threshold * add_alpha / alpha:.2g} (α = {add_alpha:g}, where the diagnosis flags at "
-                    f"{alpha:g})")
         elif inseparable:
             stop = f"the best candidate, {best.effect} (p = {best.p_value:.2g}), is not added: {dg.inseparable}"
         elif len(steps) > max_steps:
