@@ -94,9 +94,8 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
         # then with knots twice as close around it: a bump narrower than the knots of the windows tried along a long
         # axis is described by none of them, and finer windows everywhere would cost more than the rest of the test
         code = best_local.effect.split(":")[0]
-        seen = {w.name for w in windows}
-        finer = [w for w in _finer_windows(*grids[code], next(w for w in windows if w.name == best_local.effect),
-                                           machine) if w.name not in seen]
+        finer = _windows_around(*grids[code], next(w for w in windows if w.name == best_local.effect), machine,
+                                windows)
         if finer:
             windows += finer
             local += [c for c in score_candidates(machine, obs, result, finer, sigma, sigma_known=known,
@@ -157,12 +156,7 @@ def local_windows(machine, obs, code: str, near=None) -> list:
     if grid is None:
         return []
     out = _local_windows(*grid[:3], machine)
-    if near is not None:
-        seen = {w.name for w in out}
-        step = near.knots[1] - near.knots[0]
-        finer = 0.5 if any(math.isclose(w.knots[1] - w.knots[0], step, rel_tol=1e-9) for w in out) else 1.0
-        out += [w for w in _finer_windows(*grid[:3], near, machine, finer) if w.name not in seen]
-    return out
+    return out if near is None else out + _windows_around(*grid[:3], near, machine, out)
 
 
 def _rests_on_readings(support, distinct, lo: float, hi: float) -> bool:
@@ -258,13 +252,16 @@ def _bspline_support(q, first: float, step: float, count: int) -> np.ndarray:
         (2, f**3 / 6)))
 
 
-def _finer_windows(whole, q, distinct, window, machine, factor: float = 0.5) -> list:
-    """Windows of ``LOCAL_WIDTHS`` knot intervals with knots every ``factor`` times the step of the local error
-    ``window`` (half: twice as close), from a step before its window to a step after it (inside the range of the map
-    ``whole``), that rest on the readings ``q`` (:func:`_rests_on_readings`)."""
-    step = window.knots[1] - window.knots[0]
-    lo, hi = max(window.knots[0] - step, whole.knots[0]), min(window.knots[-1] + step, whole.knots[-1])
-    return _windows_at(whole.code, step * factor, lo, hi, q, distinct, machine)
+def _windows_around(whole, q, distinct, near, machine, tried) -> list:
+    """The windows the diagnosis tries around the local error ``near`` besides those ``tried`` everywhere (the map
+    ``whole``'s windows, :func:`_local_windows`): with knots twice as close as its own where it has the knots of
+    windows tried everywhere, else (it is one of these finer ones) with its own knots; from a step before its window
+    to a step after it (inside the range of ``whole``), resting on the readings ``q`` (:func:`_rests_on_readings`)."""
+    step = near.knots[1] - near.knots[0]
+    factor = 0.5 if any(math.isclose(w.knots[1] - w.knots[0], step, rel_tol=1e-9) for w in tried) else 1.0
+    lo, hi = max(near.knots[0] - step, whole.knots[0]), min(near.knots[-1] + step, whole.knots[-1])
+    seen = {w.name for w in tried}
+    return [w for w in _windows_at(whole.code, step * factor, lo, hi, q, distinct, machine) if w.name not in seen]
 
 
 def _local_windows(whole, q, distinct, machine) -> list:
