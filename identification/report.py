@@ -12,6 +12,7 @@ import numpy as np
 from kinid.files import write_text
 from kinid.errors import DataError
 from kinid.report_html import Figure, Section, Table, report_folder, write_report
+from .diagnose import ALPHA
 from .report_figures import (plot_binned_residuals, plot_identified_errors, plot_maps, plot_measured_vs_model,
                              plot_periodogram, plot_residuals_vs_axes, plot_selection, plot_singular_values,
                              plot_time)
@@ -224,8 +225,12 @@ def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
                   f"{'compensation' if fit_file else 'DIR'}).")
     else:
         best = diagnosis.advised[0]
-        lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
-                 f"shows an effect the model lacks")
+        if diagnosis.chi2_p < ALPHA:  # the residual as a whole exceeds the σ given
+            lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
+                     f"shows an effect the model lacks")
+        else:  # at the noise as a whole (or σ was estimated from it), but a part of it stands out from noise
+            lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate, near σ {diagnosis.noise_um:.3g} µm) "
+                     f"holds, beneath the noise, an effect the model lacks")
         if best is not None and best.p_value < diagnosis.threshold and selected:
             second = (f"{lacks}; its most likely cause, {best.effect}, was not added, for the reason above: measure "
                       f"more where it acts (kinid plan --detect {best.effect}=SIZE) and identify again.")
@@ -271,8 +276,8 @@ def _diagnosis_report(diagnosis, obs, folder: Path, provenance) -> Path:
                  tuple((str(i), c.effect, f"{c.p_value:.2g}", f"{c.rms_after_um:.3f}", f"{c.size:.4g}",
                         f"{2 * c.size_std:.2g}", c.size_unit.replace("um", "µm").replace("urad", "µrad"))
                        for i, c in enumerate(live, 1)), numeric=(0, 2, 3, 4, 5),
-                 caption=f"Threshold for a missing effect: p < {diagnosis.threshold:.3g} (0.001 over the candidates "
-                         f"tested). Size: the amplitude of a periodic effect, the highest term of a polynomial, the "
+                 caption=f"Threshold for a missing effect: p < {diagnosis.threshold:.3g} (α = {ALPHA:g} over the "
+                         f"{len(diagnosis.live)} candidates tested). Size: the amplitude of a periodic effect, the highest term of a polynomial, the "
                          f"peak of a map; U: expanded uncertainty, k = 2, as in the table of identified errors.")
     sections = [
         Section("Identified errors", tables=(errors_table(f, obs=obs),), figures=tuple(error_figs)),
@@ -324,7 +329,8 @@ def _blocks_held_out(steps):
 
 def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=None) -> Path:
     machine = steps[0].fit.machine
-    plot_selection(steps, folder / "rms_steps.png")
+    if len(steps) > 1:
+        plot_selection(steps, folder / "rms_steps.png")
     first = steps[0].data if getattr(steps[0], "data", None) is not None else obs  # gross errors set aside
     last = steps[-1].data if getattr(steps[-1], "data", None) is not None else obs
     final = steps[-1].fit
@@ -348,9 +354,12 @@ def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=N
     if plot_maps(final, folder / "maps.png"):
         error_figs.append(Figure("maps.png", "Identified error maps at their knots with the ±2σ band"))
     sections = [
-        Section("The error falls as effects are added", tables=(table,), figures=(Figure("rms_steps.png", "Residual RMS per step against the noise σ"),)),
+        Section("The error falls as effects are added", tables=(table,),
+                figures=(Figure("rms_steps.png", "Residual RMS per step against the noise σ"),))
+        if len(steps) > 1 else Section("Nothing was added: the default model stays", tables=(table,)),
         Section("Identified errors (final model)", tables=(errors_table(final, obs=last),), figures=tuple(error_figs)),
-        Section("Default model: where it fails", figures=tuple(_figures("before_", machine, first, steps[0].fit, folder, steps[0].diagnosis)),
+        Section("Default model: " + ("its residual" if steps[0].diagnosis.verdict == "noise" else "where it fails"),
+                figures=tuple(_figures("before_", machine, first, steps[0].fit, folder, steps[0].diagnosis)),
                 details=steps[0].diagnosis.text(top=10)),
     ]
     if len(steps) > 1:

@@ -153,7 +153,35 @@ def test_the_auto_report_does_not_advise_adding_what_the_selection_left_out(repo
     steps = forward_select(machine, obs, default_model(machine), noise_um=1.0, max_steps=0)
     best = steps[-1].diagnosis.live[0].effect
     assert steps[-1].diagnosis.live[0].p_value < steps[-1].diagnosis.threshold  # significant, and left out
-    text = _text(selection_report(steps, obs, tmp_path / "rep").read_text()).split("The error falls")[0]  # summary
+    page = _text(selection_report(steps, obs, tmp_path / "rep").read_text())
+    assert "Nothing was added: the default model stays" in page and "The error falls" not in page
+    assert not (tmp_path / "rep" / "rms_steps.png").exists()  # no curve of a single point
+    text = page.split("Nothing was added")[0]  # the summary
     assert f"--add {best}" not in text
     assert f"its most likely cause, {best}, was not added" in text and f"kinid plan --detect {best}=SIZE" in text
     assert f"{best} is significant" in text and "but was not added (stopped after 0 added effects" in text
+
+
+def test_a_structured_residual_at_the_noise_is_told_as_such(tmp_path):
+    """A lead of 0.5 µm under 1 µm of noise: the residual as a whole passes the χ² test against σ, yet the lead is
+    significant. The summary does not say the residual exceeds the noise, and the candidates' caption states the
+    level the threshold comes from (α over the candidates tested, the diagnosis's own figures)."""
+    (tmp_path / "errors.json").write_text('{"EX0C": 12.0, "EXX:periodic:10": [0.5, 0.2]}')
+    assert main(["simulate", "--machine", MACHINE, "--errors", str(tmp_path / "errors.json"), "--noise-um", "1",
+                 "--out", str(tmp_path / "obs.csv")]) == 0
+    assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "obs.csv"), "--noise-um", "1",
+                 "--out", str(tmp_path / "fit.json")]) == 0
+    assert main(["diagnose", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "obs.csv"),
+                 "--report", str(tmp_path / "rep")]) == 0
+    from kinid.identification import diagnose, load_fit
+    from kinid.identification.diagnose import ALPHA
+    from kinid.identification.observations import read_observations
+
+    f = load_fit(tmp_path / "fit.json")
+    dg = diagnose(f.machine, read_observations(tmp_path / "obs.csv", f.machine), f.effects, noise_um=1.0)
+    assert dg.chi2_p > ALPHA and dg.live[0].effect == "EXX:periodic:10" and dg.live[0].p_value < dg.threshold
+    text = _text((tmp_path / "rep" / "index.html").read_text())
+    assert f"near σ 1 µm) holds, beneath the noise, an effect the model lacks, most likely EXX:periodic:10" in text
+    assert "shows an effect the model lacks" not in text
+    assert f"p < {dg.threshold:.3g} (α = {ALPHA:g} over the {len(dg.live)} candidates tested)" in text
+    assert dg.threshold == pytest.approx(ALPHA / len(dg.live))
