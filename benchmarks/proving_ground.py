@@ -1,6 +1,7 @@
 """Proving ground of the diagnosis: how often ``identify --auto`` ends right on machines nobody described.
 
-Run: ``python benchmarks/proving_ground.py [--scenarios N] [--seed S] [--json OUT] [--figure PNG]``.
+Run: ``python benchmarks/proving_ground.py [--scenarios N] [--seed S] [--json OUT] [--figure PNG]``; the table and
+figure of several runs together: ``python benchmarks/proving_ground.py --merge A.json B.json ... [--figure PNG]``.
 
 Each scenario is drawn from a seeded generator (:func:`draw`):
 
@@ -510,28 +511,65 @@ def verdict_of(sc: Scenario) -> dict:
             "pass_floor": bool(ok(floor_ratio)), "floor_ratio": floor_ratio}
 
 
+def record(sc: Scenario) -> dict:
+    """One scenario as the JSON keeps it: what was drawn, what kinid did and how it is judged."""
+    return {"seed": sc.seed, "layout": sc.layout, "plan": sc.plan, "order": sc.order,
+            "hidden": [h.kind + " " + h.joint for h in sc.hidden], "misread_share": sc.misread_share,
+            "quantised": sc.quantised, "sigma_declared": sc.sigma_declared, "jitter_um": sc.jitter_um,
+            **sc.result, **verdict_of(sc)}
+
+
+def class_of(rec: dict) -> str:
+    """The hidden effect's kind, "none", or "combination" when there are several."""
+    hidden = rec["hidden"]
+    return hidden[0].split(" ", 1)[0] if len(hidden) == 1 else "combination" if hidden else "none"
+
+
 def summarise(scenarios) -> dict:
+    """The rates per class of scenarios (:class:`Scenario` objects or their JSON records, of one run or several)."""
+    records = [record(sc) if isinstance(sc, Scenario) else sc for sc in scenarios]
     classes = {}
-    for sc in scenarios:
-        v = verdict_of(sc)
-        for key in {sc.kinds if len(sc.hidden) <= 1 else "combination", "all", f"layout {sc.layout}",
-                    f"order {sc.order}", "misreads" if sc.misread_share else "no misreads",
-                    "σ " + ("given" if sc.sigma_declared == NOISE_UM else
-                            "none" if sc.sigma_declared is None else "wrong"),
-                    "readings jittered" if sc.jitter_um else "readings as planned"}:
-            classes.setdefault(key, []).append((sc, v))
+    for rec in records:
+        sigma = rec["sigma_declared"]
+        for key in {class_of(rec), "all", f"layout {rec['layout']}", f"order {rec['order']}",
+                    "misreads" if rec["misread_share"] else "no misreads",
+                    "σ " + ("given" if sigma == NOISE_UM else "none" if sigma is None else "wrong"),
+                    "readings jittered" if rec["jitter_um"] else "readings as planned"}:
+            classes.setdefault(key, []).append(rec)
     out = {}
     for key, items in sorted(classes.items()):
-        ratios = np.array([v["ratio"] for _, v in items])
-        none_given = [sc for sc, _ in items if not sc.hidden and sc.sigma_declared == NOISE_UM]
-        out[key] = {"n": len(items), "pass": float(np.mean([v["pass"] for _, v in items])),
-                    "pass_floor": float(np.mean([v["pass_floor"] for _, v in items])),
+        ratios = np.array([v["ratio"] for v in items])
+        none_given = [v for v in items if not v["hidden"] and v["sigma_declared"] == NOISE_UM]
+        out[key] = {"n": len(items), "pass": float(np.mean([v["pass"] for v in items])),
+                    "pass_floor": float(np.mean([v["pass_floor"] for v in items])),
                     "median_ratio": float(np.median(ratios)), "worst_ratio": float(ratios.max()),
-                    "worse_than_default": float(np.mean([v["worse_than_default"] for _, v in items])),
-                    "worse_on_plan": float(np.mean([v["worse_on_plan"] for _, v in items])),
-                    "worse_beyond_sampling": float(np.mean([v["worse_beyond_sampling"] for _, v in items])),
-                    "false_add": (float(np.mean([bool(sc.result["added"]) for sc in none_given])) if none_given else None)}
+                    "worse_than_default": float(np.mean([v["worse_than_default"] for v in items])),
+                    "worse_on_plan": float(np.mean([v["worse_on_plan"] for v in items])),
+                    "worse_beyond_sampling": float(np.mean([v["worse_beyond_sampling"] for v in items])),
+                    "false_add": (float(np.mean([bool(v["added"]) for v in none_given])) if none_given else None)}
     return out
+
+
+def print_findings(records) -> None:
+    """The figures the docs quote from a run (or several): hidden-effect passes, held-out within 1.5× the oracle's,
+    the scenarios worse than the default model and the additions with no hidden effect."""
+    def name(v):
+        seed, k = divmod(v["seed"], 100003)
+        return f"seed {seed} #{k}"
+
+    hidden = [v for v in records if v["hidden"]]
+    none_given = [v for v in records if not v["hidden"] and v["sigma_declared"] == NOISE_UM]
+    passed = sum(v["pass"] for v in hidden)
+    within = sum(v["ratio"] <= 1.5 for v in hidden)
+    print(f"\nwith a hidden effect: {passed} of {len(hidden)} pass ({passed / max(len(hidden), 1):.1%}), "
+          f"held-out within 1.5× the oracle's in {within} ({within / max(len(hidden), 1):.1%})")
+    print(f"with none: {sum(bool(v['added']) for v in records if not v['hidden'])} of "
+          f"{sum(not v['hidden'] for v in records)} add anything; σ given right: "
+          f"{sum(bool(v['added']) for v in none_given)} of {len(none_given)}")
+    for key, label in (("worse_than_default", "held-out"), ("worse_beyond_sampling", "beyond 2 SE"),
+                       ("worse_on_plan", "on plan")):
+        worse = [name(v) for v in records if v[key]]
+        print(f"more than 5 % worse than the default model, {label}: {', '.join(worse) or 'none'}")
 
 
 def print_table(summary: dict) -> None:
@@ -550,14 +588,33 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", help="write every scenario's record here")
     ap.add_argument("--figure", help="write the held-out/oracle ratios per class as a PNG")
+    ap.add_argument("--merge", nargs="+", metavar="JSON",
+                    help="run nothing: the table, the findings and the figure of the runs these JSONs recorded")
     args = ap.parse_args(argv)
+    if args.merge:
+        records = [rec for f in args.merge for rec in json.loads(Path(f).read_text())["scenarios"]]
+        seeds = sorted({rec["seed"] // 100003 for rec in records})
+        title = f"seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}"
+    else:
+        records = [record(sc) for sc in _run_all(args.scenarios, args.seed)]
+        title = f"seed {args.seed}"
+    summary = summarise(records)
+    print_table(summary)
+    print_findings(records)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"summary": summary, "scenarios": records}, indent=1))
+    if args.figure:
+        _figure(records, summary, title, args.figure)
+
+
+def _run_all(count: int, seed: int) -> list:
     from threadpoolctl import threadpool_limits
 
     scenarios = []
     started = time.perf_counter()
     with threadpool_limits(1):
-        for k in range(args.scenarios):
-            sc = run(args.seed * 100003 + k)
+        for k in range(count):
+            sc = run(seed * 100003 + k)
             scenarios.append(sc)
             v = verdict_of(sc)
             r = sc.result
@@ -566,50 +623,43 @@ def main(argv=None):
                   f"oracle {r['oracle_um']:6.3f} floor {r['floor_um']:6.3f} default {r['default_um']:7.3f} "
                   f"plan {r['plan_um']:6.3f}/{r['default_plan_um']:6.3f} {'PASS' if v['pass'] else 'FAIL'} "
                   f"added {r['added']}", flush=True)
-    print(f"\n{len(scenarios)} scenarios in {time.perf_counter() - started:.0f} s (seed {args.seed})\n")
-    summary = summarise(scenarios)
-    print_table(summary)
-    if args.json:
-        Path(args.json).write_text(json.dumps({"summary": summary, "scenarios": [
-            {"seed": sc.seed, "layout": sc.layout, "plan": sc.plan, "order": sc.order, "hidden": [h.kind + " " + h.joint for h in sc.hidden],
-             "misread_share": sc.misread_share, "quantised": sc.quantised, "sigma_declared": sc.sigma_declared,
-             "jitter_um": sc.jitter_um,
-             **sc.result, **verdict_of(sc)} for sc in scenarios]}, indent=1))
-    if args.figure:
-        import matplotlib
+    print(f"\n{len(scenarios)} scenarios in {time.perf_counter() - started:.0f} s (seed {seed})\n")
+    return scenarios
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
 
-        from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullLocator
+def _figure(records, summary, title: str, path) -> None:
+    import matplotlib
 
-        keys = [k for k in summary
-                if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
-        fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
-        colours = plt.get_cmap("turbo")(np.linspace(0.05, 0.95, len(keys)))  # one hue per class, however many
-        failed_label = "failed"
-        for i, key in enumerate(keys):
-            items = [(v["ratio"], v["pass"]) for v in (verdict_of(sc) for sc in scenarios
-                                                       if (sc.kinds if len(sc.hidden) <= 1 else "combination") == key)
-                     if np.isfinite(v["ratio"])]
-            x = np.full(len(items), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(items))
-            ratio, ok = np.array([r for r, _ in items]), np.array([p for _, p in items], bool)
-            ax.scatter(x[ok], ratio[ok], s=12, color=colours[i])
-            if (~ok).any():
-                ax.scatter(x[~ok], ratio[~ok], s=28, marker="x", color="k", lw=1.2, label=failed_label)
-                failed_label = None
-        ax.axhline(1.5, color="k", lw=0.8, ls="--", label="1.5 × oracle (above it a scenario passes only by a\n"
-                                                          "missing-effect verdict naming the right axis)")
-        ax.set_yscale("log")
-        ax.yaxis.set_major_locator(FixedLocator([0.5, 0.75, 1, 1.5, 2, 3, 5, 10]))
-        ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-        ax.yaxis.set_minor_locator(NullLocator())
-        ax.set_xticks(range(len(keys)), keys, rotation=30, ha="right")
-        ax.set_ylabel("held-out error / oracle's")
-        ax.set_title(f"identify --auto on {len(scenarios)} drawn scenarios (seed {args.seed})")
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=8, frameon=False)
-        fig.tight_layout()
-        fig.savefig(args.figure)
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullLocator
+
+    keys = [k for k in summary
+            if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
+    colours = plt.get_cmap("turbo")(np.linspace(0.05, 0.95, len(keys)))  # one hue per class, however many
+    failed_label = "failed"
+    for i, key in enumerate(keys):
+        items = [(v["ratio"], v["pass"]) for v in records if class_of(v) == key and np.isfinite(v["ratio"])]
+        x = np.full(len(items), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(items))
+        ratio, ok = np.array([r for r, _ in items]), np.array([p for _, p in items], bool)
+        ax.scatter(x[ok], ratio[ok], s=12, color=colours[i])
+        if (~ok).any():
+            ax.scatter(x[~ok], ratio[~ok], s=28, marker="x", color="k", lw=1.2, label=failed_label)
+            failed_label = None
+    ax.axhline(1.5, color="k", lw=0.8, ls="--", label="1.5 × oracle (above it a scenario passes only by a\n"
+                                                      "missing-effect verdict naming the right axis)")
+    ax.set_yscale("log")
+    ax.yaxis.set_major_locator(FixedLocator([0.5, 0.75, 1, 1.5, 2, 3, 5, 10]))
+    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.yaxis.set_minor_locator(NullLocator())
+    ax.set_xticks(range(len(keys)), [f"{k} ({summary[k]['n']})" for k in keys], rotation=30, ha="right")
+    ax.set_ylabel("held-out error / oracle's")
+    ax.set_title(f"identify --auto on {len(records)} drawn scenarios ({title})")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=8, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path)
 
 
 if __name__ == "__main__":

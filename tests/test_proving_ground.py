@@ -495,3 +495,22 @@ def test_a_selection_only_sizes_no_machine_has_would_explain_stops_and_says_so(m
     text = steps[0].diagnosis.text()  # the diagnosis advises no addition, and says why
     assert "--add" not in text and f"the best candidate, {best.effect} (p = " in text and "would need" in text
     assert f"structure remains: {best.effect} is significant" in left and "would need" in left
+
+
+def test_runs_recorded_apart_give_the_table_of_the_runs_together(tmp_path, capsys):
+    """``--merge``: the docs' table over several seeds is the benchmark's, from the JSONs its runs wrote — the same
+    rates as summarising the scenarios themselves."""
+    import json
+
+    for seed in (5, 6):
+        pg.main(["--scenarios", "2", "--seed", str(seed), "--json", str(tmp_path / f"{seed}.json")])
+    capsys.readouterr()
+    pg.main(["--merge", str(tmp_path / "5.json"), str(tmp_path / "6.json"), "--json", str(tmp_path / "all.json"),
+             "--figure", str(tmp_path / "all.png")])
+    out = capsys.readouterr().out
+    merged = json.loads((tmp_path / "all.json").read_text())
+    direct = pg.summarise([pg.run(seed * 100003 + k) for seed in (5, 6) for k in range(2)])
+    assert merged["summary"] == json.loads(json.dumps(direct))
+    hidden = [r for r in merged["scenarios"] if r["hidden"]]
+    assert f"with a hidden effect: {sum(r['pass'] for r in hidden)} of {len(hidden)} pass" in out
+    assert "more than 5 % worse than the default model, held-out: " in out and (tmp_path / "all.png").stat().st_size
