@@ -644,19 +644,20 @@ def _figure(records, summary, title: str, path) -> None:
         items = [(v["ratio"], v["pass"]) for v in records if class_of(v) == key and np.isfinite(v["ratio"])]
         x = np.full(len(items), i) + np.random.default_rng(i).uniform(-0.2, 0.2, len(items))
         ratio, ok = np.array([r for r, _ in items]), np.array([p for _, p in items], bool)
-        ax.scatter(x[ok], ratio[ok], s=12, color=colours[i])
+        ax.scatter(x[ok], ratio[ok], s=12 if len(records) < 1000 else 6, color=colours[i],
+                   alpha=1.0 if len(records) < 1000 else 0.5, lw=0)  # thousands of points: the density shows
         if (~ok).any():
             ax.scatter(x[~ok], ratio[~ok], s=28, marker="x", color="k", lw=1.2, label=failed_label)
             failed_label = None
     ax.axhline(1.5, color="k", lw=0.8, ls="--", label="1.5 × oracle (above it a scenario passes only by a\n"
                                                       "missing-effect verdict naming the right axis)")
     ax.set_yscale("log")
-    ax.yaxis.set_major_locator(FixedLocator([0.5, 0.75, 1, 1.5, 2, 3, 5, 10]))
+    ax.yaxis.set_major_locator(FixedLocator([0.1, 0.2, 0.5, 1, 1.5, 2, 3, 5, 10, 20]))
     ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
     ax.yaxis.set_minor_locator(NullLocator())
     ax.set_xticks(range(len(keys)), [f"{k} ({summary[k]['n']})" for k in keys], rotation=30, ha="right")
     ax.set_ylabel("held-out error / oracle's")
-    ax.set_title(f"identify --auto on {len(records)} drawn scenarios ({title})")
+    ax.set_title(f"identify --auto on {len(records)} drawn scenarios\n({title})", fontsize=10)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=8, frameon=False)
     fig.tight_layout()
     fig.savefig(path)
