@@ -4,10 +4,11 @@ error in a window of it, proposed as candidates of the diagnosis (:func:`propose
 A map (``CODE:map:<step>:<from>:<to>``) needs readings at every knot; a local error
 (``CODE:local:<step>:<from>:<to>``, cubic B-splines zero at and beyond the window's ends) needs them only
 inside its window. Windows are tried inside the best maps and on the joints of the best candidates of any
-kind, with knots every half, one and two map steps, and around the likeliest of them with knots twice as
-close as its own, where they hold more distinct positions of the axis than they have parameters. Each
-proposal's p-value is multiplied by the maps or windows tried, and it must beat the best parametric
-candidate by more than its extra parameters would gain by chance.
+kind, with knots every half, one and two map steps, and on every other joint, at a tenth of the test's level,
+with knots every map step; around the likeliest of them with knots twice as close as its own; where they hold
+more distinct positions of the axis than they have parameters. Each proposal's p-value is multiplied by the
+maps or windows tried (over its share of the level), and it must beat the best parametric candidate by more
+than its extra parameters would gain by chance.
 """
 from __future__ import annotations
 
@@ -52,7 +53,8 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
 
     It competes with the parametric candidates on its p-value, so a map wins only where no parametric
     effect describes the structure. Local errors are tried inside the best maps and on the joints of the
-    best candidates of any kind (windows whose knots all rest on readings).
+    best candidates of any kind, and at LOCAL_ELSEWHERE_SHARE of the level on every other joint (windows whose
+    coefficients rest on readings).
     """
     from dataclasses import replace
 
@@ -79,34 +81,19 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
     codes = [c.effect.split(":")[0] for c in live[:LOCAL_MAPS]] + [
         c.effect.split(":")[0] for c in sorted((c for c in scored if c.status == "live"), key=lambda c: c.log10_p)[:LOCAL_MAPS]]
     codes = [c for c in dict.fromkeys(codes) if c in grids]
-    windows = [w for c in codes for w in _local_windows(*grids[c], machine)]
-    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known, d_errors=d_errors,
-                                         q0=q0, side=side, notes=False) if c.status == "live"] if windows else []
-    if local:
-        # near ties (within a factor LOCAL_TIE in p) go to the joint of the best map, where the structure was seen
-        home = codes[0]
-
-        def likeliest(found):
-            return min(found, key=lambda c: c.log10_p - (math.log10(LOCAL_TIE) if c.effect.startswith(home + ":")
-                                                         else 0.0))
-
-        best_local = likeliest(local)
-        # then with knots twice as close around it: a bump narrower than the knots of the windows tried along a long
-        # axis is described by none of them, and finer windows everywhere would cost more than the rest of the test
-        code = best_local.effect.split(":")[0]
-        finer = _windows_around(*grids[code], next(w for w in windows if w.name == best_local.effect), machine,
-                                windows)
-        if finer:
-            windows += finer
-            local += [c for c in score_candidates(machine, obs, result, finer, sigma, sigma_known=known,
-                                                  d_errors=d_errors, q0=q0, side=side, notes=False)
-                      if c.status == "live"]
-            best_local = likeliest(local)
-        said = score_candidates(machine, obs, result, [next(w for w in windows if w.name == best_local.effect)], sigma,
-                                sigma_known=known, d_errors=d_errors, q0=q0, side=side)[0]
-        best_local = replace(best_local, note=said.note)  # in words, for the one kept
-        trials = float(len(windows))
-        log10_local = best_local.log10_p + math.log10(trials)
+    # and, at a share of the test's level, on every other joint: a local error on few positions of its axis (a bump
+    # narrower than the spacing of the readings) stands out on a few rows only, which no parametric candidate of
+    # its joint describes, so its joint need not be among the best candidates
+    others = [c for c in grids if c not in codes]
+    found = []
+    for tier, share, steps, home in ((codes, 1.0 - LOCAL_ELSEWHERE_SHARE, LOCAL_STEPS, codes[0] if codes else None),
+                                     (others, LOCAL_ELSEWHERE_SHARE, LOCAL_ELSEWHERE_STEPS, None)):
+        best_local, windows = _likeliest_window(machine, obs, result, tier, grids, sigma, known, d_errors, q0, side,
+                                                home, steps)
+        if best_local is not None:  # the best of the windows tried on these joints, at this tier's share of α
+            found.append((best_local.log10_p + math.log10(len(windows) / share), best_local, len(windows) / share))
+    if found:
+        log10_local, best_local, trials = min(found, key=lambda f: f[0])
         if best is None or log10_local < best.log10_p + math.log10(len(fresh)):
             return [replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
                             trials=trials)] if _beats_parametric(best_local, scored) else []
@@ -114,6 +101,38 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
         return []
     log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
     return [replace(best, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, trials=float(len(fresh)))]
+
+
+def _likeliest_window(machine, obs, result, codes, grids, sigma, known, d_errors, q0, side, home, steps):
+    """(the likeliest local error on the joints ``codes`` — near ties, within a factor LOCAL_TIE in p, to the joint
+    ``home`` — with its note, and the windows tried for it), or (None, windows) if none is live."""
+    from dataclasses import replace
+
+    windows = [w for c in codes for w in _local_windows(*grids[c], machine, steps)]
+    if not windows:
+        return None, windows
+    local = [c for c in score_candidates(machine, obs, result, windows, sigma, sigma_known=known, d_errors=d_errors,
+                                         q0=q0, side=side, notes=False) if c.status == "live"]
+    if not local:
+        return None, windows
+
+    def likeliest(found):
+        return min(found, key=lambda c: c.log10_p - (math.log10(LOCAL_TIE) if home and c.effect.startswith(home + ":")
+                                                     else 0.0))
+
+    best_local = likeliest(local)
+    # then with knots twice as close around it: a bump narrower than the knots of the windows tried along a long
+    # axis is described by none of them, and finer windows everywhere would cost more than the rest of the test
+    code = best_local.effect.split(":")[0]
+    finer = _windows_around(*grids[code], next(w for w in windows if w.name == best_local.effect), machine, windows)
+    if finer:
+        windows += finer
+        local += [c for c in score_candidates(machine, obs, result, finer, sigma, sigma_known=known, d_errors=d_errors,
+                                              q0=q0, side=side, notes=False) if c.status == "live"]
+        best_local = likeliest(local)
+    said = score_candidates(machine, obs, result, [next(w for w in windows if w.name == best_local.effect)], sigma,
+                            sigma_known=known, d_errors=d_errors, q0=q0, side=side)[0]
+    return replace(best_local, note=said.note), windows  # in words, for the one kept
 
 
 def _map_grid(machine, obs, code: str, axis: str, axes=None):
@@ -211,6 +230,11 @@ def _beats_parametric(candidate, scored) -> bool:
 LOCAL_WIDTHS = (5, 6, 7, 8, 10)
 #: Local windows are tried inside this many of the best maps, and on the joints of as many best candidates.
 LOCAL_MAPS = 3
+#: ... and on every other joint at this share of the test's level (their p-values multiplied by the windows tried
+#: there over this share; those above by theirs over the rest of it).
+LOCAL_ELSEWHERE_SHARE = 0.1
+#: ... with knots every map step only (and twice as close around the likeliest window).
+LOCAL_ELSEWHERE_STEPS = (1.0,)
 #: A local error on the best map's joint is preferred to one this many times likelier elsewhere.
 LOCAL_TIE = 10.0
 #: Local windows need the axis read at this many distinct positions at least.
@@ -264,12 +288,12 @@ def _windows_around(whole, q, distinct, near, machine, tried) -> list:
     return [w for w in _windows_at(whole.code, step * factor, lo, hi, q, distinct, machine) if w.name not in seen]
 
 
-def _local_windows(whole, q, distinct, machine) -> list:
+def _local_windows(whole, q, distinct, machine, steps=None) -> list:
     """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals inside the range of the map
-    ``whole``, with knots every ``LOCAL_STEPS`` times its step, that rest on the readings ``q`` (with their
-    ``distinct`` positions; :func:`_rests_on_readings`)."""
+    ``whole``, with knots every ``steps`` (default ``LOCAL_STEPS``) times its step, that rest on the readings
+    ``q`` (with their ``distinct`` positions; :func:`_rests_on_readings`)."""
     lo, hi = whole.knots[0], whole.knots[-1]
-    return [w for factor in LOCAL_STEPS
+    return [w for factor in (steps or LOCAL_STEPS)
             for w in _windows_at(whole.code, (whole.knots[1] - whole.knots[0]) * factor, lo, hi, q, distinct, machine)]
 
 

@@ -173,15 +173,16 @@ def test_misreads_above_two_percent_are_set_aside_when_they_stand_apart():
 
 
 def test_structure_left_with_sigma_given_is_a_missing_effect_not_noise(monkeypatch):
-    """Class 5: an effect no candidate describes (here: the candidate library emptied), σ given correctly. The
-    residual exceeds σ and neighbouring alignments agree: the verdict is missing-effect, naming where — never the
-    note that blames σ. With no effect hidden, the same path says noise."""
+    """Class 5: an effect no candidate describes (here: no candidate at all, the library's nor a map or local error
+    proposed), σ given correctly. The residual exceeds σ and neighbouring alignments agree: the verdict is
+    missing-effect, naming where — never the note that blames σ. With no effect hidden, the same path says noise."""
     import importlib
 
     from kinid.identification import default_model, diagnose
 
     diagnose_module = importlib.import_module("kinid.identification.diagnose")
     monkeypatch.setattr(diagnose_module, "score_all", lambda *args, **kwargs: [])
+    monkeypatch.setattr(diagnose_module, "proposed_maps", lambda *args, **kwargs: [])  # a local window fits a sag
     _, machine, obs = _data(4, "five_axis_ac", ["sag"], plan_kind="patent", misread_share=0.0)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
     print(dg.note)
@@ -266,6 +267,23 @@ def test_a_bump_narrower_than_the_windows_knots_is_found_with_knots_twice_as_clo
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
     best = [c for c in dg.live if ":local:" in c.effect]
     assert best and best[0].effect.startswith("EYY:local:5:")
+
+
+def test_a_local_error_is_tried_on_joints_no_parametric_candidate_points_to():
+    """Class 6 where the readings are sparse: a 5.6 µm bump of the B-head's X (FWHM 8–20 mm) where X is read at 42
+    positions about 7 mm apart (proving ground seed 23 #317). The bump stands out on a few rows; with one of them set
+    aside as a misread, no candidate of EXX was among the best three, whose joints were the only ones local windows
+    were tried on, and the run ended "noise" at 8.4× the oracle's held-out error. Windows are now tried on every
+    joint, at a tenth of the test's level: the likeliest is the bump's, far beyond chance."""
+    import re
+
+    sc = pg.run(23 * 100003 + 317)
+    print(_line(sc))
+    assert sc.layout == "five_axis_bhead_c" and sc.kinds == "bump" and sc.hidden[0].joint == "EXX"
+    r = sc.result
+    assert r["verdict"] == "missing-effect" and "X" in r["named"]  # it ended "noise", naming nothing
+    p = re.search(r"the best candidate, EXX:local:\S+ \(p = (\S+)\)", r["stopped"])
+    assert p and float(p.group(1)) < 1e-10, r["stopped"]  # not added: its window, chosen per turn, gains 1.9 SE
 
 
 def test_misreads_are_judged_against_the_residuals_scale_not_a_sigma_given_too_large():
