@@ -493,7 +493,7 @@ def verdict_of(sc: Scenario) -> dict:
     r = sc.result
     if r["verdict"].startswith("crash"):
         return {"pass": False, "ratio": float("inf"), "worse_than_default": True, "worse_on_plan": True,
-                "worse_beyond_sampling": True}
+                "worse_beyond_sampling": True, "pass_floor": False, "floor_ratio": float("inf")}
     ratio = r["held_out_um"] / max(r["oracle_um"], 1e-9)
     floor_ratio = r["held_out_um"] / max(r["floor_um"], 1e-9)
     worse = r["held_out_um"] > 1.05 * r["default_um"] and r["held_out_um"] > 1.05 * r["oracle_um"]

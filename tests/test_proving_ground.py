@@ -532,3 +532,19 @@ def test_runs_recorded_apart_give_the_table_of_the_runs_together(tmp_path, capsy
     hidden = [r for r in merged["scenarios"] if r["hidden"]]
     assert f"with a hidden effect: {sum(r['pass'] for r in hidden)} of {len(hidden)} pass" in out
     assert "more than 5 % worse than the default model, held-out: " in out and (tmp_path / "all.png").stat().st_size
+
+
+def test_a_crash_is_a_failed_scenario_in_the_table(monkeypatch):
+    """A scenario whose selection raises is recorded as failed and worse than the default model, and the table and
+    its figures count it (it raised a KeyError in the table)."""
+    import kinid.identification as ident
+
+    def crash(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(ident, "forward_select", crash)
+    sc = pg.run(5 * 100003)
+    assert sc.result["verdict"] == "crash: RuntimeError: boom"
+    summary = pg.summarise([sc])["all"]
+    assert summary["n"] == 1 and summary["pass"] == 0.0 and summary["worse_than_default"] == 1.0
+    assert summary["pass_floor"] == 0.0
