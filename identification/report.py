@@ -225,12 +225,12 @@ def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
                   f"{'compensation' if fit_file else 'DIR'}).")
     else:
         best = diagnosis.advised[0]
+        rms, sigma = f"{diagnosis.rms_um:.3g}", f"{diagnosis.noise_um:.3g}"
         if diagnosis.chi2_p < ALPHA:  # the residual as a whole exceeds the σ given
-            lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate against σ {diagnosis.noise_um:.3g} µm) "
-                     f"shows an effect the model lacks")
+            lacks = f"The residual ({rms} µm per coordinate against σ {sigma} µm) shows an effect the model lacks"
         else:  # at the noise as a whole (or σ was estimated from it), but a part of it stands out from noise
-            lacks = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate, near σ {diagnosis.noise_um:.3g} µm) "
-                     f"holds, beneath the noise, an effect the model lacks")
+            lacks = (f"The residual ({rms} µm per coordinate, near σ {sigma} µm) holds, beneath the noise, an effect "
+                     f"the model lacks")
         if best is not None and best.p_value < diagnosis.threshold and selected:
             second = (f"{lacks}; its most likely cause, {best.effect}, was not added, for the reason above: measure "
                       f"more where it acts (kinid plan --detect {best.effect}=SIZE) and identify again.")
@@ -277,8 +277,9 @@ def _diagnosis_report(diagnosis, obs, folder: Path, provenance) -> Path:
                         f"{2 * c.size_std:.2g}", c.size_unit.replace("um", "µm").replace("urad", "µrad"))
                        for i, c in enumerate(live, 1)), numeric=(0, 2, 3, 4, 5),
                  caption=f"Threshold for a missing effect: p < {diagnosis.threshold:.3g} (α = {ALPHA:g} over the "
-                         f"{len(diagnosis.live)} candidates tested). Size: the amplitude of a periodic effect, the highest term of a polynomial, the "
-                         f"peak of a map; U: expanded uncertainty, k = 2, as in the table of identified errors.")
+                         f"{len(diagnosis.live)} candidates tested). Size: the amplitude of a periodic effect, the "
+                         f"highest term of a polynomial, the peak of a map; U: expanded uncertainty, k = 2, as in the "
+                         f"table of identified errors.")
     sections = [
         Section("Identified errors", tables=(errors_table(f, obs=obs),), figures=tuple(error_figs)),
         Section("Where the model fails", paragraphs=(f"Verdict: {diagnosis.verdict}. Residual {diagnosis.rms_um:.3f} µm "

@@ -181,7 +181,7 @@ def test_a_structured_residual_at_the_noise_is_told_as_such(tmp_path):
     dg = diagnose(f.machine, read_observations(tmp_path / "obs.csv", f.machine), f.effects, noise_um=1.0)
     assert dg.chi2_p > ALPHA and dg.live[0].effect == "EXX:periodic:10" and dg.live[0].p_value < dg.threshold
     text = _text((tmp_path / "rep" / "index.html").read_text())
-    assert f"near σ 1 µm) holds, beneath the noise, an effect the model lacks, most likely EXX:periodic:10" in text
+    assert "near σ 1 µm) holds, beneath the noise, an effect the model lacks, most likely EXX:periodic:10" in text
     assert "shows an effect the model lacks" not in text
     assert f"p < {dg.threshold:.3g} (α = {ALPHA:g} over the {len(dg.live)} candidates tested)" in text
     assert dg.threshold == pytest.approx(ALPHA / len(dg.live))
