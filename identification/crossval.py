@@ -20,11 +20,13 @@ chosen on all data, −0.1 chosen per turn (a turn that finds the candidate's
 period again, within what its data determine, keeps the candidate's fit);
 the likeliest of ~1 700 local windows +0.65 and −0.9 (12 seeds; a turn
 chooses among the windows its training rows hold up); a warm-up's time
-constant is refined again on each turn's training blocks. A searched candidate
+constant is refined again on each turn's training blocks (on noise, the
+patent plan in random order, 16 seeds: +1.0 chosen on all data, +0.8 per turn;
+a real warm-up of 2 µm loses 0.1 of its 3.2–5.8). A searched candidate
 must pass both: its period generalises (``MIN_GAIN_SE``), and so does the way
 it was found — chosen without the held-out block, it must still predict it
 better than the model without it (the nested gain by one standard error for a
-period, by ``MIN_GAIN_SE`` for a window, above zero for a time constant:
+period, by ``MIN_GAIN_SE`` for a window and a time constant:
 :data:`CHOSEN_AGAIN`). The nested check alone would
 ask too much of a period where a plan samples an axis at few positions: there a
 training set's best period can be another alias than the whole set's (a
@@ -66,7 +68,12 @@ LINEAR_MAX_VALUES = 30_000_000
 #: on small plans. A period's turns must still bring one standard error: a 5 mm period fitted to noise (σ not
 #: given) passed at 2.1 on all data and 0.1 per turn and predicted 2.3× worse than the default model; with the bar
 #: it is not added, and of 3 500 scenarios (seeds 19, 23, 29, 31, 47, 53, 59) one other changes, nearer its oracle.
-CHOSEN_AGAIN = {"periodic": ("period", 1.0), "local": ("window", MIN_GAIN_SE), "warmup": ("time constant", 0.0)}
+#: A time constant, refined over a continuum (a short one touches the first few dozen rows, like a window in time),
+#: must bring as much as the candidate: a warm-up of the board's tilt with no warm-up in the machine (σ not given)
+#: passed at 2.4 on all data and 1.9 per turn and predicted 1.45× worse than the default model; with the bar, of the
+#: 659 scenarios of 5 500 (11 seeds) that added a warm-up, 9 change: it and one other spurious warm-up go, 7 real ones
+#: at the edge are not added and stay named (held-out within 1.5× the oracle's: 5 fewer; passes: the same).
+CHOSEN_AGAIN = {"periodic": ("period", 1.0), "local": ("window", MIN_GAIN_SE), "warmup": ("time constant", MIN_GAIN_SE)}
 
 
 @dataclass(frozen=True)
