@@ -176,8 +176,20 @@ LINK = re.compile(r"\]\(([^)#\s]+)(#[^)]*)?\)")
 PATH_REF = re.compile(r"(?<![\w/.-])((?:docs|examples|urdf|benchmarks|tests)/[\w./-]*\w)")
 
 
+def _anchors(md: Path) -> set:
+    """The anchors a markdown page's headings get where it is rendered (GitHub's rule: lower case, punctuation
+    other than hyphens dropped, spaces to hyphens)."""
+    out, fenced = set(), False
+    for line in md.read_text(encoding="utf-8").splitlines():
+        fenced ^= line.startswith("```")
+        if line.startswith("#") and not fenced:
+            out.add(re.sub(r"[^\w\- ]", "", line.lstrip("#").strip().lower()).replace(" ", "-"))
+    return out
+
+
 def test_docs_links_and_file_references_resolve():
-    """Every markdown link and every ``docs/…``, ``examples/…`` path named in the repository exists."""
+    """Every markdown link (and the heading it points to) and every ``docs/…``, ``examples/…`` path named in the
+    repository exists."""
     bad = []
     for f in _tracked_files():
         if f.suffix not in (".md", ".py", ".toml", ".urdf") or f.name == "test_package.py":
@@ -190,6 +202,8 @@ def test_docs_links_and_file_references_resolve():
                     continue  # a web address
                 if not (f.parent / target).exists():
                     bad.append(f"{f.relative_to(ROOT)}: link {target}")
+                elif m.group(2) and target.endswith(".md") and m.group(2)[1:] not in _anchors(f.parent / target):
+                    bad.append(f"{f.relative_to(ROOT)}: link {target}{m.group(2)} (no such heading)")
         for m in PATH_REF.finditer(text):
             ref = m.group(1)
             if text[m.end():m.end() + 1] in ("*", "<", "{") or ref.endswith("/"):
