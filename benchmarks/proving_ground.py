@@ -637,7 +637,7 @@ def _figure(records, summary, title: str, path) -> None:
 
     keys = [k for k in summary
             if not k.startswith(("layout", "order", "σ", "misreads", "no misreads", "all", "readings"))]
-    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
+    fig, ax = plt.subplots(figsize=(9, 4.8), dpi=120)
     colours = plt.get_cmap("turbo")(np.linspace(0.05, 0.95, len(keys)))  # one hue per class, however many
     failed_label = "failed"
     for i, key in enumerate(keys):
@@ -655,12 +655,13 @@ def _figure(records, summary, title: str, path) -> None:
     ax.yaxis.set_major_locator(FixedLocator([0.1, 0.2, 0.5, 1, 1.5, 2, 3, 5, 10, 20]))
     ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
     ax.yaxis.set_minor_locator(NullLocator())
-    ax.set_xticks(range(len(keys)), [f"{k} ({summary[k]['n']})" for k in keys], rotation=30, ha="right")
+    ax.set_xticks(range(len(keys)), [f"{k} ({summary[k]['n']})" for k in keys], rotation=35, ha="right",
+                  rotation_mode="anchor")
     ax.set_ylabel("held-out error / oracle's")
     ax.set_title(f"identify --auto on {len(records)} drawn scenarios\n({title})", fontsize=10)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=8, frameon=False)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.4), ncol=2, fontsize=8, frameon=False)
     fig.tight_layout()
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight")
 
 
 if __name__ == "__main__":
