@@ -91,12 +91,16 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
         best_local, windows = _likeliest_window(machine, obs, result, tier, grids, sigma, known, d_errors, q0, side,
                                                 home, steps)
         if best_local is not None:  # the best of the windows tried on these joints, at this tier's share of α
-            found.append((best_local.log10_p + math.log10(len(windows) / share), best_local, len(windows) / share))
+            found.append((best_local.log10_p + math.log10(len(windows) / share), best_local, windows, share))
     if found:
-        log10_local, best_local, trials = min(found, key=lambda f: f[0])
+        log10_local, best_local, windows, share = min(found, key=lambda f: f[0])
         if best is None or log10_local < best.log10_p + math.log10(len(fresh)):
-            return [replace(best_local, p_value=min(1.0, 10.0**min(0.0, log10_local)), log10_p=min(0.0, log10_local),
-                            trials=trials)] if _beats_parametric(best_local, scored) else []
+            if not _beats_parametric(best_local, scored):
+                return []
+            said = score_candidates(machine, obs, result, [next(w for w in windows if w.name == best_local.effect)],
+                                    sigma, sigma_known=known, d_errors=d_errors, q0=q0, side=side)[0]
+            return [replace(best_local, note=said.note, p_value=min(1.0, 10.0**min(0.0, log10_local)),
+                            log10_p=min(0.0, log10_local), trials=len(windows) / share)]  # in words, the one kept
     if best is None or not _beats_parametric(best, scored):
         return []
     log10_p = min(0.0, best.log10_p + math.log10(len(fresh)))  # the best of len(fresh) maps
@@ -105,9 +109,7 @@ def proposed_maps(machine, obs, result, scored, sigma, known, d_errors, q0, side
 
 def _likeliest_window(machine, obs, result, codes, grids, sigma, known, d_errors, q0, side, home, steps):
     """(the likeliest local error on the joints ``codes`` — near ties, within a factor LOCAL_TIE in p, to the joint
-    ``home`` — with its note, and the windows tried for it), or (None, windows) if none is live."""
-    from dataclasses import replace
-
+    ``home`` — scored without its note, and the windows tried for it), or (None, windows) if none is live."""
     windows = [w for c in codes for w in _local_windows(*grids[c], machine, steps)]
     if not windows:
         return None, windows
@@ -130,9 +132,7 @@ def _likeliest_window(machine, obs, result, codes, grids, sigma, known, d_errors
         local += [c for c in score_candidates(machine, obs, result, finer, sigma, sigma_known=known, d_errors=d_errors,
                                               q0=q0, side=side, notes=False) if c.status == "live"]
         best_local = likeliest(local)
-    said = score_candidates(machine, obs, result, [next(w for w in windows if w.name == best_local.effect)], sigma,
-                            sigma_known=known, d_errors=d_errors, q0=q0, side=side)[0]
-    return replace(best_local, note=said.note), windows  # in words, for the one kept
+    return best_local, windows
 
 
 def _map_grid(machine, obs, code: str, axis: str, axes=None):

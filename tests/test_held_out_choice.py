@@ -27,10 +27,7 @@ from kinid.urdf import path
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_period_search import _location_truth, _with_x_bump, _with_x_error  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-import proving_ground as pg  # noqa: E402
-import proving_truth as truth  # noqa: E402
+from test_proving_ground import _data, pg  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -140,19 +137,10 @@ def _warm_up_gains(seed, amp_um):
     refines it: (chosen on all data, chosen per turn). The truth: the proving ground's plain-numpy B/C machine, the
     patent plan in random order, 1 µm noise, a warm-up of the tool ``amp_um``·(1 − e^(−t/900 s))."""
     from kinid.identification import diagnose
-    from kinid.identification.machine import machine_from_urdf
-    from kinid.identification.observations import Observations
     from kinid.identification.searched import refined_time_constant
 
-    sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(seed, "five_axis_bc", [], plan_kind="patent",
-                                                                order="random", misread_share=0.0)
-    n = len(t_s)
-    values = dict(errors)
-    values["EZ0T"] = values["EZ0T"] + amp_um * (1.0 - np.exp(-t_s / 900.0))
-    p = truth.tool_point_mm(tm, readings, values, n) + rng.normal(0.0, 1e-3, (n, 3))
-    machine = machine_from_urdf(text, "five_axis_bc.urdf")
-    axes = np.column_stack([readings[a.name] for a in machine.axes])
-    obs = Observations(tuple(f"M{k}" for k in labels), p, axes, t_s, {}, tuple(range(2, n + 2)), "<drawn>")
+    _, machine, obs = _data(seed, "five_axis_bc", [], {"EZ0T": lambda t: amp_um * (1.0 - np.exp(-t / 900.0))},
+                            plan_kind="patent", order="random", misread_share=0.0)
     model = default_model(machine)
     result = fit(machine, obs, model, noise_um=1.0)
     dg = diagnose(machine, obs, model, noise_um=1.0, result=result)

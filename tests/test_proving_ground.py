@@ -123,8 +123,9 @@ def test_the_held_out_check_gives_the_refits_figures(monkeypatch):
             assert (refitted.rms_without_um, refitted.rms_with_um) == pytest.approx(tuple(rms), rel=1e-6)
 
 
-def _data(seed, layout, kinds, **fixed):
-    """The proving ground's rows for one scenario, as kinid Observations (fit rows only)."""
+def _data(seed, layout, kinds, extra=None, **fixed):
+    """The proving ground's rows for one scenario, as kinid Observations (fit rows only); ``extra``: {error joint:
+    a plain formula of the time, s} added to what the scenario hides."""
     from kinid.identification.machine import machine_from_urdf
     from kinid.identification.observations import Observations
 
@@ -133,6 +134,8 @@ def _data(seed, layout, kinds, **fixed):
     values = dict(errors)
     for h in sc.hidden:
         values[h.joint] = values.get(h.joint, 0.0) + h(readings, t_s)
+    for code, formula in (extra or {}).items():
+        values[code] = values.get(code, 0.0) + formula(t_s)
     p = truth.tool_point_mm(tm, readings, values, n) + rng.normal(0.0, 1e-3, (n, 3))
     machine = machine_from_urdf(text, f"{layout}.urdf")
     axes = np.column_stack([readings[a.name] for a in machine.axes])
@@ -420,19 +423,10 @@ def test_a_warm_up_is_added_at_its_own_time_constant():
     the growth between (on three plans' draws the previous version added τ = 1 800 s each time). The selection now
     refines the τ of the warm-up it adds. EZ0B and EZ0T differ only in sign on this machine."""
     from kinid.identification import default_model, forward_select
-    from kinid.identification.machine import machine_from_urdf
-    from kinid.identification.observations import Observations
 
     for seed in (21, 22, 23):
-        sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(seed, "five_axis_bc", [], plan_kind="patent",
-                                                                    order="random", misread_share=0.0)
-        n = len(t_s)
-        values = dict(errors)
-        values["EZ0T"] = values["EZ0T"] + 6.0 * (1.0 - np.exp(-t_s / 1300.0))  # the truth, a plain formula
-        p = truth.tool_point_mm(tm, readings, values, n) + rng.normal(0.0, 1e-3, (n, 3))
-        machine = machine_from_urdf(text, "five_axis_bc.urdf")
-        axes = np.column_stack([readings[a.name] for a in machine.axes])
-        obs = Observations(tuple(f"M{k}" for k in labels), p, axes, t_s, {}, tuple(range(2, n + 2)), "<drawn>")
+        _, machine, obs = _data(seed, "five_axis_bc", [], {"EZ0T": lambda t: 6.0 * (1.0 - np.exp(-t / 1300.0))},
+                                plan_kind="patent", order="random", misread_share=0.0)  # the truth, a plain formula
         steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
         warm = [s.added for s in steps[1:] if s.added and ":warmup:" in s.added]
         print(seed, [s.added for s in steps[1:]])
