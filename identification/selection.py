@@ -122,13 +122,14 @@ def what_is_left(steps) -> str:
             f"no effect was added (RMS {final.rms_um:#.3g} µm per coordinate, σ {final.noise_um:#.3g} µm)")
     best, passed = final.advised
     st = final.structure
+    also = f"; {final.note}" if steps[-1].undetermined and final.note else ""  # a period added but not determined
     if best is not None and best.p_value < final.threshold:
         return text + (f"; structure remains: {best.effect} is significant (p = {best.p_value:.2g}) but was not "
-                       f"added ({_why_not_added(steps[-1])})")
+                       f"added ({_why_not_added(steps[-1])})") + also
     if passed and passed[0][0].p_value < final.threshold:
         c, odd = passed[0]
         return text + (f"; structure remains: {c.effect} is significant (p = {c.p_value:.2g}) but was not added (it "
-                       f"would need {odd.describe()})")
+                       f"would need {odd.describe()})") + also
     if final.verdict == "missing-effect":
         return text + f"; structure remains: {final.note}" if final.note else text + "; structure remains"
     if st is not None:
@@ -234,7 +235,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
                     dg = replace(dg, fit=replace(dg.fit, set_aside=aside))
             periods = tuple(code for code in undetermined
                             if any(e.name.startswith(code + ":periodic:") for e in effects))
-            if periods and dg.verdict == "noise":
+            if periods and (dg.verdict == "noise" or not dg.note):  # said unless the verdict says something else
                 dg = replace(dg, verdict="missing-effect", note=(
                     f"the period of the periodic error added for {' and '.join(periods)} is not determined by the "
                     f"positions measured: the model is not determined between them (measure "
