@@ -125,13 +125,18 @@ def default_model(machine: Machine) -> list[Effect]:
     return [Effect(e.code, e.code, "constant", unit=e.unit) for e in machine.error_joints if e.location]
 
 
-def candidate_library(machine: Machine, model, *, has_directions: bool, has_time: bool) -> list[Effect]:
+#: A linear axis read at this many distinct positions (too few for a map) has its error at each as a candidate.
+TABLE_POSITIONS = range(5, 11)
+
+
+def candidate_library(machine: Machine, model, *, has_directions: bool, has_time: bool, positions=None) -> list[Effect]:
     """The default candidate library of docs/formats.md, minus effects already in ``model``.
 
     Each registered basis names its candidates per error joint: for every position-dependent joint
     poly1, poly2, poly3, periodic at the standard periods, reversal (when the data have ``dir_``
     columns); drift on every error joint (when the data have ``t_s``); every constant location
-    error the model lacks.
+    error the model lacks; with ``positions`` (axis name → distinct positions its readings visit), the error at
+    each position of an axis read at too few for a map (:func:`position_tables`).
     """
     have = {e.name for e in model}
     varying = {code for code, _ in axis_dependent_joints(machine)}
@@ -145,7 +150,17 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
         # a translation error of a linear axis that varies with another linear axis's position
         if "with" in BASES and j.code in varying and kind == "prismatic" and not j.location and j.kind == "prismatic":
             out += [f"{j.code}:with:{b}" for b in linear if b != j.axis]
+    out += position_tables(machine, positions or {})
     return [parse_effect(n, machine) for n in out if n not in have]
+
+
+def position_tables(machine: Machine, positions) -> list[str]:
+    """The error at each position measured, as candidates: for the joints of a linear axis read at
+    :data:`TABLE_POSITIONS` distinct positions (``positions``: axis name → how many), the polynomial through every
+    position (degree positions − 1). It is what a map is where there are too few positions for one: a bump at one
+    position is no period and no low polynomial."""
+    return [f"{code}:poly{positions[axis] - 1}" for code, axis in axis_dependent_joints(machine)
+            if machine.axis(axis).kind == "prismatic" and positions.get(axis, 0) in TABLE_POSITIONS]
 
 
 def axis_dependent_joints(machine: Machine) -> list:

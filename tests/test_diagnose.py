@@ -92,6 +92,12 @@ def test_candidate_library_follows_the_contract(bc):
     assert "EX0C" not in lib  # already in the model
     lib2 = {e.name for e in candidate_library(bc, default_model(bc)[:3], has_directions=False, has_time=False)}
     assert "EX0C" in lib2 and not any(n.endswith(":reversal") or n.endswith(":drift") for n in lib2)
+    # a linear axis read at 5–10 positions (too few for a map): the error at each of them, on its joints only
+    few = {e.name for e in candidate_library(bc, default_model(bc), has_directions=False, has_time=False,
+                                             positions={"X": 4, "Y": 6, "Z": 12, "C": 6})}
+    assert {"EYY:poly5", "EXY:poly5", "EAY:poly5"} <= few
+    assert not any(n.split(":")[0][2:] in ("X", "Z", "C") and n.split(":")[1] in ("poly4", "poly5", "poly6", "poly9")
+                   for n in few if ":" in n)
 
 
 def test_noise_from_replicates(bc):
