@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["distinct_positions", "positions_of", "position_starts", "POSITION_TOLERANCE"]
+__all__ = ["distinct_positions", "positions_of", "position_starts", "positions_per_axis", "POSITION_TOLERANCE"]
 
 #: Readings closer than this share of the span are one position (the jitter of solved readings is no sampling).
 POSITION_TOLERANCE = 1e-3
@@ -21,6 +21,11 @@ def distinct_positions(q) -> np.ndarray:
     their range (a reading repeated exactly is its own position, to the last digit). Readings a few µm apart are
     one position wherever they fall, not two when they straddle the boundary of a fixed grid."""
     return np.unique(positions_of(q))
+
+
+def positions_per_axis(machine, obs) -> dict:
+    """Axis name → how many distinct positions (:func:`distinct_positions`) its readings in ``obs`` visit."""
+    return {a.name: distinct_positions(obs.axes[:, k]).size for k, a in enumerate(machine.axes)}
 
 
 def positions_of(q) -> np.ndarray:

@@ -199,11 +199,10 @@ def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: flo
               side=None) -> list:
     """The candidates scored at ``result``: the library's, and the free periods and time constants found (the
     diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.local_errors`)."""
-    from .positions import distinct_positions
+    from .positions import positions_per_axis
 
-    positions = {a.name: distinct_positions(obs.axes[:, k]).size for k, a in enumerate(machine.axes)}
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None,
-                                positions=positions)
+                                positions=positions_per_axis(machine, obs))
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0,
                               side=side)
     scored += found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side)

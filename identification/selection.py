@@ -111,8 +111,33 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
 
 
 def what_is_left(steps) -> str:
-    """For the final model of a selection: what share of the starting model's residual it explains, and whether
-    anything structured remains (a significant candidate, the neighbour test, the residual against σ)."""
+    """For the final model of a selection: what share of the starting model's residual it explains, whether
+    anything structured remains (a significant candidate, the neighbour test, the residual against σ), and where
+    the model holds an error at each of an axis's few positions, that it is not measured between them."""
+    return _explained(steps) + _between_positions(steps[-1])
+
+
+def _between_positions(step) -> str:
+    """What the final model's tables (the error at each of an axis's few positions) do not know, in words."""
+    from .effects import position_tables
+    from .positions import positions_per_axis
+
+    if step.data is None:
+        return ""
+    machine = step.fit.machine
+    positions = positions_per_axis(machine, step.data)
+    tables = [e for e in step.fit.effects if e.name in set(position_tables(machine, positions))]
+    axes = sorted({e.axis for e in tables})
+    if not axes:
+        return ""
+    where = " and ".join(f"the {positions[a]} positions of {a}" for a in axes)
+    names = " and ".join(e.name for e in tables)
+    return (f"; {names} {'is' if len(tables) == 1 else 'are'} the error at each of {where} measured (too few for a "
+            f"map): between them a polynomial through those values, not a measurement — measure "
+            f"{' and '.join(axes)} at more positions to know it there")
+
+
+def _explained(steps) -> str:
     first, final = steps[0].diagnosis, steps[-1].diagnosis
     ss0, ss1 = first.rms_um ** 2, final.rms_um ** 2
     share = f"{1.0 - ss1 / ss0:.0%}" if ss0 > 0 else "all"

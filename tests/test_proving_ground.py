@@ -250,6 +250,22 @@ def test_a_bump_on_an_axis_read_at_few_positions_is_its_error_at_each_of_them():
     assert tables >= 4
 
 
+def test_the_final_words_say_a_table_is_not_measured_between_its_positions():
+    """The error at each of Y's 6 positions (a bump of Y, the B/C table's small plan) is known there only: the final
+    words say so and name the axis to measure at more positions."""
+    from kinid.identification import default_model, forward_select
+    from kinid.identification.selection import what_is_left
+
+    _, machine, obs = _data(0, "five_axis_bc", ["bump"], plan_kind="small", misread_share=0.0)
+    steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
+    assert [s.added for s in steps[1:]] == ["EYY:poly5"]
+    words = what_is_left(steps)
+    assert "EYY:poly5 is the error at each of the 6 positions of Y measured" in words
+    assert "measure Y at more positions" in words
+    default_only = forward_select(machine, obs, default_model(machine), noise_um=1.0, max_steps=0)
+    assert "positions of" not in what_is_left(default_only)
+
+
 def test_a_local_error_rests_on_readings_per_coefficient_not_per_knot():
     """Class 6 on the gantry: a bump of Y (FWHM 8–20 mm) in the random-half plan, Y read about every 10 mm. Asking
     every knot of a window for readings (its end knots too, where the error is held at zero) refused every window
