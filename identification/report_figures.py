@@ -230,10 +230,16 @@ def _varying_joints(fit_result) -> dict:
     return out
 
 
+#: An axis read at this many distinct positions or fewer has them marked on its identified errors.
+MARKED_POSITIONS = 20
+
+
 def plot_identified_errors(fit_result, obs, path) -> bool:
     """Each identified position-dependent error against its axis over the measured range, with its ±2σ
-    band (k = 2, from the parameters' covariance). False if the model has none."""
+    band (k = 2, from the parameters' covariance), and the positions measured where they are few (between them
+    the curve is the model's, not a measurement). False if the model has none."""
     from .effects import basis_values
+    from .positions import distinct_positions
 
     joints = _varying_joints(fit_result)
     if not joints:
@@ -247,18 +253,27 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
         axis = parts[0][0].axis
         j = machine.axis_names.index(axis)
         q = obs.axes[:, j]
+        def basis_at(x, j=j, parts=parts):
+            poses = np.zeros((x.size, len(machine.axes)))
+            poses[:, j] = x
+            B = np.zeros((x.size, theta.size))
+            for e, sl in parts:
+                B[:, sl] = basis_values(e, machine, poses)
+            return B
+
         grid = np.linspace(np.nanmin(q), np.nanmax(q), 600)
-        poses = np.zeros((grid.size, len(machine.axes)))
-        poses[:, j] = grid
-        B = np.zeros((grid.size, theta.size))
-        for e, sl in parts:
-            B[:, sl] = basis_values(e, machine, poses)
+        B = basis_at(grid)
         value = B @ theta
         band = 2 * np.sqrt(np.clip(np.einsum("np,pq,nq->n", B, cov, B), 0, None))
         unit = "µm" if parts[0][0].unit == "um" else "µrad"
         axis_unit = "mm" if machine.axis(axis).kind == "prismatic" else "deg"
         ax.fill_between(grid, value - band, value + band, color="tab:blue", alpha=0.25)
         ax.plot(grid, value, color="tab:blue", lw=1.4)
+        measured = distinct_positions(q[np.isfinite(q)])
+        if measured.size <= MARKED_POSITIONS:  # few: where the curve is measured, and where it only joins them
+            ax.plot(measured, basis_at(measured) @ theta, "o", ms=4.5, color="tab:blue",
+                    label=f"the {measured.size} positions measured")
+            ax.legend(loc="best", fontsize=8, frameon=False)
         ax.axhline(0, color="0.5", lw=0.8)
         ax.set_xlabel(f"{axis} position ({axis_unit})")
         ax.set_ylabel(f"{code} ({unit})")

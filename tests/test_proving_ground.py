@@ -250,10 +250,11 @@ def test_a_bump_on_an_axis_read_at_few_positions_is_its_error_at_each_of_them():
     assert tables >= 4
 
 
-def test_the_final_words_say_a_table_is_not_measured_between_its_positions():
+def test_the_final_words_say_a_table_is_not_measured_between_its_positions(monkeypatch, tmp_path):
     """The error at each of Y's 6 positions (a bump of Y, the B/C table's small plan) is known there only: the final
-    words say so and name the axis to measure at more positions."""
-    from kinid.identification import default_model, forward_select
+    words say so and name the axis to measure at more positions, and its figure marks the positions measured."""
+    from kinid.identification import default_model, forward_select, report_figures
+    from kinid.identification.positions import distinct_positions
     from kinid.identification.selection import what_is_left
 
     _, machine, obs = _data(0, "five_axis_bc", ["bump"], plan_kind="small", misread_share=0.0)
@@ -264,6 +265,12 @@ def test_the_final_words_say_a_table_is_not_measured_between_its_positions():
     assert "measure Y at more positions" in words
     default_only = forward_select(machine, obs, default_model(machine), noise_um=1.0, max_steps=0)
     assert "positions of" not in what_is_left(default_only)
+    drawn = []
+    monkeypatch.setattr(report_figures, "save_figure", lambda fig, path, **kw: drawn.append(fig))
+    assert report_figures.plot_identified_errors(steps[-1].fit, steps[-1].data, tmp_path / "errors.png")
+    marked = [line for ax in drawn[0].axes for line in ax.get_lines() if line.get_marker() == "o"]
+    y = obs.axes[:, machine.axis_names.index("Y")]
+    assert len(marked) == 1 and np.allclose(marked[0].get_xdata(), distinct_positions(y))
 
 
 def test_a_local_error_rests_on_readings_per_coefficient_not_per_knot():
