@@ -201,8 +201,8 @@ def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: flo
     diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.local_errors`)."""
     from .positions import positions_per_axis
 
-    library = candidate_library(machine, result.effects, has_directions=bool(obs.directions), has_time=obs.t_s is not None,
-                                positions=positions_per_axis(machine, obs))
+    library = candidate_library(machine, result.effects, has_directions=bool(obs.directions),
+                                has_time=obs.t_s is not None, positions=positions_per_axis(machine, obs))
     scored = score_candidates(machine, obs, result, library, sigma, sigma_known=known, d_errors=d_errors, q0=q0,
                               side=side)
     scored += found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side)
