@@ -230,6 +230,19 @@ def _varying_joints(fit_result) -> dict:
     return out
 
 
+def _basis_at(machine, parts, axis: str, x, n_params: int) -> np.ndarray:
+    """The model's columns (len(x), n_params) of the effects ``parts`` ((effect, its slice of the parameters)) with
+    ``axis`` at positions ``x`` and every other axis at zero."""
+    from .effects import basis_values
+
+    poses = np.zeros((x.size, len(machine.axes)))
+    poses[:, machine.axis_names.index(axis)] = x
+    B = np.zeros((x.size, n_params))
+    for e, sl in parts:
+        B[:, sl] = basis_values(e, machine, poses)
+    return B
+
+
 #: An axis read at this many distinct positions or fewer has them marked on its identified errors.
 MARKED_POSITIONS = 20
 
@@ -238,7 +251,6 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
     """Each identified position-dependent error against its axis over the measured range, with its ±2σ
     band (k = 2, from the parameters' covariance), and the positions measured where they are few (between them
     the curve is the model's, not a measurement). False if the model has none."""
-    from .effects import basis_values
     from .positions import distinct_positions
 
     joints = _varying_joints(fit_result)
@@ -251,18 +263,9 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
     axes = fig.subplots(len(joints), 1, squeeze=False)[:, 0]
     for ax, (code, parts) in zip(axes, joints.items()):
         axis = parts[0][0].axis
-        j = machine.axis_names.index(axis)
-        q = obs.axes[:, j]
-        def basis_at(x, j=j, parts=parts):
-            poses = np.zeros((x.size, len(machine.axes)))
-            poses[:, j] = x
-            B = np.zeros((x.size, theta.size))
-            for e, sl in parts:
-                B[:, sl] = basis_values(e, machine, poses)
-            return B
-
+        q = obs.axes[:, machine.axis_names.index(axis)]
         grid = np.linspace(np.nanmin(q), np.nanmax(q), 600)
-        B = basis_at(grid)
+        B = _basis_at(machine, parts, axis, grid, theta.size)
         value = B @ theta
         band = 2 * np.sqrt(np.clip(np.einsum("np,pq,nq->n", B, cov, B), 0, None))
         unit = "µm" if parts[0][0].unit == "um" else "µrad"
@@ -271,8 +274,8 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
         ax.plot(grid, value, color="tab:blue", lw=1.4)
         measured = distinct_positions(q[np.isfinite(q)])
         if measured.size <= MARKED_POSITIONS:  # few: where the curve is measured, and where it only joins them
-            ax.plot(measured, basis_at(measured) @ theta, "o", ms=4.5, color="tab:blue",
-                    label=f"the {measured.size} positions measured")
+            at = _basis_at(machine, parts, axis, measured, theta.size) @ theta
+            ax.plot(measured, at, "o", ms=4.5, color="tab:blue", label=f"the {measured.size} positions measured")
             ax.legend(loc="best", fontsize=8, frameon=False)
         ax.axhline(0, color="0.5", lw=0.8)
         ax.set_xlabel(f"{axis} position ({axis_unit})")
