@@ -126,13 +126,14 @@ def _between_positions(step) -> str:
         return ""
     machine = step.fit.machine
     positions = positions_per_axis(machine, step.data)
-    tables = [e for e in step.fit.effects if e.name in set(position_tables(machine, positions))]
+    names = set(position_tables(machine, positions))
+    tables = [e for e in step.fit.effects if e.name in names]
     axes = sorted({e.axis for e in tables})
     if not axes:
         return ""
     where = " and ".join(f"the {positions[a]} positions of {a}" for a in axes)
-    names = " and ".join(e.name for e in tables)
-    return (f"; {names} {'is' if len(tables) == 1 else 'are'} the error at each of {where} measured (too few for a "
+    which = " and ".join(e.name for e in tables)
+    return (f"; {which} {'is' if len(tables) == 1 else 'are'} the error at each of {where} measured (too few for a "
             f"map): between them a polynomial through those values, not a measurement — measure "
             f"{' and '.join(axes)} at more positions to know it there")
 
