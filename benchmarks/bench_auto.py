@@ -23,8 +23,8 @@ from dataclasses import replace  # noqa: E402
 import numpy as np  # noqa: E402
 
 from kinid.identification import default_model, diagnose, fit, forward_select, load_machine, parse_effect  # noqa: E402
-from kinid.identification.alignment import solve_axes  # noqa: E402
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate  # noqa: E402
+from kinid.identification.fitting.alignment import solve_axes  # noqa: E402
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 
 M = load_machine(path("five_axis_bc"))

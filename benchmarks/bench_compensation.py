@@ -31,9 +31,9 @@ from controller_consumers import READERS  # noqa: E402
 from kinid.axis_tables import CONTROLLER_FORMATS  # noqa: E402
 from kinid.cli import main as kinid  # noqa: E402
 from kinid.identification import fit, load_machine, save_fit  # noqa: E402
-from kinid.identification.compensate import positioning_table  # noqa: E402
-from kinid.identification.fit import model_effects  # noqa: E402
-from kinid.identification.simulate import errors_from_mapping, load_plan, simulate  # noqa: E402
+from kinid.identification.compensation.compensate import positioning_table  # noqa: E402
+from kinid.identification.fitting.fit import model_effects  # noqa: E402
+from kinid.identification.fitting.simulate import errors_from_mapping, load_plan, simulate  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 
 

@@ -18,11 +18,11 @@ import time
 import numpy as np
 
 from kinid.identification import diagnose
-from kinid.identification.scoring import score_candidates
-from kinid.identification.effects import candidate_library, default_model
-from kinid.identification.fit import fit
-from kinid.identification.machine import load_machine
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.identification.diagnosis.scoring import score_candidates
+from kinid.identification.model.effects import candidate_library, default_model
+from kinid.identification.fitting.fit import fit
+from kinid.identification.model.machine import load_machine
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 
 
@@ -50,7 +50,7 @@ def main():
 
     t = time.perf_counter()
     dg = diagnose(m, obs, base.effects, noise_um=1.0, result=base)
-    from kinid.identification.effects import parse_effect
+    from kinid.identification.model.effects import parse_effect
 
     refit = fit(m, obs, list(base.effects) + [parse_effect(dg.live[0].effect, m)], noise_um=1.0)
     t_round = time.perf_counter() - t

@@ -21,9 +21,9 @@ import sys
 CHILD = r"""
 import resource, sys, time, numpy as np
 import importlib
-sums = importlib.import_module("kinid.identification.score_sums")  # where the score test's block size is read
+sums = importlib.import_module("kinid.identification.diagnosis.score_sums")  # where the score test's block size is read
 from kinid.identification import load_machine, default_model, fit, diagnose
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 n, block = int(sys.argv[1]), float(sys.argv[2])
 sums.SCORE_BLOCK_BYTES = block

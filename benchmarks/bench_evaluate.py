@@ -1,6 +1,6 @@
 """Benchmark: one Pinocchio pass of kinid (tool point + Jacobians of every pose) against its Pinocchio floor.
 
-``kinid.identification.machine.evaluate`` (with ``jacobian=True``) computes,
+``kinid.identification.model.machine.evaluate`` (with ``jacobian=True``) computes,
 for N poses, the tool point in the workpiece frame and its derivatives with
 respect to every error joint and axis. Its Pinocchio work
 (``_evaluate_chunk``) is, per pose, exactly one call,
@@ -41,8 +41,8 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from kinid.identification.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
-from kinid.identification.simulate import patent_plan  # noqa: E402
+from kinid.identification.model.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
+from kinid.identification.fitting.simulate import patent_plan  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 
 

@@ -49,13 +49,13 @@ import scipy  # noqa: E402
 import scipy.optimize  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from kinid.identification.effects import default_model  # noqa: E402
-from kinid.identification.fit import fit  # noqa: E402
+from kinid.identification.model.effects import default_model  # noqa: E402
+from kinid.identification.fitting.fit import fit  # noqa: E402
 from kinid.identification import machine as machine_module  # noqa: E402
-from kinid.identification.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
-from kinid.identification.observations import write_observations  # noqa: E402
-from kinid.identification.residuals import design, residuals  # noqa: E402
-from kinid.identification.simulate import SECONDS_PER_ALIGNMENT, errors_from_mapping, patent_plan, simulate  # noqa: E402
+from kinid.identification.model.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
+from kinid.identification.data.observations import write_observations  # noqa: E402
+from kinid.identification.fitting.residuals import design, residuals  # noqa: E402
+from kinid.identification.fitting.simulate import SECONDS_PER_ALIGNMENT, errors_from_mapping, patent_plan, simulate  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 
 #: (method, x_scale) of the scipy configurations measured.

@@ -4,7 +4,7 @@ The patent's plan is simulated once on the B/C machine (location errors, 1 µm n
 repeats it with fresh reading noise on X, Y, Z (every row distinct) and a running ``t_s``. Each file is then
 identified by ``kinid identify --noise-um 1`` in a child process; its peak resident memory (``ru_maxrss`` of the
 children) and wall time are printed. The fit holds the Jacobian only as the R factor of its QR, a chunk of
-alignments at a time (identification/fit_pass.py), the reader keeps numbers as arrays (kinid/csv_columns.py), and
+alignments at a time (identification/fitting/fit_pass.py), the reader keeps numbers as arrays (kinid/csv_columns.py), and
 the leverages of the misread check are streamed too: memory grows with the residuals and the readings, eight
 bytes a number.
 
@@ -24,10 +24,10 @@ import numpy as np
 
 
 def write_rows(path: Path, n: int, seed: int = 0) -> None:
-    from kinid.identification.effects import default_model
-    from kinid.identification.machine import load_machine
-    from kinid.identification.observations import observations_text
-    from kinid.identification.simulate import patent_plan, simulate
+    from kinid.identification.model.effects import default_model
+    from kinid.identification.model.machine import load_machine
+    from kinid.identification.data.observations import observations_text
+    from kinid.identification.fitting.simulate import patent_plan, simulate
     from kinid.urdf import path as urdf_path
 
     machine = load_machine(urdf_path("five_axis_bc"))

@@ -26,7 +26,7 @@ import bc_camera_sim as sim  # noqa: E402
 
 from kinid.files import read_image  # noqa: E402
 from kinid.identification import load_machine  # noqa: E402
-from kinid.identification.observe import load_sensor, observe, read_run_log  # noqa: E402
+from kinid.identification.data.observe import load_sensor, observe, read_run_log  # noqa: E402
 from kinid.threads import single_blas_thread  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 from kinid.vision import load_board  # noqa: E402

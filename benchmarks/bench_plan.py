@@ -60,8 +60,8 @@ def _true_points(machine, tm, obs, errors: dict) -> np.ndarray:
 def _volume_error_um(machine, tm, volume_obs, result, errors: dict) -> np.ndarray:
     """Errors (µm, (N, 3)) of the tool point ``result`` predicts at the volume's poses, t = 0, against the truth
     with constant ``errors``."""
-    from kinid.identification.observations import Observations
-    from kinid.identification.residuals import design, residuals
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.fitting.residuals import design, residuals
 
     vol = Observations(volume_obs.marks, _true_points(machine, tm, volume_obs, errors), volume_obs.axes,
                        np.zeros(len(volume_obs)), {}, (), "<volume>")
@@ -72,7 +72,7 @@ def held_out(machine, text: str, plan_obs, volume_obs, seed: int, noise_um: floa
     """Errors (µm, (N_volume, 3)) of the tool point kinid predicts at the volume's poses after fitting the default
     model to the plan's alignments simulated on a machine with errors drawn from ``seed`` (plain-numpy truth)."""
     from kinid.identification import default_model, fit
-    from kinid.identification.observations import Observations
+    from kinid.identification.data.observations import Observations
 
     tm = truth.read_urdf(text)
     rng = np.random.default_rng(seed)
@@ -88,7 +88,7 @@ def warm_up_run(machine, pool, obs, seed):
     """A warm-up of the tool side in x (8 µm, τ 25 min) on top of drawn location errors; identify --auto; the error
     of the cold machine kinid predicts at the candidates (3-D RMS, µm) and whether it added a time effect."""
     from kinid.identification import default_model, forward_select
-    from kinid.identification.observations import Observations
+    from kinid.identification.data.observations import Observations
 
     tm = truth.read_urdf(Path(machine.path).read_text())
     rng = np.random.default_rng(seed)
@@ -108,8 +108,8 @@ def axis_major(machine, pool, rows, outer):
     travel model: how a grid is usually run."""
     from dataclasses import replace
 
-    from kinid.identification.plan_order import TravelModel, move_times_s
-    from kinid.identification.plan_pool import axis_motion
+    from kinid.identification.planning.order import TravelModel, move_times_s
+    from kinid.identification.planning.pool import axis_motion
 
     names = machine.axis_names
     key = np.lexsort(tuple(pool.axes[rows, names.index(a)] for a in reversed(outer)))
@@ -140,12 +140,12 @@ def main(argv=None):
     args = ap.parse_args(argv)
     from threadpoolctl import threadpool_limits
 
-    from kinid.identification.machine import load_machine
-    from kinid.identification.plan import plan_measurement, tool_point_u_um, volume_weight
-    from kinid.identification.plan_pool import axis_motion, candidate_jacobian, candidate_poses
-    from kinid.identification.plan_order import TravelModel, order_for_time
-    from kinid.identification.simulate import patent_plan
-    from kinid.identification.alignment import solve_axes
+    from kinid.identification.model.machine import load_machine
+    from kinid.identification.planning.plan import plan_measurement, tool_point_u_um, volume_weight
+    from kinid.identification.planning.pool import axis_motion, candidate_jacobian, candidate_poses
+    from kinid.identification.planning.order import TravelModel, order_for_time
+    from kinid.identification.fitting.simulate import patent_plan
+    from kinid.identification.fitting.alignment import solve_axes
     from kinid.urdf import path
 
     threadpool_limits(1)
@@ -180,7 +180,7 @@ def main(argv=None):
     o = order_for_time(pool.axes[median], machine.axis_names, linear, wraps, travel)
     rows["random (median of 20 draws)"] = (median[o.index], o.total_s, 0.0)
     patent = solve_axes(machine, [], np.zeros(0), patent_plan(machine))
-    from kinid.identification.effects import default_model
+    from kinid.identification.model.effects import default_model
 
     Jp, names_p, _ = candidate_jacobian(machine, default_model(machine), patent, NOISE_UM)
     print(f"\n{'plan':<40} {'alignments':>10} {'U promised':>11} {'held-out 2·RMS mean / worst of seeds':>37} "
@@ -193,7 +193,7 @@ def main(argv=None):
     M = np.einsum("nip,niq->pq", Jp, Jp)
     u_pat = 2 * np.sqrt(np.trace(np.linalg.solve(M, W)) / 3) if names_p == plan.candidates.names else float("nan")
     t_pat = order_for_time(patent.axes, machine.axis_names, linear, wraps, travel, blocks=1, reference=False)
-    from kinid.identification.plan_order import move_times_s
+    from kinid.identification.planning.order import move_times_s
     t_axis_major = float(move_times_s(patent.axes[:-1], patent.axes[1:], linear, wraps, travel).sum() + len(patent) * travel.align_s)
     _report("patent's plan (axis-major, as run)", machine, text, patent, pool, u_pat, t_axis_major, 0.0, args.seeds)
     print(f"(the patent's plan in the shortest tour: {t_pat.total_s / 60:.1f} min)")

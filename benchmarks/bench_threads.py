@@ -23,7 +23,7 @@ import sys
 CHILD = r"""
 import time, numpy as np
 from kinid.identification import load_machine, fit, default_model
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 m = load_machine(path("five_axis_bc"))
 rng = np.random.default_rng(0)

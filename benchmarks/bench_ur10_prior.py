@@ -10,7 +10,7 @@ poses (3-D RMS of the marker position of the pose left out):
 
 - the plain least-squares fit of the full model;
 - a fit of the measurement frame and the marker alone (the set-up joints W and T);
-- the maximum a posteriori fit with kinid's prior (kinid.identification.prior), its scale and σ chosen by
+- the maximum a posteriori fit with kinid's prior (kinid.identification.fitting.prior), its scale and σ chosen by
   the marginal likelihood of the 22 training poses only (nested: the left-out pose never chooses them),
   and, for comparison, with the scale chosen by an inner leave-one-out on the 22;
 - beside them, the figure FIGAROH publishes for its MAP estimate with cross-validation on the same 23
@@ -30,11 +30,11 @@ def main(folder):
     from threadpoolctl import threadpool_limits
 
     from kinid.identification import default_model, fit
-    from kinid.identification.machine import machine_from_urdf
-    from kinid.identification.observations import Observations
-    from kinid.identification.prior import choose_prior, prior_std
-    from kinid.identification.residuals import design, residuals
-    from kinid.identification.urdf_import import identification_urdf
+    from kinid.identification.model.machine import machine_from_urdf
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.fitting.prior import choose_prior, prior_std
+    from kinid.identification.fitting.residuals import design, residuals
+    from kinid.identification.model.urdf_import import identification_urdf
 
     folder = Path(folder)
     machine = machine_from_urdf(identification_urdf((folder / "ur10_robot.urdf").read_text(), tool="wrist_3_link"),

@@ -41,13 +41,13 @@ from controller_consumers import READERS  # noqa: E402
 import kinid  # noqa: E402
 from kinid.cli import main as kinid_main  # noqa: E402
 from kinid.identification import fit, load_machine, save_fit  # noqa: E402
-from kinid.identification.compensate import positioning_table, write_compensation  # noqa: E402
-from kinid.identification.effects import default_model, parse_effect  # noqa: E402
-from kinid.identification.fit import FitResult  # noqa: E402
-from kinid.identification.machine import machine_from_urdf  # noqa: E402
-from kinid.identification.noise import Noise  # noqa: E402
-from kinid.identification.simulate import patent_plan, simulate  # noqa: E402
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup  # noqa: E402
+from kinid.identification.compensation.compensate import positioning_table, write_compensation  # noqa: E402
+from kinid.identification.model.effects import default_model, parse_effect  # noqa: E402
+from kinid.identification.fitting.fit import FitResult  # noqa: E402
+from kinid.identification.model.machine import machine_from_urdf  # noqa: E402
+from kinid.identification.fitting.noise import Noise  # noqa: E402
+from kinid.identification.fitting.simulate import patent_plan, simulate  # noqa: E402
+from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup  # noqa: E402
 from kinid.urdf import names, path  # noqa: E402
 
 PARSERS = {".comp": "linuxcnc", "_ssfk.lis": "twincat", "_EEC_INI.spf": "sinumerik"}
@@ -169,7 +169,7 @@ def main(argv=None):
         for fmt, axis, share in controller_shares(work / f"c{k}", result):
             shares.setdefault(fmt, []).append(share)
         try:  # a kinid that compensates only the significant terms: the files against what it compensates
-            from kinid.identification.compensate import compensation_model
+            from kinid.identification.compensation.compensate import compensation_model
         except ImportError:
             continue
         for fmt, axis, share in controller_shares(work / f"c{k}", compensation_model(result).result):

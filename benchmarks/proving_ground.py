@@ -63,7 +63,7 @@ LAYOUTS = ("five_axis_bc", "five_axis_ac", "five_axis_bhead_c", "gantry_dual_y",
 def arm6_urdf() -> str:
     """A six-joint arm with location-error joints only, written with kinid's URDF builder (what a user
     would give kinid); the truth reads the text."""
-    from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+    from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup
 
     pi = np.pi
     loc = ("X", "Y", "Z", "A", "B", "C")
@@ -321,9 +321,9 @@ def draw(seed: int, layout: str | None = None, kinds=None, *, plan_kind=None, or
 
 def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6, **fixed) -> Scenario:
     from kinid.identification import default_model, fit, forward_select
-    from kinid.identification.machine import machine_from_urdf
-    from kinid.identification.observations import Observations
-    from kinid.identification.residuals import design, residuals
+    from kinid.identification.model.machine import machine_from_urdf
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.fitting.residuals import design, residuals
 
     sc, text, tm, readings, labels, t_s, errors, rng = draw(seed, layout, kinds, **fixed)
     n = len(t_s)
@@ -444,7 +444,7 @@ def _truth_basis():
     """A basis of kinid's registry for the oracle: ``CODE:truth:<k>`` is the k-th hidden effect's exact shape
     (its value in the truth, read by each row's time), with one free size. It lists no candidate, so kinid's
     diagnosis never tries it."""
-    from kinid.identification.bases import BASES, Basis, register_basis
+    from kinid.identification.model.bases import BASES, Basis, register_basis
 
     if "truth" in BASES:
         return
@@ -464,7 +464,7 @@ def _truth_basis():
 
 def _truth_effects(machine, hidden, readings, t_s) -> list:
     """The hidden effects as effects of the truth basis (their shapes at every row, sizes to fit)."""
-    from kinid.identification.effects import parse_effect
+    from kinid.identification.model.effects import parse_effect
 
     _truth_basis()
     order = np.argsort(t_s)

@@ -11,7 +11,7 @@ the Z carriage reference.
 import argparse
 from pathlib import Path
 
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup
 
 PI = 3.141592653589793
 

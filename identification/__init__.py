@@ -1,7 +1,8 @@
 """Identification of machine kinematic errors from alignment observations.
 
-The few names a machine builder needs; everything else lives in the modules
-(``kinid.identification.fit``, ``.diagnose``, ...):
+The few names a machine builder needs; everything else lives in the sub-packages, one per concept
+(``kinid.identification.model``, ``.data``, ``.fitting``, ``.diagnosis``, ``.planning``, ``.compensation``,
+``.reporting``, ``.commands``; docs/architecture.md):
 
 - :func:`load_machine` — a URDF with ISO 230-1 error joints (docs/machines.md);
 - :func:`read_observations`, :func:`write_observations` — the observation CSV (docs/formats.md);
@@ -21,16 +22,16 @@ Example
 """
 from kinid.lazy import front_door as _front_door
 
-#: Each public name and the module of this package that defines it. The module is imported on first
-#: use of the name (PEP 562), so that importing the package (for instance to build the ``kinid``
+#: Each public name and the sub-package whose front door gives it. The module that defines it is imported
+#: on first use of the name (PEP 562), so that importing the package (for instance to build the ``kinid``
 #: command line's parsers) does not import Pinocchio, CasADi or SciPy.
 _SOURCES = {
-    "load_machine": "machine", "tool_in_workpiece_mm": "machine",
-    "read_observations": "observations", "write_observations": "observations",
-    "parse_effect": "effects", "default_model": "effects",
-    "fit": "fit", "save_fit": "fit_file", "load_fit": "fit_file",
-    "diagnose": "diagnose", "forward_select": "selection", "solve_axes": "alignment",
-    "simulate": "simulate", "load_errors": "simulate",
+    "load_machine": "model", "tool_in_workpiece_mm": "model", "parse_effect": "model", "default_model": "model",
+    "urdf_builder": "model",
+    "read_observations": "data", "write_observations": "data",
+    "fit": "fitting", "save_fit": "fitting", "load_fit": "fitting", "solve_axes": "fitting",
+    "simulate": "fitting", "load_errors": "fitting",
+    "diagnose": "diagnosis", "forward_select": "diagnosis",
 }
 
 __all__ = ["load_machine", "read_observations", "write_observations", "parse_effect", "default_model", "fit",
@@ -38,5 +39,6 @@ __all__ = ["load_machine", "read_observations", "write_observations", "parse_eff
            "tool_in_workpiece_mm", "urdf_builder"]
 
 
-#: ``fit``, ``diagnose`` and ``simulate`` stay the functions after their modules of the same name load.
+#: ``fit``, ``diagnose`` and ``simulate`` stay the functions after their modules of the same name load
+#: (in the sub-packages' front doors as well).
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

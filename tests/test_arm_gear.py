@@ -12,11 +12,11 @@ import pytest
 
 from kinid.errors import DataError
 from kinid.identification import default_model, diagnose, fit, forward_select, parse_effect, solve_axes
-from kinid.identification.effects import axis_dependent_joints
-from kinid.identification.machine import machine_from_urdf
-from kinid.identification.observations import Observations
-from kinid.identification.simulate import errors_from_mapping
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification.model.effects import axis_dependent_joints
+from kinid.identification.model.machine import machine_from_urdf
+from kinid.identification.data.observations import Observations
+from kinid.identification.fitting.simulate import errors_from_mapping
+from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup
 
 PI = np.pi
 L1, L2, H, X0 = 350.0, 300.0, 300.0, 450.0  # mm: upper arm, forearm, shoulder height, board distance
@@ -99,7 +99,7 @@ def test_gear_error_of_an_arm_joint_is_found_on_its_location_joint(arm):
 
 
 def test_an_axis_without_varying_joints_is_named_with_the_joints_to_add(arm):
-    from kinid.identification.diagnose import joints_the_urdf_lacks
+    from kinid.identification.diagnosis.diagnose import joints_the_urdf_lacks
 
     assert joints_the_urdf_lacks(arm) == [("J1", ["EXJ1", "EYJ1", "EZJ1", "EAJ1", "EBJ1", "ECJ1"])]
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from kinid.cli import main
-from kinid.identification.machine import load_machine
-from kinid.identification.observations import read_observations
+from kinid.identification.model.machine import load_machine
+from kinid.identification.data.observations import read_observations
 from kinid.urdf import path
 
 BC = str(path("five_axis_bc"))

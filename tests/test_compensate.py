@@ -15,9 +15,9 @@ from kinid.axis_tables import AxisErrorTable, linuxcnc_text, twincat_text
 from kinid.cli import main
 from kinid.errors import DataError
 from kinid.identification import default_model, fit, load_machine, parse_effect, save_fit
-from kinid.identification.machine import evaluate
-from kinid.identification.residuals import design, joint_values
-from kinid.identification.simulate import patent_plan, simulate
+from kinid.identification.model.machine import evaluate
+from kinid.identification.fitting.residuals import design, joint_values
+from kinid.identification.fitting.simulate import patent_plan, simulate
 from kinid.urdf import path as urdf_path
 from plain_machine import PlainMachine
 
@@ -106,7 +106,7 @@ def axes_nominal(result, axes):
 
 
 def _model_mm(result, axes, directions):
-    from kinid.identification.observations import Observations
+    from kinid.identification.data.observations import Observations
 
     m = result.machine
     n = axes.shape[0]

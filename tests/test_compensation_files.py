@@ -23,13 +23,13 @@ from kinid.axis_tables import (CONTROLLER_FORMATS, AxisErrorTable, ControllerFor
 from kinid.cli import main
 from kinid.errors import DataError
 from kinid.identification import fit, load_machine, save_fit
-from kinid.identification.compensate import positioning_table, write_compensation
-from kinid.identification.effects import default_model
-from kinid.identification.fit import FitResult
-from kinid.identification.machine import machine_from_urdf, tool_in_workpiece_mm
-from kinid.identification.noise import Noise
-from kinid.identification.simulate import errors_from_mapping, load_plan, simulate
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification.compensation.compensate import positioning_table, write_compensation
+from kinid.identification.model.effects import default_model
+from kinid.identification.fitting.fit import FitResult
+from kinid.identification.model.machine import machine_from_urdf, tool_in_workpiece_mm
+from kinid.identification.fitting.noise import Noise
+from kinid.identification.fitting.simulate import errors_from_mapping, load_plan, simulate
+from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup
 from kinid.urdf import path as urdf_path
 from controller_consumers import READERS
 
@@ -181,7 +181,7 @@ def readme_example(tmp_path_factory):
     m = load_machine(urdf_path("five_axis_bc"))
     effects, theta = errors_from_mapping(json.loads(open("examples/errors.json").read()), m)
     obs = simulate(m, load_plan("patent", m), effects, theta, noise_um=1.0, rng=np.random.default_rng(0))
-    from kinid.identification.fit import model_effects
+    from kinid.identification.fitting.fit import model_effects
 
     result = fit(m, obs, model_effects(m, ["EXX:periodic:10"]), noise_um=1.0)
     save_fit(result, folder / "fit.json")
@@ -226,7 +226,7 @@ def test_twincat_list_limits_modulo_and_axis_numbers(tmp_path, capsys):
     truth = {"EX0C": 12.0, "EXX:periodic:10": [1.5, -0.8], "ECC:periodic:90": [8.0, 4.0]}
     effects, theta = errors_from_mapping(truth, m)
     obs = simulate(m, load_plan("patent", m), effects, theta, noise_um=0.5, rng=np.random.default_rng(5))
-    from kinid.identification.fit import model_effects
+    from kinid.identification.fitting.fit import model_effects
 
     save_fit(fit(m, obs, model_effects(m, ["EXX:periodic:10", "ECC:periodic:90"]), noise_um=0.5),
              tmp_path / "fit.json")

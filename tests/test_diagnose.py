@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from kinid.identification import diagnose, forward_select
-from kinid.identification.effects import candidate_library, default_model, parse_effect
-from kinid.identification.fit import fit
-from kinid.identification.machine import load_machine
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.identification.model.effects import candidate_library, default_model, parse_effect
+from kinid.identification.fitting.fit import fit
+from kinid.identification.model.machine import load_machine
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 
 SIGMA = 1.0
@@ -149,7 +149,7 @@ def test_pure_noise_false_alarm_rate_with_sigma_estimated(bc):
 def test_residuals_in_machine_axes_point_at_the_faulty_axis(bc):
     """With a hidden X lead-screw error, the measured − model readings are largest on X, and they
     equal the readings the fitted model solves for, to first order."""
-    from kinid.identification.alignment import solve_axes
+    from kinid.identification.fitting.alignment import solve_axes
 
     obs = _data(bc, HIDDEN[0], seed=6)
     dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
@@ -167,7 +167,7 @@ def test_tail_probabilities_stay_finite_and_ordered():
     """Far in the tail scipy's log sf underflows to -inf; the ranking must still order by evidence."""
     import scipy.stats
 
-    from kinid.identification.scoring import _chi2_logsf
+    from kinid.identification.diagnosis.scoring import _chi2_logsf
 
     for x, k in [(300.0, 2), (900.0, 5)]:  # where scipy is finite, the same value
         assert _chi2_logsf(x, k) == pytest.approx(scipy.stats.chi2.logsf(x, k), rel=1e-9)
@@ -224,7 +224,7 @@ def test_the_leverages_are_the_hat_matrix_in_one_pass_or_in_chunks(bc, monkeypat
     hold it), and the diagnosis's (what the set-aside of gross errors reuses when the selection stops) agree, and
     are the diagonal of J (JᵀJ)⁻¹ Jᵀ formed directly."""
     from kinid.identification import leverage
-    from kinid.identification.residuals import design, residuals
+    from kinid.identification.fitting.residuals import design, residuals
 
     obs = _data(bc, None, seed=8)
     result = fit(bc, obs, default_model(bc), noise_um=SIGMA)

@@ -5,7 +5,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinid.identification.machine import load_machine, tool_in_workpiece_mm
+from kinid.identification.model.machine import load_machine, tool_in_workpiece_mm
 from kinid.urdf import path
 
 URDF = path("gantry_dual_y")

@@ -484,7 +484,7 @@ def test_an_empty_or_missing_folder_is_written_and_a_file_is_refused(data, tmp_p
 def test_the_library_writes_through_a_link_and_keeps_the_link(data, tmp_path):
     """``write_compensation`` (the library) replaces the folder a link points to; the link stays a link."""
     from kinid.identification import load_fit
-    from kinid.identification.compensate import write_compensation
+    from kinid.identification.compensation.compensate import write_compensation
 
     d, refs = data
     real = tmp_path / "real"

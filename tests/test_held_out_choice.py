@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 
 from kinid.identification import forward_select, load_machine
-from kinid.identification.crossval import cross_validate
-from kinid.identification.effects import default_model, parse_effect
-from kinid.identification.fit import fit
-from kinid.identification.leverage import model_pass
-from kinid.identification.local_errors import local_windows, window_found_on
-from kinid.identification.periods import search_periods
-from kinid.identification.selection import _chosen_again
-from kinid.identification.simulate import patent_plan, simulate
+from kinid.identification.fitting.crossval import cross_validate
+from kinid.identification.model.effects import default_model, parse_effect
+from kinid.identification.fitting.fit import fit
+from kinid.identification.fitting.leverage import model_pass
+from kinid.identification.diagnosis.local_errors import local_windows, window_found_on
+from kinid.identification.diagnosis.periods import search_periods
+from kinid.identification.diagnosis.selection import _chosen_again
+from kinid.identification.fitting.simulate import patent_plan, simulate
 from kinid.urdf import path
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -105,14 +105,14 @@ def test_a_real_bump_keeps_its_window_held_out_gain(bc):
 
 
 def test_every_kind_the_turns_choose_again_has_its_bar_and_name():
-    from kinid.identification.crossval import CHOSEN_AGAIN
-    from kinid.identification.selection import CHOOSERS
+    from kinid.identification.fitting.crossval import CHOSEN_AGAIN
+    from kinid.identification.diagnosis.selection import CHOOSERS
 
     assert set(CHOOSERS) == set(CHOSEN_AGAIN)
 
 
 def test_the_selection_chooses_a_periodic_candidates_period_per_turn(bc, monkeypatch):
-    import kinid.identification.crossval as crossval
+    import kinid.identification.fitting.crossval as crossval
 
     seen = []
     original = crossval.cross_validate
@@ -137,7 +137,7 @@ def _warm_up_gains(seed, amp_um):
     refines it: (chosen on all data, chosen per turn). The truth: the proving ground's plain-numpy B/C machine, the
     patent plan in random order, 1 µm noise, a warm-up of the tool ``amp_um``·(1 − e^(−t/900 s))."""
     from kinid.identification import diagnose
-    from kinid.identification.searched import refined_time_constant
+    from kinid.identification.diagnosis.searched import refined_time_constant
 
     _, machine, obs = _data(seed, "five_axis_bc", [], {"EZ0T": lambda t: amp_um * (1.0 - np.exp(-t / 900.0))},
                             plan_kind="patent", order="random", misread_share=0.0)
@@ -162,7 +162,7 @@ def test_on_noise_the_warm_up_chosen_per_turn_does_not_pass():
     assert fixed.mean() > 0.5  # +1.0 on 16 seeds when written, per turn +0.8: never 2 on either
     assert np.all(again < 2.0) and again.mean() <= fixed.mean()
     # that warm-up passed at 2.4 on all data and 1.9 per turn: a turn's choice must now bring 2 as well
-    from kinid.identification.crossval import CrossValidation
+    from kinid.identification.fitting.crossval import CrossValidation
 
     edge = CrossValidation(4, 1.005, 1.000, 2.4, 1.9, tuple(f"EB0W:warmup:{t}" for t in (240.1, 501.1, 338.7, 455.2)))
     assert not edge.improves and "(2 needed) with the time constant chosen" in str(edge)

@@ -1,6 +1,6 @@
 """The house: variants are registries, imports form layers without cycles, modules stay readable.
 
-- Adding an effect basis is one registration (kinid.identification.bases): a test-only basis is
+- Adding an effect basis is one registration (kinid.identification.model.bases): a test-only basis is
   registered here and goes through identify, diagnose and compensate untouched elsewhere. (Adding a
   controller format is tested the same way in test_compensation_files.py.)
 - The import graph of the whole package (imports inside functions included) has no cycle, and the
@@ -18,9 +18,9 @@ import pytest
 
 from kinid.cli import main
 from kinid.identification import load_machine, save_fit
-from kinid.identification.bases import BASES, Basis, register_basis
-from kinid.identification.fit import fit, model_effects
-from kinid.identification.simulate import errors_from_mapping, load_plan, simulate
+from kinid.identification.model.bases import BASES, Basis, register_basis
+from kinid.identification.fitting.fit import fit, model_effects
+from kinid.identification.fitting.simulate import errors_from_mapping, load_plan, simulate
 from kinid.urdf import path as urdf_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -130,7 +130,7 @@ def test_a_registered_basis_goes_through_identify_and_compensate(triangle, tmp_p
     m = load_machine(urdf_path("five_axis_bc"))
     effects, theta = errors_from_mapping({"EX0C": 12.0, "EXX:triangle:12": [2.5]}, m)
     obs = simulate(m, load_plan("patent", m), effects, theta, noise_um=0.3, rng=np.random.default_rng(4))
-    from kinid.identification.observations import write_observations
+    from kinid.identification.data.observations import write_observations
 
     write_observations(tmp_path / "obs.csv", obs, m)
     assert main(["identify", "--machine", str(urdf_path("five_axis_bc")), "--data", str(tmp_path / "obs.csv"),
@@ -178,7 +178,7 @@ def test_results_print_short():
     import numpy as np
 
     from kinid.identification import default_model, diagnose, fit, load_machine, simulate
-    from kinid.identification.simulate import patent_plan
+    from kinid.identification.fitting.simulate import patent_plan
     from kinid.urdf import path
 
     machine = load_machine(path("five_axis_bc"))
@@ -192,7 +192,7 @@ def test_results_print_short():
 
 def test_a_name_parsed_once_is_refused_once_its_basis_leaves_the_registry():
     """Effect names are parsed once per machine; a basis taken out of the registry parses no more."""
-    from kinid.identification.effects import parse_effect
+    from kinid.identification.model.effects import parse_effect
 
     m = load_machine(urdf_path("five_axis_bc"))
     register_basis(TRIANGLE)

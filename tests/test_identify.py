@@ -4,14 +4,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from kinid.identification.alignment import solve_axes
-from kinid.identification.effects import default_model, parse_effect
+from kinid.identification.fitting.alignment import solve_axes
+from kinid.identification.model.effects import default_model, parse_effect
 from kinid.errors import DataError
-from kinid.identification.fit import fit
-from kinid.identification.fit_file import load_fit, save_fit
-from kinid.identification.machine import load_machine
-from kinid.identification.residuals import design, residuals
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.identification.fitting.fit import fit
+from kinid.identification.fitting.fit_file import load_fit, save_fit
+from kinid.identification.model.machine import load_machine
+from kinid.identification.fitting.residuals import design, residuals
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 
 MACHINES = ["five_axis_bc", "five_axis_ac", "five_axis_bhead_c"]
@@ -233,7 +233,7 @@ def test_loaded_fit_is_the_same_result_type_with_the_same_numbers(tmp_path):
 
 def test_sigma_keeps_its_source_through_selection_into_the_saved_fit(tmp_path):
     from kinid.identification import forward_select
-    from kinid.identification.noise import Noise
+    from kinid.identification.fitting.noise import Noise
 
     m = load_machine(path("five_axis_bc"))
     effects, theta = errors_from_mapping({"EX0C": 15.0, "EXX:periodic:10": [2.5, 0.0]}, m)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from kinid.errors import MachineError
-from kinid.identification.machine import evaluate, machine_from_urdf
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification.model.machine import evaluate, machine_from_urdf
+from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup
 
 ROS = {"J1": "shoulder_pan_joint", "J2": "shoulder_lift_joint", "J3": "elbow_joint"}
 

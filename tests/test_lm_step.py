@@ -5,7 +5,7 @@ import threading
 
 import numpy as np
 
-from kinid.identification.lm_step import lm_step
+from kinid.identification.fitting.lm_step import lm_step
 
 
 def _problem(seed, m=12, n=7):

@@ -8,11 +8,11 @@ from hypothesis import strategies as st
 
 from kinid.errors import KinidError
 from kinid.identification import load_machine
-from kinid.identification.fit import fit
-from kinid.identification.fit_file import load_fit, save_fit
-from kinid.identification.machine import machine_from_urdf
-from kinid.identification.observations import read_observations
-from kinid.identification.simulate import patent_plan, simulate
+from kinid.identification.fitting.fit import fit
+from kinid.identification.fitting.fit_file import load_fit, save_fit
+from kinid.identification.model.machine import machine_from_urdf
+from kinid.identification.data.observations import read_observations
+from kinid.identification.fitting.simulate import patent_plan, simulate
 from kinid.urdf import path as urdf_path
 
 import numpy as np

@@ -6,7 +6,7 @@ import pytest
 
 from kinid.errors import DataError
 from kinid.identification import load_machine, parse_effect
-from kinid.identification.effects import basis_values
+from kinid.identification.model.effects import basis_values
 from kinid.urdf import path
 
 
@@ -53,11 +53,11 @@ def test_local_windows_count_positions_not_the_jitter_of_repeated_readings(bc):
     (a 2.5 mm window at 1 630 µm, refused only as a size no machine has)."""
     from dataclasses import replace
 
-    from kinid.identification.positions import distinct_positions
-    from kinid.identification.effects import default_model
-    from kinid.identification.local_errors import local_windows
-    from kinid.identification.observations import Observations
-    from kinid.identification.simulate import patent_plan, simulate
+    from kinid.identification.data.positions import distinct_positions
+    from kinid.identification.model.effects import default_model
+    from kinid.identification.diagnosis.local_errors import local_windows
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.fitting.simulate import patent_plan, simulate
 
     rng = np.random.default_rng(5)
     base = patent_plan(bc)

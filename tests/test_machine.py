@@ -4,8 +4,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from kinid.errors import MachineError
-from kinid.identification.machine import evaluate, load_machine, machine_from_urdf, tool_in_workpiece_mm
-from kinid.identification.urdf_builder import Axis, Fixed, machine_urdf, setup
+from kinid.identification.model.machine import evaluate, load_machine, machine_from_urdf, tool_in_workpiece_mm
+from kinid.identification.model.urdf_builder import Axis, Fixed, machine_urdf, setup
 from kinid.urdf import names, path
 
 MACHINES = ["five_axis_bc", "five_axis_ac", "five_axis_bhead_c"]

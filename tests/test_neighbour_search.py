@@ -2,7 +2,7 @@
 their copies, the others pairwise) against the pairwise search (n²)."""
 import numpy as np
 
-from kinid.identification.structure import _neighbours
+from kinid.identification.diagnosis.structure import _neighbours
 
 
 def _pairwise(x):
@@ -40,9 +40,9 @@ def test_replicas_solved_from_noisy_alignments_are_not_structure(tmp_path):
     is noise again, and the lead the model lacks is still seen."""
     from kinid.cli import main
     from kinid.identification import default_model, fit, load_machine
-    from kinid.identification.effects import parse_effect
-    from kinid.identification.observations import read_observations
-    from kinid.identification.structure import structure_left
+    from kinid.identification.model.effects import parse_effect
+    from kinid.identification.data.observations import read_observations
+    from kinid.identification.diagnosis.structure import structure_left
     from kinid.urdf import path
 
     urdf = str(path("five_axis_bc"))
@@ -72,7 +72,7 @@ def test_replicas_solved_from_noisy_alignments_are_not_structure(tmp_path):
 def test_the_permutation_null_from_the_gram_matrix_is_the_direct_one():
     """The structure test's null (each permutation's neighbour ratio) from the residuals' Gram matrix equals the
     ratio computed on the permuted residuals themselves, on residuals of any scale, neighbours with repeats."""
-    from kinid.identification.structure import _null_ratios, _ratio
+    from kinid.identification.diagnosis.structure import _null_ratios, _ratio
 
     rng = np.random.default_rng(4)
     for k in range(60):

@@ -134,7 +134,7 @@ def test_calibrated_camera_offsets_match_projection():
     """A pinhole camera with distortion: points projected by OpenCV come back as their tool-frame offsets."""
     import cv2
 
-    from kinid.identification.observe import Sensor, image_offsets_mm
+    from kinid.identification.data.observe import Sensor, image_offsets_mm
     from kinid.vision import CameraModel
 
     K = np.array([[2400.0, 0, 1010.0], [0, 2400.0, 1030.0], [0, 0, 1]])

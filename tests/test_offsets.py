@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from kinid.identification import default_model, fit, load_machine, parse_effect, read_observations
-from kinid.identification.machine import evaluate
-from kinid.identification.observations import write_observations
-from kinid.identification.residuals import design, residuals
-from kinid.identification.simulate import patent_plan, simulate
+from kinid.identification.model.machine import evaluate
+from kinid.identification.data.observations import write_observations
+from kinid.identification.fitting.residuals import design, residuals
+from kinid.identification.fitting.simulate import patent_plan, simulate
 from kinid.urdf import path
 
 

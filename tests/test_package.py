@@ -228,7 +228,7 @@ def test_library_errors_name_the_argument_and_the_cli_names_the_option(tmp_path)
 
 def test_front_door_names_stay_functions_after_submodule_imports(tmp_path):
     """``fit``, ``diagnose`` and ``simulate`` are modules and functions; the front door gives the functions."""
-    out = _run("import types, kinid.identification.fit, kinid.identification.diagnose, kinid.identification.simulate; "
+    out = _run("import types, kinid.identification.fitting.fit, kinid.identification.diagnosis.diagnose, kinid.identification.fitting.simulate; "
                "from kinid.identification import fit, diagnose, simulate; "
                "print(all(callable(f) and not isinstance(f, types.ModuleType) for f in (fit, diagnose, simulate)))",
                tmp_path)

@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 
 from kinid.identification import load_machine
-from kinid.identification.alignment import solve_axes
+from kinid.identification.fitting.alignment import solve_axes
 from kinid.identification import diagnose, forward_select
-from kinid.identification.selection import what_is_left
-from kinid.identification.effects import default_model, parse_effect
-from kinid.identification.fit import fit
-from kinid.identification.simulate import errors_from_mapping, patent_plan, simulate
+from kinid.identification.diagnosis.selection import what_is_left
+from kinid.identification.model.effects import default_model, parse_effect
+from kinid.identification.fitting.fit import fit
+from kinid.identification.fitting.simulate import errors_from_mapping, patent_plan, simulate
 from kinid.urdf import path
 
 SIGMA = 1.0
@@ -239,7 +239,7 @@ def test_local_bump_is_described_by_a_map(bc, tmp_path):
     # the same machine without the bump reaches
     assert auto <= 1.5 * noise_limited, (auto, noise_limited)
     assert base > auto, (base, auto)
-    from kinid.identification.report import plot_identified_errors
+    from kinid.identification.reporting.report import plot_identified_errors
 
     assert plot_identified_errors(steps[-1].fit, obs, tmp_path / "errors.png")
     assert (tmp_path / "errors.png").stat().st_size > 1000
@@ -278,8 +278,8 @@ def test_local_bumps_of_several_sizes_and_places(bc):
 
 def test_map_effect_grammar_basis_and_round_trip(bc, tmp_path):
     from kinid.errors import DataError
-    from kinid.identification.effects import basis_values
-    from kinid.identification.fit_file import load_fit, save_fit
+    from kinid.identification.model.effects import basis_values
+    from kinid.identification.fitting.fit_file import load_fit, save_fit
 
     e = parse_effect("EXX:map:5:-20:20", bc)
     assert e.knots == tuple(float(k) for k in range(-20, 21, 5)) and e.n_params == 9
@@ -300,7 +300,7 @@ def test_map_effect_grammar_basis_and_round_trip(bc, tmp_path):
 
 def _ac_plan(machine, stagger_deg):
     """3 tilts × 6 table angles × 4 marks on the A/C table; the k-th tilt's table angles turned by k × stagger."""
-    from kinid.identification.observations import Observations
+    from kinid.identification.data.observations import Observations
 
     names, rows, w = machine.axis_names, [], []
     for k, a in enumerate((-40.0, 0.0, 40.0)):
@@ -351,7 +351,7 @@ def test_the_bounded_search_is_scipys_step_for_step():
     and value exactly, with the selection's settings (xatol 0.01, 20 steps) and with scipy's default steps."""
     from scipy.optimize import minimize_scalar
 
-    from kinid.identification.periods import bounded_minimum
+    from kinid.identification.diagnosis.periods import bounded_minimum
 
     rng = np.random.default_rng(0)
     for _ in range(200):
@@ -396,10 +396,10 @@ def test_the_jitter_of_solved_readings_is_no_finer_sampling():
     (a few µm apart): the search covers the periods the six positions resolve — the same shortest period and
     number of trials as on readings repeated exactly — not the millimetre periods thousands of distinct readings
     would seem to resolve (on a grid of six positions those alias onto longer ones: noise picks among them)."""
-    from kinid.identification.positions import distinct_positions
-    from kinid.identification.leverage import model_pass
-    from kinid.identification.observations import Observations
-    from kinid.identification.periods import search_periods
+    from kinid.identification.data.positions import distinct_positions
+    from kinid.identification.fitting.leverage import model_pass
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.diagnosis.periods import search_periods
 
     ac = load_machine(path("five_axis_ac"))
     effects, theta = errors_from_mapping({"EX0C": 12.0, "EY0C": -8.0}, ac)
@@ -432,7 +432,7 @@ def test_readings_a_few_micrometres_apart_are_one_position_wherever_they_fall():
     """Three positions read 50 times each, 2 µm apart at most, one of them on the boundary of a grid of 0.1 % of the
     span (where rounding to a grid would split it in two); a position read exactly keeps its value to the last
     digit."""
-    from kinid.identification.positions import distinct_positions
+    from kinid.identification.data.positions import distinct_positions
 
     rng = np.random.default_rng(3)
     q = np.repeat([10.01, 20.0, 30.0], 50) + np.r_[rng.uniform(-2e-3, 2e-3, 50), np.zeros(50), rng.normal(0, 1e-3, 50)]
@@ -445,8 +445,8 @@ def test_refining_the_best_few_gives_them_as_refining_all_does(bc):
     """The diagnosis refines only the joints that can be among its four best periods: those come out as refining
     every joint gives them (period, its std, Δ), in the same order; the others keep their grid peak (std NaN) and
     are still counted (the trials multiply by the joints searched)."""
-    from kinid.identification.leverage import model_pass
-    from kinid.identification.periods import search_periods
+    from kinid.identification.fitting.leverage import model_pass
+    from kinid.identification.diagnosis.periods import search_periods
 
     rng = np.random.default_rng(21)
     effects, theta = _location_truth(bc, rng)

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench_plan  # noqa: E402
 
-from kinid.identification.machine import load_machine  # noqa: E402
+from kinid.identification.model.machine import load_machine  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 
 B_DEG = np.arange(-60.0, 61.0, 10.0)
@@ -28,8 +28,8 @@ C_DEG = np.arange(0.0, 360.0, 15.0)
 
 @pytest.fixture(scope="module")
 def bc():
-    from kinid.identification.plan import plan_measurement
-    from kinid.identification.plan_pool import candidate_poses
+    from kinid.identification.planning.plan import plan_measurement
+    from kinid.identification.planning.pool import candidate_poses
 
     machine = load_machine(path("five_axis_bc"))
     pool = candidate_poses(machine, bench_plan.MARKS_MM, {"B": B_DEG, "C": C_DEG})
@@ -52,7 +52,7 @@ def test_a_plan_for_half_a_micrometre_keeps_its_promise_in_simulation(bc):
 
 
 def test_the_choice_beats_random_choices_of_the_same_count(bc):
-    from kinid.identification.plan import tool_point_u_um, volume_weight
+    from kinid.identification.planning.plan import tool_point_u_um, volume_weight
 
     _, pool, plan = bc
     J = plan.candidates.J
@@ -66,7 +66,7 @@ def test_the_choice_beats_random_choices_of_the_same_count(bc):
 
 def test_the_relaxation_bound_holds_for_every_design():
     """No design of n candidates has φ below bound/n: greedy, exchanged and random designs on random problems."""
-    from kinid.identification.plan_design import criterion, relaxation_bound, select
+    from kinid.identification.planning.design import criterion, relaxation_bound, select
 
     rng = np.random.default_rng(0)
     for trial in range(6):
@@ -85,8 +85,8 @@ def test_the_relaxation_bound_holds_for_every_design():
 
 
 def test_every_layout_gets_an_order_whose_time_follows_no_axis():
-    from kinid.identification.plan import plan_measurement
-    from kinid.identification.plan_pool import candidate_poses
+    from kinid.identification.planning.plan import plan_measurement
+    from kinid.identification.planning.pool import candidate_poses
 
     for name, ranges in (("five_axis_bc", {"B": B_DEG, "C": C_DEG}), ("five_axis_ac", {"A": B_DEG, "C": C_DEG}),
                          ("five_axis_bhead_c", {"B": B_DEG, "C": C_DEG})):
@@ -122,9 +122,9 @@ def test_an_effect_asked_for_is_detected_as_often_as_promised(bc):
     to drawn location errors is found by the diagnosis (its F test at its Bonferroni level) at least as often as
     promised, within the spread of 30 runs (the promise is for the least detectable phase)."""
     from kinid.identification import default_model
-    from kinid.identification.diagnose import diagnose
-    from kinid.identification.observations import Observations
-    from kinid.identification.plan import plan_measurement
+    from kinid.identification.diagnosis.diagnose import diagnose
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.planning.plan import plan_measurement
 
     machine, pool, _ = bc
     plan = plan_measurement(machine, pool, count=30, detect={"EXX:periodic:10": 1.0}, power=0.8)
@@ -147,8 +147,8 @@ def test_an_effect_asked_for_is_detected_as_often_as_promised(bc):
 
 
 def _identifiable_after(machine, effects, obs, advice):
-    from kinid.identification.identifiability import analyse
-    from kinid.identification.residuals import design, residuals
+    from kinid.identification.fitting.identifiability import analyse
+    from kinid.identification.fitting.residuals import design, residuals
 
     both = [obs, advice.poses]
     J = []
@@ -166,14 +166,14 @@ def _identifiable_after(machine, effects, obs, advice):
 def test_adding_the_advised_poses_determines_the_held_parameters(case, tmp_path):
     """Candidates that leave parameters undetermined (B/C: the tilt axis at 0° only; the arm: its last joint at 0°):
     the advice names poses for them, and with those poses added each named parameter is identifiable."""
-    from kinid.identification.effects import default_model
-    from kinid.identification.machine import machine_from_urdf
-    from kinid.identification.plan import plan_measurement
-    from kinid.identification.plan_pool import candidate_poses
-    from kinid.identification.plan_advice import advice_pool
+    from kinid.identification.model.effects import default_model
+    from kinid.identification.model.machine import machine_from_urdf
+    from kinid.identification.planning.plan import plan_measurement
+    from kinid.identification.planning.pool import candidate_poses
+    from kinid.identification.planning.advice import advice_pool
 
     if case == "arm":
-        from kinid.identification.urdf_import import identification_urdf
+        from kinid.identification.model.urdf_import import identification_urdf
 
         text = identification_urdf((ROOT / "examples" / "ur_like.urdf").read_text(), base="world",
                                    tool="wrist_3_link", tool_offset_m=(0.01, -0.02, 0.08))
@@ -215,7 +215,7 @@ def test_the_plan_file_is_what_simulate_and_identify_read(tmp_path):
     assert r.returncode == 0, r.stderr
     r = _kinid("identify", "--machine", urdf, "--data", "obs.csv", "--noise-um", "1", "--out", "fit.json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    from kinid.identification.fit_file import load_fit
+    from kinid.identification.fitting.fit_file import load_fit
 
     fit = load_fit(tmp_path / "fit.json")
     k = fit.param_names.index("EX0C")

@@ -15,11 +15,11 @@ import pytest
 
 from kinid.cli import main
 from kinid.identification import default_model, fit
-from kinid.identification.machine import machine_from_urdf
-from kinid.identification.observations import Observations
-from kinid.identification.prior import choose_prior, held_out_check, prior_std
-from kinid.identification.residuals import design, residuals
-from kinid.identification.urdf_import import identification_urdf
+from kinid.identification.model.machine import machine_from_urdf
+from kinid.identification.data.observations import Observations
+from kinid.identification.fitting.prior import choose_prior, held_out_check, prior_std
+from kinid.identification.fitting.residuals import design, residuals
+from kinid.identification.model.urdf_import import identification_urdf
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -117,7 +117,7 @@ def test_identify_prior_on_the_command_line(tmp_path, capsys):
     tm = truth.read_urdf(text)
     (tmp_path / "arm.urdf").write_text(text)
     obs = _poses(machine, tm, {"EX0J2": 200.0}, 20, np.random.default_rng(3), NOISE_MM)
-    from kinid.identification.observations import write_observations
+    from kinid.identification.data.observations import write_observations
 
     write_observations(tmp_path / "obs.csv", obs, machine)
     run = ["identify", "--machine", str(tmp_path / "arm.urdf"), "--data", str(tmp_path / "obs.csv")]
@@ -136,7 +136,7 @@ def test_identify_prior_on_the_command_line(tmp_path, capsys):
 def test_a_value_far_beyond_its_prior_is_flagged_and_the_prior_is_saved(tmp_path):
     """A location error of 0.8 mm under a prior of 0.1 mm: inside the 1 mm a machine may have, but beyond
     PRIOR_MULTIPLE (5) prior standard deviations — flagged; FIT.json keeps the prior and the flag."""
-    from kinid.identification.fit_file import load_fit, save_fit
+    from kinid.identification.fitting.fit_file import load_fit, save_fit
 
     text, machine = _arm()
     tm = truth.read_urdf(text)

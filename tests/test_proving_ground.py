@@ -21,7 +21,7 @@ import proving_truth as truth  # noqa: E402
 
 def test_the_truth_is_the_urdf_as_pinocchio_reads_it():
     """Two implementations that share nothing agree: the proving ground's numpy chain and kinid's Pinocchio pass."""
-    from kinid.identification.machine import evaluate, machine_from_urdf
+    from kinid.identification.model.machine import evaluate, machine_from_urdf
 
     rng = np.random.default_rng(0)
     for layout in pg.LAYOUTS:
@@ -69,7 +69,7 @@ def test_the_held_out_check_refits_with_the_candidate():
     ranks it first; the held-out check warm-started from the full data's fit must refit it (it gave the same
     figure to the last digit before and after when a warm start held other aliased parameters)."""
     from kinid.identification import default_model, diagnose, parse_effect
-    from kinid.identification.crossval import cross_validate
+    from kinid.identification.fitting.crossval import cross_validate
 
     sc, machine, obs = _data(3, "arm6", ["gear"])
     effects = list(default_model(machine))
@@ -92,10 +92,10 @@ def test_the_held_out_check_gives_the_refits_figures(monkeypatch):
     that differ between blocks), the A/C table and the gantry, with the best candidate and a poor one, the held-out
     figures and the gain are those of refitting each turn to convergence, written here without the check — and
     those of the check on data too large to hold their Jacobian, which refits every turn."""
-    import kinid.identification.crossval as crossval
+    import kinid.identification.fitting.crossval as crossval
     from kinid.identification import default_model, diagnose, fit, parse_effect
-    from kinid.identification.crossval import _gain_se, cross_validate
-    from kinid.identification.residuals import design, residuals
+    from kinid.identification.fitting.crossval import _gain_se, cross_validate
+    from kinid.identification.fitting.residuals import design, residuals
 
     for seed, layout, kinds in ((3, "arm6", ["gear"]), (5, "five_axis_ac", ["lead"]), (8, "gantry_dual_y", ["sag"])):
         _, machine, obs = _data(seed, layout, kinds, misread_share=0.0)
@@ -126,8 +126,8 @@ def test_the_held_out_check_gives_the_refits_figures(monkeypatch):
 def _data(seed, layout, kinds, extra=None, **fixed):
     """The proving ground's rows for one scenario, as kinid Observations (fit rows only); ``extra``: {error joint:
     a plain formula of the time, s} added to what the scenario hides."""
-    from kinid.identification.machine import machine_from_urdf
-    from kinid.identification.observations import Observations
+    from kinid.identification.model.machine import machine_from_urdf
+    from kinid.identification.data.observations import Observations
 
     sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(seed, layout, kinds, **fixed)
     n = len(t_s)
@@ -183,7 +183,7 @@ def test_structure_left_with_sigma_given_is_a_missing_effect_not_noise(monkeypat
 
     from kinid.identification import default_model, diagnose
 
-    diagnose_module = importlib.import_module("kinid.identification.diagnose")
+    diagnose_module = importlib.import_module("kinid.identification.diagnosis.diagnose")
     monkeypatch.setattr(diagnose_module, "score_all", lambda *args, **kwargs: [])
     monkeypatch.setattr(diagnose_module, "proposed_maps", lambda *args, **kwargs: [])  # a local window fits a sag
     _, machine, obs = _data(4, "five_axis_ac", ["sag"], plan_kind="patent", misread_share=0.0)
@@ -254,8 +254,8 @@ def test_the_final_words_say_a_table_is_not_measured_between_its_positions(monke
     """The error at each of Y's 6 positions (a bump of Y, the B/C table's small plan) is known there only: the final
     words say so and name the axis to measure at more positions, and its figure marks the positions measured."""
     from kinid.identification import default_model, forward_select, report_figures
-    from kinid.identification.positions import distinct_positions
-    from kinid.identification.selection import what_is_left
+    from kinid.identification.data.positions import distinct_positions
+    from kinid.identification.diagnosis.selection import what_is_left
 
     _, machine, obs = _data(0, "five_axis_bc", ["bump"], plan_kind="small", misread_share=0.0)
     steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
@@ -278,8 +278,8 @@ def test_a_local_error_rests_on_readings_per_coefficient_not_per_knot():
     every knot of a window for readings (its end knots too, where the error is held at zero) refused every window
     with knots every 10 mm; the 20 mm window left rang between the positions, and the final model predicted held-out
     alignments 1.7× worse than the default model. Each coefficient's B-spline resting on readings admits them."""
-    from kinid.identification.bsplines import _bsplines
-    from kinid.identification.local_errors import _bspline_support
+    from kinid.identification.model.bsplines import _bsplines
+    from kinid.identification.diagnosis.local_errors import _bspline_support
 
     q = np.random.default_rng(3).uniform(-60.0, 60.0, 300)
     assert np.allclose(_bspline_support(q, -80.0, 10.0, 17), _bsplines(q, -80.0 + 10.0 * np.arange(17), 10.0).sum(0))
@@ -298,7 +298,7 @@ def test_a_bump_narrower_than_the_windows_knots_is_found_with_knots_twice_as_clo
     10 mm: the best of them took 2.1× the oracle's held-out error and left a residual the tests call noise. Around
     the likeliest window the diagnosis now tries knots twice as close."""
     from kinid.identification import diagnose, default_model
-    from kinid.identification.local_errors import local_windows
+    from kinid.identification.diagnosis.local_errors import local_windows
 
     sc = pg.run(31 * 100003 + 53)
     print(_line(sc))
@@ -344,7 +344,7 @@ def test_the_held_out_check_asks_for_a_gain_beyond_its_scatter():
     """The best candidate on pure noise, chosen on all the data, lowers the held-out sum of squares of the blocks
     left out almost always (11 of 12 seeds here): a bare fall is no evidence. It must fall by two standard errors."""
     from kinid.identification import default_model, diagnose, parse_effect
-    from kinid.identification.crossval import cross_validate
+    from kinid.identification.fitting.crossval import cross_validate
 
     falls = improves = 0
     for seed in range(12):
@@ -401,7 +401,7 @@ def test_the_final_model_says_what_it_explains_and_whether_structure_remains():
     """The selection's last word: the share of the starting model's residual sum of squares the final model
     explains, computed from the two fits, and whether anything structured remains."""
     from kinid.identification import default_model, forward_select
-    from kinid.identification.selection import what_is_left
+    from kinid.identification.diagnosis.selection import what_is_left
 
     _, machine, obs = _data(3, "arm6", ["gear"])
     steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
@@ -416,8 +416,8 @@ def test_the_last_word_says_why_a_significant_candidate_stayed_out_in_whole_word
     """The reason was the stop message cut at its first colon: "(the best candidate, EAY)" for EAY:poly3."""
     from types import SimpleNamespace
 
-    from kinid.identification.crossval import CrossValidation
-    from kinid.identification.selection import _why_not_added
+    from kinid.identification.fitting.crossval import CrossValidation
+    from kinid.identification.diagnosis.selection import _why_not_added
 
     stopped = ("the best candidate, EAY:poly3 (p = 3.3e-06), does not predict held-out data better: held-out "
                "blocks -4% (1.332 → 1.275 µm, 4-fold, gain 1.6 standard errors)")
@@ -435,7 +435,7 @@ def test_a_drift_and_an_error_of_the_axis_time_follows_are_named_inseparable():
     be the other), and its verdict is that an effect remains. Visited at random, the same drift is found without
     that note, and added."""
     from kinid.identification import default_model, diagnose, forward_select
-    from kinid.identification.selection import what_is_left
+    from kinid.identification.diagnosis.selection import what_is_left
 
     _, machine, obs = _data(12, "five_axis_bc", ["drift"], plan_kind="patent", order="axis-major", misread_share=0.0)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
@@ -485,7 +485,7 @@ def test_of_candidates_the_data_cannot_tell_apart_the_one_a_machine_could_have_c
     model (held-out 20× the oracle's). Of tied candidates the one whose estimated size is the smallest share of
     what a machine has comes first."""
     from kinid.identification import default_model, diagnose
-    from kinid.identification.plausibility import share_of_limit
+    from kinid.identification.model.plausibility import share_of_limit
 
     tied_seen = 0
     for seed in (19 * 100003 + 168, 5, 6, 7):
@@ -511,10 +511,10 @@ def test_a_candidate_only_a_size_no_machine_has_explains_is_passed_over():
     import io
 
     from kinid.identification import default_model, diagnose, forward_select
-    from kinid.identification.plausibility import implausible_candidate, implausible_effects
+    from kinid.identification.model.plausibility import implausible_candidate, implausible_effects
 
-    passed_over = sys.modules["kinid.identification.diagnose"].passed_over
-    from kinid.identification.selection import _first_determined
+    passed_over = sys.modules["kinid.identification.diagnosis.diagnose"].passed_over
+    from kinid.identification.diagnosis.selection import _first_determined
 
     _, machine, obs = _data(47 * 100003 + 129, layout=None, kinds=None)
     dg = diagnose(machine, obs, default_model(machine), noise_um=1.0)
@@ -536,16 +536,16 @@ def test_a_selection_only_sizes_no_machine_has_would_explain_stops_and_says_so(m
     """Every candidate sized beyond what a machine has (the check made to say so): nothing is added, the last word
     names the best candidate and the size it would need, and the final text says structure remains."""
     from kinid.identification import default_model, forward_select
-    from kinid.identification.plausibility import Implausible
+    from kinid.identification.model.plausibility import Implausible
 
-    monkeypatch.setattr(sys.modules["kinid.identification.diagnose"], "implausible_candidate",
+    monkeypatch.setattr(sys.modules["kinid.identification.diagnosis.diagnose"], "implausible_candidate",
                         lambda machine, c, ranges: Implausible(c.effect, 2e4, 1e4, "µrad"))
     _, machine, obs = _data(47 * 100003 + 129, layout=None, kinds=None)
     steps = forward_select(machine, obs, default_model(machine), noise_um=1.0)
     best = steps[0].diagnosis.live[0]
     assert len(steps) == 1 and steps[-1].stopped.startswith(f"the best candidate, {best.effect} (p = ")
     assert "would need " in steps[-1].stopped and steps[-1].stopped.endswith("; not added")
-    left = sys.modules["kinid.identification.selection"].what_is_left(steps)
+    left = sys.modules["kinid.identification.diagnosis.selection"].what_is_left(steps)
     text = steps[0].diagnosis.text()  # the diagnosis advises no addition, and says why
     assert "--add" not in text and f"the best candidate, {best.effect} (p = " in text and "would need" in text
     assert f"structure remains: {best.effect} is significant" in left and "would need" in left

@@ -9,7 +9,7 @@ import re
 import pytest
 
 from kinid.cli import main
-from kinid.identification.names import plain_name
+from kinid.identification.model.names import plain_name
 from kinid.urdf import path as urdf_path
 
 MACHINE = str(urdf_path("five_axis_bc"))
@@ -144,8 +144,8 @@ def test_the_auto_report_does_not_advise_adding_what_the_selection_left_out(repo
     """A selection that stops with a significant candidate it did not add (here: no step allowed) says why, and
     its summary does not advise adding that candidate."""
     from kinid.identification import default_model, forward_select, load_machine
-    from kinid.identification.observations import read_observations
-    from kinid.identification.report import selection_report
+    from kinid.identification.data.observations import read_observations
+    from kinid.identification.reporting.report import selection_report
 
     d, _ = report
     machine = load_machine(MACHINE)
@@ -174,8 +174,8 @@ def test_a_structured_residual_at_the_noise_is_told_as_such(tmp_path):
     assert main(["diagnose", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "obs.csv"),
                  "--report", str(tmp_path / "rep")]) == 0
     from kinid.identification import diagnose, load_fit
-    from kinid.identification.diagnose import ALPHA
-    from kinid.identification.observations import read_observations
+    from kinid.identification.diagnosis.diagnose import ALPHA
+    from kinid.identification.data.observations import read_observations
 
     f = load_fit(tmp_path / "fit.json")
     dg = diagnose(f.machine, read_observations(tmp_path / "obs.csv", f.machine), f.effects, noise_um=1.0)

@@ -1,7 +1,7 @@
 """Rows grouped by equal values (exact copies, replicates) — vectorised — against the plain dictionary of tuples."""
 import numpy as np
 
-from kinid.identification.observations import row_groups
+from kinid.identification.data.observations import row_groups
 
 
 def _plain(*columns):

@@ -48,9 +48,9 @@ def _offset_rms_um(lay, csv_path, truth_rows):
 def _held_out_um(fit_path, lay, readings):
     """3-D RMS (µm) of the fitted model's tool point against the true machine's at ``readings``, and of the nominal
     model's (the uncompensated machine)."""
-    from kinid.identification.fit_file import load_fit
-    from kinid.identification.observations import Observations
-    from kinid.identification.residuals import design, residuals
+    from kinid.identification.fitting.fit_file import load_fit
+    from kinid.identification.data.observations import Observations
+    from kinid.identification.fitting.residuals import design, residuals
 
     fit = load_fit(fit_path)
     machine = fit.machine

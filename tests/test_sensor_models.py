@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import bc_camera_sim as sim
-import kinid.identification.observe as observe_module
+import kinid.identification.data.observe as observe_module
 from kinid.cli import main
 from kinid.urdf import path as urdf_path
 from plain_machine import PlainMachine

@@ -69,7 +69,7 @@ def test_help_imports_no_numpy(verb, tmp_path):
 def test_packages_import_light_and_keep_every_public_name(tmp_path):
     code = ("import sys, types; import kinid, kinid.identification, kinid.vision, kinid.stages; "
             f"light = sorted(m for m in sys.modules if m.split('.')[0] in {(*HEAVY, 'numpy')!r}); "
-            "import kinid.identification.fit, kinid.identification.diagnose, kinid.identification.simulate; "
+            "import kinid.identification.fitting.fit, kinid.identification.diagnosis.diagnose, kinid.identification.fitting.simulate; "
             "names = {p.__name__: [type(getattr(p, n)).__name__ for n in p.__all__] "
             "for p in (kinid, kinid.identification, kinid.vision, kinid.stages)}; "
             "from kinid.identification import fit, diagnose, simulate, urdf_builder; "
@@ -115,21 +115,21 @@ def _modules_after_identify(tmp_path, errors: str, *options) -> set:
 
 def test_identify_imports_only_what_the_fit_needs(tmp_path):
     modules = _modules_after_identify(tmp_path, '{"EX0C": 12.0, "EXX:periodic:10": [1.5, -0.8]}')
-    # (kinid.identification.alignment is needed: the pose advice for held parameters solves nominal poses)
-    unneeded = {"matplotlib", "cv2", "scipy", "kinid.vision", "kinid.stages", "kinid.identification.diagnose",
-                "kinid.identification.selection", "kinid.identification.simulate", "kinid.identification.plan_design",
-                "kinid.identification.report", "kinid.identification.urdf_builder", "kinid.identification.demo"}
+    # (kinid.identification.fitting.alignment is needed: the pose advice for held parameters solves nominal poses)
+    unneeded = {"matplotlib", "cv2", "scipy", "kinid.vision", "kinid.stages", "kinid.identification.diagnosis.diagnose",
+                "kinid.identification.diagnosis.selection", "kinid.identification.fitting.simulate", "kinid.identification.planning.design",
+                "kinid.identification.reporting.report", "kinid.identification.model.urdf_builder", "kinid.identification.commands.demo"}
     assert not unneeded & modules, f"kinid identify imports {sorted(unneeded & modules)}"
 
 
 def test_identify_auto_imports_no_optimiser_it_does_not_use(tmp_path):
     """``--auto`` imports no scipy at all: not scipy.optimize (0.16 s; its two bounded searches are
-    kinid.identification.periods.bounded_minimum, the same steps, tests/test_period_search.py), nor scipy.special
+    kinid.identification.diagnosis.periods.bounded_minimum, the same steps, tests/test_period_search.py), nor scipy.special
     (0.1 s; the χ² of thousands of degrees of freedom and the F distribution are kinid.stats's, tests/test_stats.py)."""
     modules = _modules_after_identify(tmp_path, '{"EX0C": 12.0, "EXX:periodic:13.3": [1.5, -0.8]}', "--auto")
     assert json.loads((tmp_path / "fit.json").read_text())["effects"][-1].startswith("EXX:")
-    assert "kinid.identification.selection" in modules  # the selection ran
-    assert not {"scipy", "matplotlib", "cv2", "kinid.identification.report"} & modules
+    assert "kinid.identification.diagnosis.selection" in modules  # the selection ran
+    assert not {"scipy", "matplotlib", "cv2", "kinid.identification.reporting.report"} & modules
 
 
 def test_stage_packages_import_light_and_keep_every_public_name(tmp_path):

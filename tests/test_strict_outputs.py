@@ -68,7 +68,7 @@ def run(tmp_path_factory):
 # --- every --json printer -----------------------------------------------------------------------------
 
 def test_diagnose_json(run, monkeypatch, capsys):
-    module = importlib.import_module("kinid.identification.diagnose")
+    module = importlib.import_module("kinid.identification.diagnosis.diagnose")
 
     real = module.diagnose
     monkeypatch.setattr(module, "diagnose", lambda *a, **k: dataclasses.replace(real(*a, **k), rms_um=NAN))
@@ -79,7 +79,7 @@ def test_diagnose_json(run, monkeypatch, capsys):
 
 
 def test_verify_json(run, monkeypatch, capsys):
-    module = importlib.import_module("kinid.identification.verify")
+    module = importlib.import_module("kinid.identification.compensation.verify")
 
     monkeypatch.setattr(module, "verify", lambda *a, **k: SimpleNamespace(summary=lambda: {
         "before_um": {"3d": INF}, "after_um": {"3d": np.float64("nan")}, "chi2_p": NAN, "n_observations": 3}))
@@ -173,7 +173,7 @@ def test_markers_json(tmp_path, monkeypatch, capsys):
 # --- JSON files: a non-finite number is a clear error (sensor) or null where null means "not known" ---
 
 def test_sensor_file_with_a_non_finite_offset_is_an_error(tmp_path, monkeypatch, capsys):
-    sensor_cli = importlib.import_module("kinid.identification.sensor_cli")
+    sensor_cli = importlib.import_module("kinid.identification.commands.sensor")
 
     (tmp_path / "hole.csv").write_text("role,x_mm,y_mm,z_mm,b_deg,c_deg\ncamera,0,0,0,0,0\nlaser,18,0,0,0,0\n")
     monkeypatch.setattr(sensor_cli, "laser_offset", lambda *a, **k: (
@@ -288,7 +288,7 @@ def test_backlash_and_contour_reports_are_written_whole(tmp_path, capsys):
 
 
 def test_diagnose_report_refused_replaced_and_interrupted(run, tmp_path, monkeypatch, capsys):
-    module = importlib.import_module("kinid.identification.report")
+    module = importlib.import_module("kinid.identification.reporting.report")
 
     argv = ["diagnose", "--fit", str(run / "fit.json"), "--data", str(run / "obs.csv"), "--report"]
     mine = _foreign(tmp_path)
@@ -325,7 +325,7 @@ def test_identify_report_refuses_other_files_and_writes_no_fit(run, tmp_path, ca
 
 def test_selection_report_is_whole_except_for_the_demo(tmp_path):
     from kinid.errors import DataError
-    from kinid.identification.report import selection_report
+    from kinid.identification.reporting.report import selection_report
 
     mine = _foreign(tmp_path)
     before = _snapshot(mine)
@@ -335,8 +335,8 @@ def test_selection_report_is_whole_except_for_the_demo(tmp_path):
 
 
 def test_verify_report_refused_early_replaced_and_interrupted(run, tmp_path, monkeypatch, capsys):
-    verify_module = importlib.import_module("kinid.identification.verify")
-    module = importlib.import_module("kinid.identification.verify_report")
+    verify_module = importlib.import_module("kinid.identification.compensation.verify")
+    module = importlib.import_module("kinid.identification.compensation.verify_report")
 
     argv = ["verify", "--fit", str(run / "fit.json"), "--data", str(run / "obs.csv"), "--report"]
     mine = _foreign(tmp_path)

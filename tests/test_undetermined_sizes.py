@@ -68,8 +68,8 @@ def test_a_weak_direction_pushed_by_a_missing_effect_is_undetermined_too(tmp_pat
     assert flagged["EY0C"]["undetermined"], "the partner of the weak direction was called inconsistent"
     assert "shared with EA0Z" in out and "look inconsistent" not in out
     # the report's summary does not name them among the clearest errors (EY0C is 3.2 σ from zero)
-    from kinid.identification.fit_file import load_fit
-    from kinid.identification.report import _largest
+    from kinid.identification.fitting.fit_file import load_fit
+    from kinid.identification.reporting.report import _largest
 
     clearest = _largest(load_fit(tmp_path / "fit.json"))
     assert "EY0C" not in clearest and "EA0Z" not in clearest and "flagged in the table, are left out" in clearest
@@ -81,7 +81,7 @@ def test_the_weak_direction_is_judged_together_and_only_its_share_is_excused():
     part off the line beyond its limit, stays a size no machine has."""
     import numpy as np
 
-    from kinid.identification.plausibility import Implausible, _weak_partners
+    from kinid.identification.model.plausibility import Implausible, _weak_partners
 
     def judged(b_value, rho):
         a = Implausible("EA0Z", 13e4, 1e4, "µrad", std=4e4)
@@ -100,9 +100,9 @@ def test_a_candidate_is_judged_by_the_size_its_determined_coefficients_give():
     """A scored candidate's size, as a fitted effect's, is its largest value over the fitted range of its axis, from
     the coefficients the data determine (beyond twice their standard deviation): a term the noise alone can make
     large (a direction the model nearly holds) is not evidence of a size no machine has."""
-    from kinid.identification.machine import load_machine
-    from kinid.identification.plausibility import implausible_candidate
-    from kinid.identification.scoring import Candidate
+    from kinid.identification.model.machine import load_machine
+    from kinid.identification.model.plausibility import implausible_candidate
+    from kinid.identification.diagnosis.scoring import Candidate
 
     machine = load_machine(urdf_path("five_axis_bc"))
     ranges = {"X": (-100.0, 100.0)}

@@ -265,7 +265,7 @@ def test_dual_axis_json_is_strict(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def fit_file(tmp_path_factory):
     from kinid.identification import default_model, fit, load_machine, parse_effect, save_fit
-    from kinid.identification.simulate import patent_plan, simulate
+    from kinid.identification.fitting.simulate import patent_plan, simulate
     from kinid.urdf import path as urdf_path
 
     folder = tmp_path_factory.mktemp("fit")
@@ -293,7 +293,7 @@ def test_compensate_refuses_a_step_too_fine(fit_file, tmp_path, option, value):
 
 
 def test_table_grid_checks_the_step_before_allocating():
-    from kinid.identification.table_grids import AxisRange, check_grid_step, table_grid
+    from kinid.identification.compensation.table_grids import AxisRange, check_grid_step, table_grid
 
     rng = AxisRange(-500.0, 500.0, "URDF travel", False, (-500.0, 500.0), None)
     with pytest.raises(DataError, match=r"step_mm 1e-09 would put 1e\+12 points .* limit of 1,000,000"):

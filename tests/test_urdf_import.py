@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from kinid.cli import main
-from kinid.identification.machine import evaluate, load_machine, machine_from_urdf
-from kinid.identification.urdf_import import identification_urdf
+from kinid.identification.model.machine import evaluate, load_machine, machine_from_urdf
+from kinid.identification.model.urdf_import import identification_urdf
 from kinid.urdf import path as urdf_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))

@@ -1,0 +1,82 @@
+"""``kinid compensate``: a fit -> axis error tables, constants, set-up, a calibrated URDF, controller files."""
+from __future__ import annotations
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    from kinid.axis_tables import CONTROLLER_FORMATS, default_formats
+
+    p = sub.add_parser(
+        "compensate", help="axis error tables, constants, a calibrated URDF and controller files from a fit",
+        description="Write the fitted machine's compensation into a folder: <AXIS>.csv per motion axis (every "
+                    "compensated error joint of the axis over its measured range), constants.json, setup.json "
+                    "(the board's and the sensor's set-up, for the work and tool offsets), calibrated.urdf "
+                    "(machine constants folded into the geometry, error joints kept at zero), compensation.json "
+                    "(provenance, what was left out and why, how closely each controller file follows the model) "
+                    "and the positioning-error tables in controller formats (docs/compensation.md). Only "
+                    "significant machine errors are compensated: a term whose every parameter is within its "
+                    "expanded uncertainty (k = 2) is left out, as are the set-up and drifts.")
+    p.add_argument("--fit", required=True, help="FIT.json written by kinid identify")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder to write, whole or not at all (created if missing; an existing one is replaced only "
+                        "if it is empty or holds an earlier compensation)")
+    p.add_argument("--format", dest="formats", nargs="+", choices=sorted(CONTROLLER_FORMATS),
+                   default=list(default_formats()),
+                   help=f"controller formats to write (default: {' '.join(default_formats())})")
+    p.add_argument("--range", dest="range_policy", choices=("data", "travel"), default="data",
+                   help="tables over the measured readings of each axis (default) or over the URDF travel")
+    p.add_argument("--beyond", choices=("hold", "zero"), default="hold",
+                   help="beyond a table's ends: hold the end values (default) or return to zero")
+    p.add_argument("--all-terms", action="store_true",
+                   help="compensate every identified term, also those within their expanded uncertainty")
+    p.add_argument("--axis-number", dest="axis_numbers", nargs="+", metavar="AXIS=N", default=(),
+                   help="the controller's axis numbers (TwinCAT kopf.achs_nr, SINUMERIK AX<n>), e.g. X=1 Y=2 C=5; "
+                        "default: the axis's place in the URDF")
+    p.add_argument("--step-mm", type=float, default=None,
+                   help="fixed grid step of linear axes, mm (default: chosen so the controller's interpolation "
+                        "follows the model within 10%% of the error's RMS)")
+    p.add_argument("--step-deg", type=float, default=None, help="fixed grid step of rotary axes, degrees "
+                                                                "(default: chosen like --step-mm)")
+    # the folder is written whole (kinid.folders.staged_folder): no input may lie anywhere in it
+    p.set_defaults(run=_compensate, outputs={"out": "replaced folder"})
+
+
+def _axis_numbers(items) -> dict:
+    from kinid.errors import DataError
+
+    out = {}
+    for item in items:
+        axis, sep, number = item.partition("=")
+        if not sep or not axis or not number.strip().isdigit() or int(number) < 1:
+            raise DataError(f"--axis-number takes AXIS=N with N a positive whole number, got {item!r}")
+        if axis in out:
+            raise DataError(f"--axis-number gives axis {axis} twice")
+        out[axis] = int(number)
+    return out
+
+
+def _compensate(args) -> int:
+    from pathlib import Path
+
+    from kinid.checks import check_positive
+    from ..compensation import write_compensation
+    from ..fitting import load_fit
+
+    for option, value in (("--step-mm", args.step_mm), ("--step-deg", args.step_deg)):
+        if value is not None:
+            check_positive(option, value)
+    numbers = _axis_numbers(args.axis_numbers)
+    result = load_fit(args.fit)
+    out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,
+                             formats=tuple(args.formats), fit_path=args.fit, range_policy=args.range_policy,
+                             beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers)
+    print(f"compensation of {Path(args.fit).name} written to {args.out}: {', '.join(out.files)}")
+    for c in out.controller:
+        ends = f" (+{c['ends_added']} beyond)" if c["ends_added"] else ""
+        print(f"  {c['file']}: {c['points'] - c['ends_added']} points from {c['from']:.6g} to {c['to']:.6g}{ends}; "
+              f"the controller's interpolation leaves {c['left_rms']:.3g} of the {c['error_rms']:.3g} {c['unit']} "
+              f"RMS error")
+    for line in out.notes:
+        print(f"note: {line}")
+    return 0

@@ -1,0 +1,318 @@
+"""``kinid identify``, ``predict``, ``simulate``, ``diagnose`` and ``demo`` (docs/cli.md)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from kinid.errors import DataError
+
+# NumPy and the modules that do the work are imported inside the function that runs the verb:
+# building the parsers (``kinid identify --help``) imports none of them.
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser("identify", help="fit the default model plus added effects to alignment observations",
+                       description="Fit the machine's error model to alignment observations: every location error "
+                                   "of the URDF as a constant, plus the effects given with --add, or added one by one "
+                                   "with --auto while the data ask for them. Prints the identified errors with their "
+                                   "standard deviations and writes the fit (FIT.json) that diagnose, predict and "
+                                   "compensate read (docs/identification.md).")
+    p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
+    p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
+    p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
+    p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
+    p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
+    p.add_argument("--report", default=None, metavar="DIR", help="write the report (plots, residuals.csv, HTML) to DIR; with --auto, of every step")
+    p.add_argument("--out", required=True, help="fit JSON to write")
+    p.add_argument("--no-robust", action="store_true",
+                   help="keep gross errors (alignments beyond the Bonferroni χ²₃ bound at 0.001) instead of "
+                        "setting them aside")
+    p.add_argument("--allow-outside-limits", action="store_true",
+                   help="accept readings outside the axis travel given by the URDF joint limits")
+    p.add_argument("--prior", action="store_true",
+                   help="for few, noisy alignments: a prior on the size of every location error (not the set-up), "
+                        "its scale and σ chosen by the marginal likelihood; the fit is the maximum a posteriori "
+                        "estimate (docs/identification.md)")
+    p.add_argument("--no-check", action="store_true",
+                   help="with --prior: skip the held-out check (the prior's fit against the plain fit, nested "
+                        "cross-validation; about 10 s for 23 poses of a six-joint arm)")
+    p.add_argument("--prior-um", type=float, default=None, metavar="S",
+                   help="with --prior: the typical size of a location error along an axis, µm (default 1000)")
+    p.add_argument("--prior-urad", type=float, default=None, metavar="S",
+                   help="with --prior: the typical size of a location error about an axis, µrad (default 1000)")
+    p.set_defaults(run=_identify)
+
+    p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark",
+                       description="Solve, for each pose of a CSV, the axis readings at which the fitted machine puts "
+                                   "the tool point on the mark: the commands a compensated program would send.")
+    p.add_argument("--fit", required=True, help="FIT.json written by kinid identify")
+    p.add_argument("--poses", required=True, help="CSV with the observation columns without the solved axes")
+    p.add_argument("--out", required=True, help="CSV to write: the poses with the solved readings")
+    p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
+    p.add_argument("--allow-outside-limits", action="store_true",
+                   help="accept readings outside the axis travel given by the URDF joint limits")
+    p.set_defaults(run=_predict)
+
+    p = sub.add_parser("simulate", help="alignment readings of a machine with a known error set",
+                       description="Make the observation CSV a measurement run would give on a machine whose errors "
+                                   "you state: to try a plan, a model or the whole chain before the machine is free.")
+    p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
+    p.add_argument("--errors", required=True, help='JSON: effect name -> value(s), e.g. {"EX0C": 12, "EXX:periodic:10": [1.5, 0]}')
+    p.add_argument("--plan", default="patent", help="'patent' (7 tilt x 12 table angles x 4 marks) or a CSV of poses")
+    p.add_argument("--noise-um", type=float, default=0.0, help="σ of the reading noise, µm")
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (the same seed gives the same file)")
+    p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
+    p.add_argument("--no-directions", action="store_true", help="do not write dir_<axis> columns")
+    p.add_argument("--no-time", action="store_true", help="do not write the t_s column")
+    p.add_argument("--stop-scatter-um", type=float, default=0.0, metavar="S",
+                   help="the operator stops within about S µm of each alignment; the rows record where the mark "
+                        "was seen relative to the tool point (mark_dx_mm, mark_dy_mm, mark_dz_mm)")
+    p.add_argument("--out", required=True, help="observation CSV to write (docs/formats.md)")
+    p.set_defaults(run=_simulate)
+
+    p = sub.add_parser("diagnose", help="compare a fit with data and rank the effects that may be missing",
+                       description="Refit a model on observations, say whether what is left is noise or a missing "
+                                   "effect, where (by mark, by axis), and which effects of the candidate library "
+                                   "would explain it, best first; with the command that adds it.")
+    p.add_argument("--fit", required=True, help="FIT.json written by kinid identify (its model is refitted)")
+    p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
+    p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: replicates, else the fit's)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
+    p.add_argument("--report", default=None, metavar="DIR", help="write plots and an HTML report to DIR")
+    p.add_argument("--top", type=int, default=10, help="candidates to show in the readable report")
+    p.add_argument("--allow-outside-limits", action="store_true",
+                   help="accept readings outside the axis travel given by the URDF joint limits")
+    p.set_defaults(run=_diagnose)
+
+    p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect",
+                       description="Simulate a measurement of the shipped B/C machine with an effect the default "
+                                   "model lacks, fit it, diagnose what is missing, add it and show the error fall; "
+                                   "writes a report folder.")
+    p.add_argument("--out", default=None, help="report folder (default: a fresh kinid-demo-<time> folder)")
+    p.add_argument("--seed", type=int, default=7, help="seed of the simulated noise")
+    p.add_argument("--case", choices=("library", "lead"), default="library",
+                   help="hidden effect: 'library' (a 10 mm lead, a listed period) or 'lead' (a 12.7 mm lead the "
+                        "library does not list: the period search finds it)")
+    p.set_defaults(run=_demo, outputs={"out": "replaced folder"})
+
+
+def _positive(value, name):
+    import numpy as np
+
+    if value is not None and not (np.isfinite(value) and value > 0):
+        raise DataError(f"{name} must be a positive number of µm, got {value}")
+
+
+def _axes_list(text, machine):
+    if text is None:
+        return None
+    by_lower = {a.lower(): a for a in machine.axis_names}
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    unknown = [n for n in names if n.lower() not in by_lower]
+    if unknown:
+        raise DataError(f"--solve: unknown axes {', '.join(unknown)}; this machine has {', '.join(machine.axis_names)}")
+    return [by_lower[n.lower()] for n in names]
+
+
+def _without_duplicates(obs):
+    """``obs`` with rows that repeat an earlier row exactly left out, and a warning naming them.
+
+    An exact copy (every reading equal) is the same measurement written twice; counted as
+    more data it would make σ look smaller and the tests stricter than the data allow.
+    """
+    import numpy as np
+
+    from ..data import exact_duplicates
+
+    dup = exact_duplicates(obs)
+    if not dup:
+        return obs
+    lines = obs.lines or tuple(range(1, len(obs) + 1))
+    shown = ", ".join(f"line {lines[i]} = line {lines[j]}" for i, j in dup[:5]) + (" ..." if len(dup) > 5 else "")
+    print(f"warning: {obs.source}: {len(dup)} row(s) repeat an earlier row exactly ({shown}); "
+          "each measurement is used once", file=sys.stderr)
+    copies = {i for i, _ in dup}
+    return obs.subset(np.array([i for i in range(len(obs)) if i not in copies]))
+
+
+def _identify(args) -> int:
+    from ..fitting import fit, model_effects
+    from ..fitting import save_fit
+    from ..model import load_machine
+    from ..data import read_observations
+
+    _positive(args.noise_um, "--noise-um")
+    machine = load_machine(args.machine)
+    obs = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits))
+    effects = model_effects(machine, args.add)
+    if args.prior_um is not None or args.prior_urad is not None:
+        if not args.prior:
+            raise DataError("--prior-um and --prior-urad set the sizes of --prior; add --prior")
+        _positive(args.prior_um, "--prior-um")
+        _positive(args.prior_urad, "--prior-urad")
+    if args.prior:
+        if args.auto:
+            raise DataError("--prior and --auto: choose one (--auto adds effects to data that show them; a prior is "
+                            "for data too few to)")
+        from dataclasses import replace
+
+        from ..fitting import PRIOR_UM, PRIOR_URAD, choose_prior, held_out_check, prior_std
+
+        sizes = dict(prior_um=args.prior_um or PRIOR_UM, prior_urad=args.prior_urad or PRIOR_URAD)
+        choice = choose_prior(machine, obs, effects, noise_um=args.noise_um, **sizes)
+        result = fit(machine, obs, effects, noise_um=choice.noise_um,
+                     prior_std=prior_std(machine, effects, choice.scale, **sizes))
+        described = choice.describe()
+        if not args.no_check:
+            print(f"held-out check of the prior on {len(obs)} alignments …", file=sys.stderr, flush=True)
+            described += "; " + held_out_check(machine, obs, effects, noise_um=args.noise_um, **sizes).describe()
+        result = replace(result, prior=described)
+    elif args.auto:
+        from ..diagnosis import forward_select
+
+        steps = forward_select(machine, obs, effects, noise_um=args.noise_um, progress=sys.stderr,
+                               robust=not args.no_robust)
+        result = steps[-1].fit
+        obs = steps[-1].data
+        if args.report:
+            from ..reporting import selection_report
+
+            selection_report(steps, obs, args.report, fit_file=args.out)
+    else:
+        from dataclasses import replace
+
+        aside = ()
+        if not args.no_robust:
+            from ..fitting import set_aside_outliers
+
+            obs, aside = set_aside_outliers(machine, obs, effects, noise_um=args.noise_um)
+        result = replace(fit(machine, obs, effects, noise_um=args.noise_um), set_aside=aside)
+        if args.report:
+            from ..diagnosis import diagnose
+            from ..reporting import diagnosis_report
+
+            diagnosis_report(diagnose(machine, obs, effects, noise_um=args.noise_um, result=result), obs, args.report)
+    save_fit(result, args.out)
+    print(result.table())
+    if result.aliases:
+        from ..planning import data_advice
+
+        advice = data_advice(machine, result, obs)
+        if advice:
+            print("pose advice (kinid plan):")
+            print("\n".join(f"  - {line}" for line in advice))
+    print(f"fit written to {args.out}")
+    return 0
+
+
+def _predict(args) -> int:
+    from ..fitting import solve_axes
+    from ..fitting import load_fit
+    from ..data import read_observations, write_observations
+
+    loaded = load_fit(args.fit)
+    machine = loaded.machine
+    solve = _axes_list(args.solve, machine)
+    solve_names = solve or [a.name for a in machine.axes if a.kind == "prismatic"]
+    poses = read_observations(args.poses, machine, optional_axes=solve_names, check_limits=not args.allow_outside_limits)
+    out = solve_axes(machine, loaded.effects, loaded.theta, poses, solve_names)
+    _warn_outside_travel(machine, out, solve_names, args.poses)
+    write_observations(args.out, out, machine)
+    print(f"{len(out)} poses solved for {', '.join(solve_names)}; written to {args.out}")
+    return 0
+
+
+def _warn_outside_travel(machine, obs, names, source) -> None:
+    """One warning per solved axis whose readings leave the URDF travel: the machine cannot reach those poses."""
+    import warnings
+
+    import numpy as np
+
+    from ..model import axis_limits
+
+    limits = axis_limits(machine)
+    for name in names:
+        j = machine.axis_names.index(name)
+        lo, hi = limits[j]
+        q = obs.axes[:, j]
+        out = np.flatnonzero((q < lo) | (q > hi))
+        if out.size:
+            a = machine.axes[j]
+            unit = "mm" if a.kind == "prismatic" else "deg"
+            beyond = float(np.max(np.maximum(lo - q[out], q[out] - hi)))
+            lines = ", ".join(str(obs.lines[i]) if obs.lines else str(i + 1) for i in out[:8]) + (" …" if out.size > 8 else "")
+            warnings.warn(f"{source}: {out.size} solved reading(s) of {a.column} outside the URDF travel ({lo:g} .. "
+                          f"{hi:g} {unit}) by up to {beyond:.4g} {unit} (lines {lines}): the machine cannot reach "
+                          f"those poses", stacklevel=2)
+
+
+def _simulate(args) -> int:
+    from dataclasses import replace
+
+    import numpy as np
+
+    from ..model import load_machine
+    from ..data import write_observations
+    from ..fitting import load_errors, load_plan, simulate
+
+    if args.noise_um < 0 or not np.isfinite(args.noise_um):
+        raise DataError(f"--noise-um must be zero or positive, got {args.noise_um}")
+    if args.stop_scatter_um < 0 or not np.isfinite(args.stop_scatter_um):
+        raise DataError(f"--stop-scatter-um must be zero or positive, got {args.stop_scatter_um}")
+    machine = load_machine(args.machine)
+    effects, theta = load_errors(args.errors, machine)
+    solve = _axes_list(args.solve, machine)
+    plan = load_plan(args.plan, machine, solve)
+    obs = simulate(machine, plan, effects, theta, noise_um=args.noise_um, rng=np.random.default_rng(args.seed), solve=solve, directions=not args.no_directions,
+                   stop_scatter_um=args.stop_scatter_um)
+    if args.no_time:
+        obs = replace(obs, t_s=None)
+    write_observations(args.out, obs, machine)
+    print(f"{len(obs)} alignments simulated with {len(effects)} effects, noise {args.noise_um} µm; written to {args.out}")
+    return 0
+
+
+def _diagnose(args) -> int:
+    import numpy as np
+
+    from kinid.files import strict_json
+
+    from ..diagnosis import diagnose
+    from ..fitting import load_fit
+    from ..fitting import Noise
+    from ..data import read_observations
+
+    _positive(args.noise_um, "--noise-um")
+    loaded = load_fit(args.fit)
+    obs = _without_duplicates(read_observations(args.data, loaded.machine,
+                                                check_limits=not args.allow_outside_limits))
+    aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
+    if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
+        obs = obs.subset(np.array([i for i, ln in enumerate(obs.lines) if ln not in aside_lines]))
+    carried = Noise(loaded.noise_um, "fit") if loaded.noise.known else None
+    result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, carried_noise=carried)
+    if loaded.set_aside:
+        from dataclasses import replace
+
+        result = replace(result, fit=replace(result.fit, set_aside=loaded.set_aside))
+    if args.report:
+        from kinid.report_html import file_provenance
+        from ..reporting import diagnosis_report
+
+        diagnosis_report(result, obs, args.report, provenance=[("fit", file_provenance(args.fit))])
+    if args.json:
+        print(strict_json(result.summary()))
+    else:
+        print(result.text(top=args.top))
+        if args.report:
+            print(f"report written to {Path(args.report) / 'index.html'}")
+    return 0
+
+
+def _demo(args) -> int:
+    from .demo import run_demo
+
+    run_demo(args.out, seed=args.seed, case=args.case)
+    return 0

@@ -1,0 +1,260 @@
+"""``kinid plan``: the fewest alignments, in the order that costs least machine time, for the accuracy asked."""
+from __future__ import annotations
+
+from kinid.errors import DataError
+
+__all__ = ["register", "plan_text"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "plan", help="the fewest alignments, ordered for machine time, that reach a stated accuracy",
+        description="Choose the alignments to measure: from every mark at every combination of the preset axes' "
+                    "values (--range), the fewest that bring the tool point's expanded uncertainty (k = 2, per "
+                    "coordinate, RMS over the candidates' poses) within --target-um, or named parameters within "
+                    "theirs (--param), keeping --detect effects detectable; ordered for machine time in blocks so "
+                    "that time follows no axis; with the parameters no pose determines and the poses that would "
+                    "(docs/plan.md). identify, simulate and predict read the plan file as they read poses.")
+    p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
+    p.add_argument("--out", required=True, metavar="PLAN.csv", help="the plan to write (docs/formats.md)")
+    p.add_argument("--marks-mm", type=float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="a mark on the workpiece, mm (repeat for each; default: the patent's four at (±40, ±40, 0))")
+    p.add_argument("--board", default=None, metavar="BOARD.json",
+                   help="every mark of a ring-coded board instead of --marks-mm (kinid board)")
+    p.add_argument("--range", action="append", default=[], metavar="AXIS=START:STOP:STEP",
+                   help="the values of a preset axis (mm / deg, STOP included), e.g. B=-60:60:10; START:STOP for 9 values "
+                        "(the range configurations are drawn from on an arm); VALUE for one (default: a turntable "
+                        "every 15°, a tilt axis every 10° within ±60°, others 9 values over the travel)")
+    p.add_argument("--solve", default=None, metavar="AXES",
+                   help="axes that align the tool point with the mark, e.g. X,Y,Z (default: the three linear axes; "
+                        "none on a machine without three, whose candidates are then joint configurations)")
+    p.add_argument("--samples", type=int, default=2000,
+                   help="with no solved axes (a robot arm): configurations drawn within the ranges (default 2000)")
+    p.add_argument("--target-um", type=float, default=None, metavar="U",
+                   help="expanded uncertainty (k = 2) of the tool point per coordinate, RMS over the candidates' "
+                        "poses, µm")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=U",
+                   help="expanded uncertainty (k = 2) of a parameter in its unit (µm, µrad), e.g. EX0C=2")
+    p.add_argument("--count", type=int, default=None, help="this many alignments (instead of targets), the best ones")
+    p.add_argument("--noise-um", type=float, default=1.0, help="σ of one reading, µm (default 1)")
+    p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT",
+                   help="effects to identify besides the default model, e.g. EXX:periodic:10")
+    p.add_argument("--detect", action="append", default=[], metavar="EFFECT=SIZE",
+                   help="an effect the diagnosis must detect at this size (norm of its parameters, their unit), "
+                        "e.g. EXX:periodic:10=1")
+    p.add_argument("--power", type=float, default=0.9, help="with --detect: the probability of detecting (default 0.9)")
+    p.add_argument("--speed-mm-s", type=float, default=100.0, help="linear axes' positioning speed (default 100)")
+    p.add_argument("--accel-mm-s2", type=float, default=500.0, help="linear axes' acceleration (default 500)")
+    p.add_argument("--speed-deg-s", type=float, default=20.0, help="rotary axes' positioning speed (default 20)")
+    p.add_argument("--accel-deg-s2", type=float, default=60.0, help="rotary axes' acceleration (default 60)")
+    p.add_argument("--settle-s", type=float, default=1.0, help="settling after a move (default 1)")
+    p.add_argument("--align-s", type=float, default=10.0, help="one alignment: image, fine alignment, laser (default 10)")
+    p.add_argument("--blocks", type=int, default=None,
+                   help="run the plan in this many blocks (default: the fewest whose time follows no axis; 1: the "
+                        "shortest tour)")
+    p.add_argument("--no-reference", action="store_true",
+                   help="no reference alignment repeated at every block's start and at the end")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(run=_plan, outputs={"out": "file"})
+
+
+def _ranges(texts, machine, solve) -> dict:
+    import numpy as np
+
+    from ..model import axis_limits
+    from ..planning import axis_motion
+
+    out = {}
+    for text in texts:
+        name, _, spec = text.partition("=")
+        parts = spec.split(":")
+        if name not in machine.axis_names or len(parts) not in (1, 2, 3):
+            raise DataError(f"must be AXIS=START:STOP:STEP, AXIS=START:STOP or AXIS=VALUE with AXIS one of "
+                            f"{', '.join(machine.axis_names)}, got {text!r}", parameter="range")
+        try:
+            values = [float(v) for v in parts]
+        except ValueError:
+            raise DataError(f"must hold numbers, got {text!r}", parameter="range") from None
+        if not all(np.isfinite(values)):
+            raise DataError(f"must hold finite numbers, got {text!r}", parameter="range")
+        if len(values) == 3:
+            start, stop, step = values
+            if step <= 0 or stop < start:
+                raise DataError(f"needs START ≤ STOP and STEP > 0, got {text!r}", parameter="range")
+            if (stop - start) / step > 10_000:
+                raise DataError(f"gives more than 10000 values, got {text!r}", parameter="range")
+            values = list(np.arange(start, stop + step * 1e-9, step))
+        elif len(values) == 2:
+            if values[1] < values[0]:
+                raise DataError(f"needs START ≤ STOP, got {text!r}", parameter="range")
+            values = list(np.linspace(values[0], values[1], 9))
+        out[name] = np.array(values)
+    limits = axis_limits(machine)
+    _, turns = axis_motion(machine)
+    for j, a in enumerate(machine.axes):
+        if a.name in solve or a.name in out:
+            continue
+        lo, hi = limits[j]
+        if turns[j]:
+            out[a.name] = np.arange(0.0, 360.0, 15.0)
+        elif a.kind == "revolute":
+            out[a.name] = np.arange(max(lo, -60.0), min(hi, 60.0) + 1e-9, 10.0)
+        else:
+            out[a.name] = np.linspace(lo, hi, 9) if np.isfinite(hi - lo) else np.linspace(-100.0, 100.0, 9)
+    return out
+
+
+def _pairs(texts, option, machine=None, effect=False) -> dict:
+    out = {}
+    for text in texts:
+        name, _, value = text.rpartition("=")
+        try:
+            v = float(value)
+        except ValueError:
+            v = float("nan")
+        if not name or not (v > 0 and v < float("inf")):
+            raise DataError(f"must be NAME=U with U a positive number, got {text!r}", parameter=option)
+        if effect:
+            from ..model import parse_effect
+
+            parse_effect(name, machine, source=f"--{option}")
+        out[name] = v
+    return out
+
+
+def _plan(args) -> int:
+    import numpy as np
+
+    from ..model import model_effects
+    from ..model import load_machine
+    from ..data import write_observations
+    from ..planning import plan_measurement
+    from ..planning import candidate_poses, solved_axes
+    from ..planning import advice_pool
+    from ..planning import TravelModel
+    from ..fitting import PATENT_MARKS_MM
+
+    from kinid.checks import check_positive
+
+    for name in ("target_um", "noise_um", "speed_mm_s", "accel_mm_s2", "speed_deg_s", "accel_deg_s2", "align_s"):
+        if getattr(args, name) is not None:
+            check_positive(name, getattr(args, name))
+    if not (args.settle_s >= 0 and args.settle_s < 3600):
+        raise DataError(f"must be 0 to 3600 s, got {args.settle_s}", parameter="--settle-s")
+    if not 0.0 < args.power < 1.0:
+        raise DataError(f"must be between 0 and 1, got {args.power}", parameter="--power")
+    for name in ("count", "samples", "blocks"):
+        v = getattr(args, name)
+        if v is not None and not 0 < v <= 100_000:
+            raise DataError(f"must be 1 to 100000, got {v}", parameter="--" + name)
+    if args.count is not None and (args.target_um is not None or args.param):
+        raise DataError("--count or targets (--target-um, --param): choose one", parameter="--count")
+    machine = load_machine(args.machine)
+    solve = solved_axes(machine, None if args.solve is None else [s.strip() for s in args.solve.split(",") if s.strip()])
+    if args.board and args.marks_mm:
+        raise DataError("--board or --marks-mm: choose one", parameter="--board")
+    if args.board:
+        from kinid.vision import load_board
+
+        from ..data import _board_mark_mm, default_board_origin_mm
+
+        board = load_board(args.board)
+        origin = default_board_origin_mm(board)  # as observe places it: centred on the workpiece origin
+        marks = np.array([_board_mark_mm(board, r, c, origin) for r in range(board.rows) for c in range(board.cols)])
+    else:
+        marks = np.array(args.marks_mm or PATENT_MARKS_MM, float)
+    if not np.all(np.isfinite(marks)) or np.abs(marks).max() > 100_000:
+        raise DataError("marks must be finite and within 100 m", parameter="--marks-mm")
+    presets = _ranges(args.range, machine, solve)
+    effects = model_effects(machine, args.add)
+    rng = np.random.default_rng(0)
+    pool = candidate_poses(machine, marks, presets, solve=solve, samples=args.samples, rng=rng)
+    wide = advice_pool(machine, marks, solve=solve, rng=rng)
+    travel = TravelModel(args.speed_mm_s, args.accel_mm_s2, args.speed_deg_s, args.accel_deg_s2, args.settle_s,
+                         args.align_s)
+    plan = plan_measurement(
+        machine, pool, effects=effects, noise_um=args.noise_um, target_um=args.target_um,
+        param_targets=_pairs(args.param, "param"), count=args.count,
+        detect=_pairs(args.detect, "detect", machine, effect=True), power=args.power, travel=travel,
+        blocks=args.blocks, reference=not args.no_reference, advice_pool=wide)
+    write_observations(args.out, plan.obs, machine)
+    if args.json:
+        from kinid.files import strict_json
+
+        print(strict_json(plan_summary(plan, machine), indent=1))
+    else:
+        print(plan_text(plan, machine, presets, sampled=not solve))
+        print(f"plan written to {args.out}")
+    return 0
+
+
+def plan_summary(plan, machine) -> dict:
+    """The plan's figures as a JSON-ready mapping."""
+    return {
+        "alignments": len(plan.obs), "chosen": len(plan.chosen), "candidates": len(plan.candidates.obs),
+        "noise_um": plan.noise_um, "target_um": plan.target_um,
+        "tool_point_U_k2_um": plan.u_tool_um, "tool_point_U_k2_worst_pose_um": plan.u_tool_worst_um,
+        "held_out_3d_rms_expected_um": plan.u_tool_um / 2 * 3**0.5,
+        "parameters_U_k2": {n: {"U": u, "target": t} for n, (u, t) in plan.u_params.items()},
+        "bound_alignments": plan.bound_count, "efficiency": plan.efficiency,
+        "detect": {n: {"size": s, "power": p} for n, (s, p) in plan.powers.items()},
+        "machine_time_s": plan.order.total_s, "moving_s": plan.order.move_s, "blocks": plan.order.blocks,
+        "time_correlation": plan.order.correlation,
+        "held": [{"name": a.name, "message": a.message,
+                  "advice": None if a.poses is None else {"alignments": len(a.poses), "seconds": a.seconds,
+                                                          "poses": a.text(machine)}} for a in plan.advice],
+        "travel": plan.travel.describe(),
+    }
+
+
+def plan_text(plan, machine, presets=None, sampled: bool = False) -> str:
+    """What a user reads: the count, the promise and its bound, the time, what stays undetermined."""
+    import numpy as np
+
+    n, k = len(plan.obs), len(plan.chosen)
+    lines = []
+    if presets and sampled:
+        ranges = ", ".join(f"{a} {np.min(v):g}…{np.max(v):g}" for a, v in presets.items())
+        lines.append(f"candidates: {len(plan.candidates.obs)} configurations drawn uniformly within {ranges}")
+    elif presets:
+        grid = " × ".join(f"{a} {_grid_text(v)}" for a, v in presets.items())
+        lines.append(f"candidates: {len(plan.candidates.obs)} alignments ({grid}, every mark; those within the travel)")
+    repeats = n - k
+    lines.append(f"plan: {n} alignments ({k} chosen" + (f" + {repeats} repeats of a reference alignment" if repeats else "")
+                 + ")")
+    lines.append(f"tool point: U = {plan.u_tool_um:.3g} µm (k = 2, per coordinate, RMS over the candidates' poses; worst "
+                 f"pose {plan.u_tool_worst_um:.3g} µm) for reading noise σ = {plan.noise_um:g} µm"
+                 + (f" — target {plan.target_um:g} µm" if plan.target_um else ""))
+    lines.append(f"  expected held-out 3-D RMS {plan.u_tool_um / 2 * 3**0.5:.3g} µm")
+    for name, (u, t) in plan.u_params.items():
+        lines.append(f"{name}: U = {u:.3g} (k = 2) — target {t:g}")
+    if plan.bound_count:
+        lines.append(f"no plan from these candidates meets the target with fewer than {plan.bound_count} alignments "
+                     f"(the convex relaxation's bound); this plan is {plan.efficiency:.0%} efficient")
+    for name, (size, p) in plan.powers.items():
+        lines.append(f"{name} of size {size:g}: detected with probability {p:.2f}")
+    o = plan.order
+    corr = ", ".join(f"{a} {v:+.2f}" for a, v in o.correlation.items())
+    lines.append(f"machine time ≈ {o.total_s / 60:.1f} min ({o.move_s / 60:.1f} min moving and settling; "
+                 f"{plan.travel.describe()})")
+    lines.append(f"order: {o.blocks} block{'s' if o.blocks > 1 else ''}"
+                 + (", each over every axis's range, every other one backwards, a reference alignment at every block's "
+                    "start and at the end" if o.blocks > 1 else "") + f"; correlation of time with each axis: {corr}")
+    if plan.advice:
+        from ..planning import advice_lines
+
+        lines.append(f"held: {len(plan.advice)} parameters no candidate determines")
+        lines += [f"  - {line}" for line in advice_lines(plan.advice, machine)]
+    return "\n".join(lines)
+
+
+def _grid_text(v) -> str:
+    import numpy as np
+
+    v = np.asarray(v, float)
+    if len(v) == 1:
+        return f"{v[0]:g}"
+    steps = np.diff(v)
+    if len(v) > 2 and np.allclose(steps, steps[0]):
+        return f"{v[0]:g}…{v[-1]:g} step {steps[0]:g}"
+    return "{" + ", ".join(f"{x:g}" for x in v[:6]) + (" …}" if len(v) > 6 else "}")

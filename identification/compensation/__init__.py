@@ -1,0 +1,15 @@
+"""Compensation: the fitted errors as geometry, axis tables on controller grids, the files a
+controller loads, and ``verify`` of the run made after loading them.
+
+Imports model, data, fitting and diagnosis.
+"""
+from kinid.lazy import front_door as _front_door
+
+#: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
+_SOURCES = {
+    "write_compensation": "compensate", "verify": "verify", "verification_report": "verify_report",
+}
+
+__all__ = ["verification_report", "verify", "write_compensation"]
+
+__getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -1,0 +1,240 @@
+"""Alignment observations: the CSV of docs/formats.md, read and written.
+
+One row per alignment: the mark, its coordinates in the workpiece frame (mm)
+and the reading of every motion axis (mm / deg) at which the tool point
+coincided with it; optionally ``t_s`` and ``dir_<axis>`` columns, and the
+offset columns ``mark_dx_mm``, ``mark_dy_mm``, ``mark_dz_mm``: where the mark
+was seen relative to the tool point, in the tool frame (a row with offsets
+says "at these readings the mark was at this offset"; without them it is an
+alignment, offset 0). Columns ``shift_<source>_<dx|dy|dz>_mm`` name a shared (type B)
+source of uncertainty of those offsets: how far the offset moves when the
+source is one standard deviation off (``observe`` writes them for the laser's
+offset from the camera); the fit carries them into its uncertainties.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from kinid.files import write_text
+from kinid.errors import DataError
+from kinid.files import read_csv_rows
+from ..model import Machine
+
+__all__ = ["SetAside", "OFFSET_COLUMNS", "Observations", "read_observations", "write_observations", "observations_text", "exact_duplicates", "row_groups", "check_observations",
+           "read_csv_rows"]
+
+_MARK_COLUMNS = ("wx_mm", "wy_mm", "wz_mm")
+#: Offset of the mark from the tool point in the tool frame, mm (optional columns).
+OFFSET_COLUMNS = ("mark_dx_mm", "mark_dy_mm", "mark_dz_mm")
+#: A shared source's shift of the offsets for one standard deviation: shift_<source>_<dx|dy|dz>_mm.
+_SHIFT_COLUMN = re.compile(r"shift_([a-z][a-z0-9_]*)_(dx|dy|dz)_mm")
+
+
+@dataclass(frozen=True)
+class Observations:
+    """Alignment observations in machine-axis order.
+
+    Attributes
+    ----------
+    marks : tuple of str
+    w_mm : array (N, 3)
+        Mark coordinates in the workpiece frame, mm.
+    axes : array (N, n_axes)
+        Readings in ``machine.axes`` order, mm / deg (NaN for axes not given).
+    t_s : array (N,) or None
+    directions : dict axis name -> array (N,) of ±1
+    lines : tuple of int
+        Source line of each row (1-based), for messages.
+    source : str
+        File name, for messages.
+    offsets_mm : array (N, 3) or None
+        Where the mark was seen relative to the tool point, in the ``tool`` frame, mm
+        (camera x, y and laser stand-off deviation); None for alignments (offset 0).
+    shifts_mm : dict source -> array (N, 3)
+        For each shared source of uncertainty of the offsets (e.g. ``laser_offset_x``): how far the
+        offsets move, tool frame, mm, when the source is one standard deviation off.
+    """
+
+    marks: tuple
+    w_mm: np.ndarray
+    axes: np.ndarray
+    t_s: np.ndarray | None = None
+    directions: dict = field(default_factory=dict)
+    lines: tuple = ()
+    source: str = "<memory>"
+    offsets_mm: np.ndarray | None = None
+    shifts_mm: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.marks)
+
+    def subset(self, index) -> "Observations":
+        """Rows ``index`` (array of ints or booleans)."""
+        idx = np.arange(len(self))[index]
+        return replace(
+            self,
+            marks=tuple(self.marks[i] for i in idx),
+            w_mm=self.w_mm[idx],
+            axes=self.axes[idx],
+            t_s=None if self.t_s is None else self.t_s[idx],
+            directions={k: v[idx] for k, v in self.directions.items()},
+            lines=tuple(self.lines[i] for i in idx) if self.lines else (),
+            offsets_mm=None if self.offsets_mm is None else self.offsets_mm[idx],
+            shifts_mm={k: v[idx] for k, v in self.shifts_mm.items()},
+        )
+
+
+def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True) -> Observations:
+    """Read an observation CSV.
+
+    Parameters
+    ----------
+    path : str or Path
+    machine : Machine
+    optional_axes : iterable of str
+        Axes that may be absent (``predict`` solves them); their readings are NaN.
+    check_limits : bool
+        Refuse a reading outside its axis's travel in the URDF (the joint
+        limits), which is almost always a unit or column mistake.
+
+    Raises
+    ------
+    DataError
+        Naming the file, line and column of the first problem.
+    """
+    from .axis_columns import read_axis_table
+
+    t = read_axis_table(path, machine, what="CSV file", required=("mark",) + _MARK_COLUMNS, texts=("mark",),
+                        optional_axes=optional_axes, check_limits=check_limits)
+    marks = t.texts("mark", "mark label")
+    w = np.column_stack([t.numbers(c) for c in _MARK_COLUMNS])
+    offsets = None
+    if any(c in t.header for c in OFFSET_COLUMNS):
+        offsets = np.column_stack([t.numbers(c) if c in t.header else np.zeros(len(marks)) for c in OFFSET_COLUMNS])
+    shifts = {}
+    for h in t.header:
+        m = _SHIFT_COLUMN.fullmatch(h)
+        if m:
+            if offsets is None:
+                raise DataError("a shift column needs the offset columns (mark_dx_mm, mark_dy_mm, mark_dz_mm)",
+                                path=t.path, line=t.header_line, column=h)
+            shifts.setdefault(m[1], np.zeros((len(marks), 3)))[:, "xyz".index(m[2][1])] = t.numbers(h)
+    return Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets, shifts)
+
+
+def check_observations(obs, name: str = "obs") -> Observations:
+    """``obs`` if it is :class:`Observations`; DataError naming the argument otherwise."""
+    if not isinstance(obs, Observations):
+        hint = " (read a CSV with kinid.identification.read_observations(path, machine))" if isinstance(obs, (str, Path)) else ""
+        raise DataError(f"must be Observations{hint}, got {type(obs).__name__}", parameter=name)
+    return obs
+
+
+def exact_duplicates(obs: Observations) -> list:
+    """(row, first row) pairs where a row repeats an earlier one exactly: same mark, mark position,
+    every reading, time and direction. Such copies are one measurement, not replicates."""
+    group, first = row_groups(obs.marks, obs.w_mm, obs.axes, () if obs.t_s is None else obs.t_s,
+                              *(obs.directions[a] for a in sorted(obs.directions)),
+                              () if obs.offsets_mm is None else obs.offsets_mm)
+    return [(int(i), int(first[group[i]])) for i in np.flatnonzero(first[group] != np.arange(len(obs)))]
+
+
+def row_groups(*columns) -> tuple:
+    """(group (N,), first (groups,)): rows equal in every one of ``columns`` (each (N,) or (N, k), of numbers or
+    strings; an empty one is left out) share a group, ``first[g]`` is the first row of group ``g``. NaN equals NaN
+    and −0 equals 0, as values read from a file would."""
+    parts = []
+    for c in columns:
+        c = np.asarray(c)
+        if c.size == 0:
+            continue
+        if c.dtype.kind not in "biuf":
+            c = np.unique(c.astype(str), return_inverse=True)[1]
+        c = c.reshape(len(c), -1).astype(float)
+        parts += [np.isnan(c), np.where(np.isnan(c), 0.0, c) + 0.0]  # + 0.0: −0 is 0
+    if not parts:
+        return np.zeros(0, int), np.zeros(0, int)
+    key = np.concatenate(parts, axis=1)
+    order = np.lexsort(key.T[::-1])  # stable: equal rows in the order they come
+    ordered = key[order]
+    starts = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+    group = np.empty(len(key), int)
+    group[order] = np.cumsum(starts) - 1
+    return group, order[starts]
+
+
+def _ordered_axes(machine: Machine):
+    """Axes for output columns: prismatic first, then revolute, each alphabetical."""
+    return sorted(machine.axes, key=lambda a: (a.kind != "prismatic", a.name))
+
+
+def observations_text(obs: Observations, machine: Machine, *, extra: dict | None = None) -> str:
+    """CSV text of ``obs`` (docs/formats.md, "Observation CSV"); ``extra`` adds columns name -> array (N,)."""
+    axes = _ordered_axes(machine)
+    header = ["mark", *_MARK_COLUMNS, *[a.column for a in axes]]
+    if obs.t_s is not None:
+        header.append("t_s")
+    dir_axes = [a for a in axes if a.name in obs.directions]
+    header += [f"dir_{a.name.lower()}" for a in dir_axes]
+    if obs.offsets_mm is not None:
+        header += list(OFFSET_COLUMNS)
+    shift_columns = [(f"shift_{k}_{c}_mm", v[:, j]) for k, v in obs.shifts_mm.items() for j, c in enumerate(("dx", "dy", "dz"))
+                     if np.any(v[:, j] != 0)]
+    header += [name for name, _ in shift_columns]
+    extra = extra or {}
+    header += list(extra)
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(header)
+    index = {a.name: i for i, a in enumerate(machine.axes)}
+    for i in range(len(obs)):
+        row = [obs.marks[i], *(f"{v:.6f}" for v in obs.w_mm[i])]
+        row += [f"{obs.axes[i, index[a.name]]:.9f}" for a in axes]
+        if obs.t_s is not None:
+            row.append(f"{obs.t_s[i]:.3f}")
+        row += [f"{int(obs.directions[a.name][i]):d}" for a in dir_axes]
+        if obs.offsets_mm is not None:
+            row += [f"{v:.6f}" for v in obs.offsets_mm[i]]
+        row += [f"{v[i]:.6g}" for _, v in shift_columns]
+        row += [f"{extra[k][i]:.6g}" if isinstance(extra[k][i], (float, np.floating)) else str(extra[k][i]) for k in extra]
+        writer.writerow(row)
+    return buf.getvalue()
+
+
+def write_observations(path, obs: Observations, machine: Machine, *, extra: dict | None = None) -> None:
+    """Write ``obs`` as CSV, atomically."""
+    write_text(path, observations_text(obs, machine, extra=extra))
+
+
+@dataclass(frozen=True)
+class SetAside:
+    """One alignment set aside as a gross error.
+
+    Attributes
+    ----------
+    row : int
+        0-based row in the data as read.
+    line : int or None
+        Its line in the CSV file.
+    mark : str
+    residual_um : float
+        Length of its residual (tool point − mark) when it was set aside, µm.
+    sigmas : float
+        Its studentized residual, in σ (the χ²₃ statistic's square root).
+    """
+
+    row: int
+    line: int | None
+    mark: str
+    residual_um: float
+    sigmas: float
+
+    def describe(self) -> str:
+        where = f"line {self.line}" if self.line is not None else f"row {self.row + 1}"
+        return f"{where} (mark {self.mark}): residual {self.residual_um:.2f} µm, {self.sigmas:.1f} σ"

@@ -1,0 +1,105 @@
+"""One pass of the model over the alignments, a chunk at a time: the residuals, and the Jacobian compressed to the
+R factor of its QR decomposition.
+
+A least-squares step needs only JᵀJ and Jᵀr, and the identifiability analysis and the covariance only R: with
+``J = Q R``, ``‖r + Jδ‖² = ‖r‖² − ‖Qᵀr‖² + ‖Qᵀr + Rδ‖²``. So the (3N × P) Jacobian is never held whole: each chunk
+of :data:`CHUNK_ROWS` alignments is evaluated (Pinocchio) and folded into R by a QR of the stacked rows (TSQR), and
+memory stays flat in the number of alignments (the residuals, 3N numbers, are kept).
+
+Only the error joints the model's parameters sit on are differentiated, and the chunks are views of the design
+and of the observations' arrays.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..model import Machine, evaluate
+from ..data import Observations
+from .residuals import Design, joint_values
+
+__all__ = ["Pass", "model_pass_qr", "residuals_chunked", "chunks", "CHUNK_ROWS"]
+
+#: Alignments evaluated at a time.
+CHUNK_ROWS = 10_000
+#: Alignments evaluated and folded into R at a time by :func:`model_pass_qr`: a block's Jacobian is still in the
+#: processor's cache when it is factorised (one QR of all rows at once runs at a third of the speed).
+BLOCK_ROWS = 512
+
+
+@dataclass(frozen=True)
+class Pass:
+    """Residuals and the compressed Jacobian at one parameter vector.
+
+    Attributes
+    ----------
+    r : array (N, 3)
+        Residuals, µm.
+    R : array (P, P)
+        ``J = Q R`` (J: the (3N × P) Jacobian, µm per parameter unit; Q with orthonormal columns).
+    qtr : array (P,)
+        ``Qᵀ r``.
+    rest : float
+        ``‖r‖² − ‖Qᵀr‖²``: the part of the residual no step can reach.
+    """
+
+    r: np.ndarray
+    R: np.ndarray
+    qtr: np.ndarray
+    rest: float
+
+
+def chunks(d: Design, obs: Observations, chunk: int):
+    """(design, observations) of consecutive chunks of at most ``chunk`` alignments."""
+    n = len(obs)
+    for first in range(0, n, chunk):
+        rows = np.arange(first, min(first + chunk, n))
+        if len(rows) == n:
+            yield d, obs
+        else:
+            yield replace(d, basis=d.basis[rows]), obs.subset(rows)
+
+
+def _slices(d: Design, obs: Observations, chunk: int):
+    """(design, axes, marks, offsets) of consecutive chunks of at most ``chunk`` alignments: views, not copies."""
+    n = len(obs)
+    for lo in range(0, n, chunk):
+        hi = min(lo + chunk, n)
+        dc = d if (lo, hi) == (0, n) else replace(d, basis=d.basis[lo:hi])
+        yield dc, obs.axes[lo:hi], obs.w_mm[lo:hi], None if obs.offsets_mm is None else obs.offsets_mm[lo:hi]
+
+
+def residuals_chunked(machine: Machine, d: Design, obs: Observations, theta, *, chunk: int = CHUNK_ROWS) -> np.ndarray:
+    """Residuals (N, 3), µm, evaluated a chunk at a time."""
+    theta = np.asarray(theta, float)
+    parts = [(evaluate(machine, axes, joint_values(machine, dc, theta), jacobian=False, offsets_mm=off) - w) * 1e3
+             for dc, axes, w, off in _slices(d, obs, chunk)]
+    return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
+def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chunk: int = CHUNK_ROWS) -> Pass:
+    """Residuals and the R factor of the Jacobian of ``d``'s parameters at ``theta``, chunk by chunk."""
+    theta = np.asarray(theta, float)
+    P = d.n_params
+    used, column = d.joints[:2]  # the joints the parameters sit on
+    one_each = np.array_equal(column, np.arange(P))  # each parameter on its own joint, in order: no gather
+    parts = []
+    top = np.zeros((0, P + 1))
+    for dc, axes, w, off in _slices(d, obs, min(chunk, BLOCK_ROWS)):
+        p, G, _ = evaluate(machine, axes, joint_values(machine, dc, theta), offsets_mm=off, error_columns=used,
+                           axes_jacobian=False)
+        n = len(p)
+        stacked = np.empty((top.shape[0] + 3 * n, P + 1), order="F")  # LAPACK's order: qr's copy is a plain one
+        stacked[: top.shape[0]] = top
+        rows = stacked[top.shape[0]:].reshape(n, 3, P + 1)  # a view (the rows of an F-ordered block split in 3)
+        # ∂r/∂θ_p = ∂p/∂(its joint) × basis_p, µm per parameter unit; the residual in the last column
+        np.multiply(G if one_each else G[:, :, column], dc.basis[:, None, :], out=rows[:, :, :P])
+        r = rows[:, :, P]
+        np.subtract(p, w, out=r)
+        r *= 1e3
+        parts.append(r.copy())
+        top = np.linalg.qr(stacked, mode="r")[: P + 1]
+    if top.shape[0] < P + 1:
+        top = np.vstack([top, np.zeros((P + 1 - top.shape[0], P + 1))])
+    return Pass(np.concatenate(parts) if parts else np.zeros((0, 3)), top[:P, :P], top[:P, P], float(top[P, P] ** 2))

@@ -1,0 +1,256 @@
+"""Effects: an error joint plus a basis that says how its value varies (docs/formats.md, "Effects").
+
+The kinds of basis (constant, poly<k>, periodic:<P>, reversal, drift, map, local …) and everything
+about each — its name, parameters, values, description, candidates — are the registry of
+:mod:`~kinid.identification.model.bases`; this module holds the :class:`Effect` (a joint plus a basis),
+parses names against a machine, and lists the default model and the candidate library.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinid.errors import DataError
+from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse_name
+from .machine import Machine, _joint_kind
+
+__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
+           "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One error joint plus a basis.
+
+    Attributes
+    ----------
+    name : str
+        As written by users: ``EXX:periodic:10``.
+    code : str
+        The error joint.
+    basis : str
+        The kind of basis, a key of :data:`~kinid.identification.model.bases.BASES` ("constant", "poly",
+        "periodic", "reversal", "drift", "map", "local", …).
+    degree : int
+        Polynomial degree (poly only).
+    period : float
+        Period in mm or deg (periodic only).
+    axis : str
+        The axis whose position or direction drives the basis ("" for constant/drift).
+    unit : {"um", "urad"}
+        Unit of the error joint's value.
+    knots : tuple of float
+        Map only: the axis positions (mm or deg) where the map's values are the
+        parameters; linear in between, constant beyond the ends.
+    args : tuple
+        Values of a basis kind that none of the fields above holds.
+    """
+
+    name: str
+    code: str
+    basis: str
+    degree: int = 0
+    period: float = 0.0
+    axis: str = ""
+    unit: str = "um"
+    knots: tuple = ()
+    args: tuple = ()
+
+    @property
+    def n_params(self) -> int:
+        return basis_of(self).n_params(self)
+
+    def param_names(self) -> list[str]:
+        return basis_of(self).param_names(self)
+
+    def param_units(self, machine: Machine) -> list[str]:
+        u = "µm" if self.unit == "um" else "µrad"
+        q = "" if not self.axis else ("mm" if machine.axis(self.axis).kind == "prismatic" else "deg")
+        return basis_of(self).param_units(self, u, q)
+
+
+def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effect:
+    """Parse an effect name against a machine.
+
+    Raises
+    ------
+    DataError
+        Naming the effect and what is wrong (unknown joint, bad basis, a
+        position basis on a set-up joint ...).
+    """
+    known = machine.parsed_effects.get(name)
+    if known is not None and known.basis in BASES:  # (a basis taken out of the registry parses no more)
+        return known
+    code = name.strip().partition(":")[0]
+    if code not in machine.error_codes:
+        close = [c for c in machine.error_codes if c[:2] == code[:2]][:6]
+        hint = f"; joints starting {code[:2]!r}: {', '.join(close)}" if close else ""
+        raise DataError(f"{source} {name!r}: {code!r} is not an error joint of this machine{hint}")
+    joint = machine.error_joint(code)
+    basis, fields = parse_name(name, joint, machine, source)
+    axis = joint.axis if basis.driver in ("position", "direction", "positions") else ""
+    effect = machine.parsed_effects[name] = Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
+    return effect
+
+
+def check_effects(machine: Machine, effects, name: str = "effects") -> tuple:
+    """``effects`` as a tuple of :class:`Effect`; names (``"EXX:periodic:10"``) are parsed.
+
+    Raises
+    ------
+    DataError
+        Naming the argument and the item that is neither an Effect nor an effect name.
+    """
+    if isinstance(effects, (str, Effect)):
+        effects = [effects]
+    try:
+        items = list(effects)
+    except TypeError:
+        raise DataError(f"must be a sequence of effects or effect names, got {type(effects).__name__}",
+                        parameter=name) from None
+    out = []
+    for k, e in enumerate(items):
+        if isinstance(e, str):
+            e = parse_effect(e, machine, source=f"{name}[{k}]")
+        elif not isinstance(e, Effect):
+            raise DataError(f"[{k}] must be an Effect or an effect name such as 'EXX:periodic:10', got "
+                            f"{type(e).__name__}", parameter=name)
+        out.append(e)
+    return tuple(out)
+
+
+def default_model(machine: Machine) -> list[Effect]:
+    """Every location error (E?0?, set-up joints W and T included) as a constant, in URDF order."""
+    return [Effect(e.code, e.code, "constant", unit=e.unit) for e in machine.error_joints if e.location]
+
+
+#: A linear axis read at this many distinct positions (too few for a map) has its error at each as a candidate.
+TABLE_POSITIONS = range(5, 11)
+
+
+def candidate_library(machine: Machine, model, *, has_directions: bool, has_time: bool, positions=None) -> list[Effect]:
+    """The default candidate library of docs/formats.md, minus effects already in ``model``.
+
+    Each registered basis names its candidates per error joint: for every position-dependent joint
+    poly1, poly2, poly3, periodic at the standard periods, reversal (when the data have ``dir_``
+    columns); drift on every error joint (when the data have ``t_s``); every constant location
+    error the model lacks; with ``positions`` (axis name → distinct positions its readings visit), the error at
+    each position of an axis read at too few for a map (:func:`position_tables`).
+    """
+    have = {e.name for e in model}
+    varying = {code for code, _ in axis_dependent_joints(machine)}
+    out = []
+    linear = [a.name for a in machine.axes if a.kind == "prismatic"]
+    for j in machine.error_joints:
+        kind = machine.axis(j.axis).kind if j.code in varying else ""
+        for basis in BASES.values():
+            out += basis.candidates(j, kind, varying=j.code in varying, has_directions=has_directions,
+                                    has_time=has_time)
+        # a translation error of a linear axis that varies with another linear axis's position
+        if "with" in BASES and j.code in varying and kind == "prismatic" and not j.location and j.kind == "prismatic":
+            out += [f"{j.code}:with:{b}" for b in linear if b != j.axis]
+    out += position_tables(machine, positions or {})
+    return [parse_effect(n, machine) for n in out if n not in have]
+
+
+def position_tables(machine: Machine, positions) -> list[str]:
+    """The error at each position measured, as candidates: for the joints of a linear axis read at
+    :data:`TABLE_POSITIONS` distinct positions (``positions``: axis name → how many), the polynomial through every
+    position (degree positions − 1). It is what a map is where there are too few positions for one: a bump at one
+    position is no period and no low polynomial."""
+    return [f"{code}:poly{positions[axis] - 1}" for code, axis in axis_dependent_joints(machine)
+            if machine.axis(axis).kind == "prismatic" and positions.get(axis, 0) in TABLE_POSITIONS]
+
+
+def axis_dependent_joints(machine: Machine) -> list:
+    """(code, axis) of the error joints whose value may vary with the position of their axis.
+
+    Every position-dependent joint ``E<d><k>``; and a location joint ``E<d>0<k>``
+    whose motion is the same as axis ``k``'s own — a translation along the
+    direction of a linear axis, or a rotation about the same line as a rotary
+    axis — because it commutes with the axis, so that its value varying with
+    the axis's position is the position-dependent error the URDF has no joint
+    for (an arm's gear error of J2 is ``EB0J2`` varying with J2 when J2 turns
+    about y).
+    """
+    from .derived import derived
+
+    # asked by the library, the period search and the maps alike: found once per machine
+    return list(derived(machine, "axis_dependent_joints", lambda: tuple(_axis_dependent_joints(machine))))
+
+
+def _axis_dependent_joints(machine) -> list:
+    import pinocchio as pin
+
+    data = machine.model.createData()
+    pin.forwardKinematics(machine.model, data, pin.neutral(machine.model))
+    out = []
+    for e in machine.error_joints:
+        if e.axis not in machine.axis_names:
+            continue
+        if not e.location:
+            out.append((e.code, e.axis))
+            continue
+        axis = machine.axis(e.axis)
+        if (e.kind == "prismatic") != (axis.kind == "prismatic"):
+            continue
+        je, jk = machine.model.getJointId(e.code), machine.model.getJointId(machine.axis(e.axis).joint)
+        de = data.oMi[je].rotation @ np.eye(3)["XYZABC".index(e.direction) % 3]
+        dk = data.oMi[jk].rotation @ _joint_kind(machine.model.joints[jk])[1]
+        if np.linalg.norm(np.cross(de, dk)) > 1e-9:
+            continue  # not parallel
+        offset = data.oMi[jk].translation - data.oMi[je].translation
+        if e.kind == "revolute" and np.linalg.norm(np.cross(offset, dk)) > 1e-9:
+            continue  # parallel rotation axes on different lines do not commute
+        out.append((e.code, e.axis))
+    return out
+
+
+def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None) -> np.ndarray:
+    """Basis values (N, n_params) of ``effect`` for N poses.
+
+    Parameters
+    ----------
+    axes_user : array (N, n_axes)
+        Axis readings in machine order, mm / deg.
+    t_s : array (N,) or None
+        Times, s (drift).
+    directions : mapping axis name -> array (N,) of ±1, or None (reversal).
+
+    Raises
+    ------
+    DataError
+        If the data lack the column the basis needs (``t_s``, ``dir_<axis>``).
+    """
+    basis = basis_of(effect)
+    n = axes_user.shape[0]
+    q = t = s = None
+    if basis.driver == "time":
+        if t_s is None:
+            raise DataError(f"effect {effect.name!r} needs the column 't_s' in the data")
+        t = np.asarray(t_s, float).reshape(n)
+    elif basis.driver == "position":
+        q = axes_user[:, machine.axis_names.index(effect.axis)]
+    elif basis.driver == "positions":  # the joint's own axis, then the other axis the effect names
+        q = axes_user[:, [machine.axis_names.index(effect.axis), machine.axis_names.index(effect.args[0])]]
+    elif basis.driver == "direction":
+        if directions is None or effect.axis not in directions:
+            raise DataError(f"effect {effect.name!r} needs the column 'dir_{effect.axis.lower()}' in the data")
+        s = np.asarray(directions[effect.axis], float).reshape(n)
+    else:
+        q = np.zeros(n)
+    return np.asarray(basis.values(effect, q, t, s), float).reshape(n, -1)
+
+
+def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
+    """The default model (or ``base`` effect names) plus the effects named in ``add``."""
+    effects = default_model(machine) if base is None else [parse_effect(n, machine) for n in base]
+    names = {e.name for e in effects}
+    for n in add:
+        e = parse_effect(n, machine, source="added effect")
+        if e.name in names:
+            raise DataError(f"is already in the model: {n!r}", parameter="add")
+        names.add(e.name)
+        effects.append(e)
+    return effects

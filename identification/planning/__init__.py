@@ -1,0 +1,17 @@
+"""Planning a measurement: the pool of candidate poses, the design that reaches a stated accuracy with
+the fewest alignments, their order for machine time, and advice on poses for held parameters.
+
+Imports model, data and fitting.
+"""
+from kinid.lazy import front_door as _front_door
+
+#: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
+_SOURCES = {
+    "advice_lines": "advice", "advice_pool": "advice", "data_advice": "advice", "TravelModel": "order",
+    "plan_measurement": "plan", "axis_motion": "pool", "candidate_poses": "pool", "solved_axes": "pool",
+}
+
+__all__ = ["TravelModel", "advice_lines", "advice_pool", "axis_motion", "candidate_poses", "data_advice",
+           "plan_measurement", "solved_axes"]
+
+__getattr__, __dir__ = _front_door(__name__, _SOURCES)
