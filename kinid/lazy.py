@@ -40,8 +40,10 @@ def front_door(package: str, sources: dict):
 
     def __getattr__(name: str):
         if name in sources:
-            value = getattr(importlib.import_module(f"{package}.{sources[name]}"), name)
-        elif not name.startswith("__") and importlib.util.find_spec(f"{package}.{name}") is not None:
+            # not kept on the package: the name is the module's at every use (a test that replaces a
+            # function in its module replaces it for every caller that imports it through the door)
+            return getattr(importlib.import_module(f"{package}.{sources[name]}"), name)
+        if not name.startswith("__") and importlib.util.find_spec(f"{package}.{name}") is not None:
             value = importlib.import_module(f"{package}.{name}")
         else:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")

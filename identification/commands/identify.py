@@ -298,7 +298,7 @@ def _diagnose(args) -> int:
 
         result = replace(result, fit=replace(result.fit, set_aside=loaded.set_aside))
     if args.report:
-        from kinid.report_html import file_provenance
+        from kinid.reports.html import file_provenance
         from ..reporting import diagnosis_report
 
         diagnosis_report(result, obs, args.report, provenance=[("fit", file_provenance(args.fit))])

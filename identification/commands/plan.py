@@ -156,11 +156,11 @@ def _plan(args) -> int:
     if args.board:
         from kinid.vision import load_board
 
-        from ..data import _board_mark_mm, default_board_origin_mm
+        from ..data import board_mark_mm, default_board_origin_mm
 
         board = load_board(args.board)
         origin = default_board_origin_mm(board)  # as observe places it: centred on the workpiece origin
-        marks = np.array([_board_mark_mm(board, r, c, origin) for r in range(board.rows) for c in range(board.cols)])
+        marks = np.array([board_mark_mm(board, r, c, origin) for r in range(board.rows) for c in range(board.cols)])
     else:
         marks = np.array(args.marks_mm or PATENT_MARKS_MM, float)
     if not np.all(np.isfinite(marks)) or np.abs(marks).max() > 100_000:

@@ -70,7 +70,7 @@ def _verify(args) -> int:
     if args.noise_um is not None:
         check_positive("--noise-um", args.noise_um)
     if args.report:  # a folder it may not replace is refused before the work, not after
-        from kinid.report_html import check_report_folder
+        from kinid.reports.html import check_report_folder
 
         check_report_folder(args.report)
     fit_path = args.fit or _fit_of_compensation(args.compensation)

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from kinid.figures import new_figure, save_figure
-from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, report_folder, write_report
+from kinid.reports.figures import new_figure, save_figure
+from kinid.reports.html import Figure, Section, Table, file_provenance, now_utc, report_folder, write_report
 
 __all__ = ["verification_report", "plot_before_after"]
 
@@ -39,7 +39,7 @@ def verification_report(v, folder, *, fit_path, data_path) -> Path:
     """Write ``index.html`` and its figure into ``folder``; returns the page's path.
 
     The folder is written whole or not at all, and replaces only an empty folder or an earlier report
-    (:func:`kinid.report_html.report_folder`; a DataError otherwise).
+    (:func:`kinid.reports.html.report_folder`; a DataError otherwise).
     """
     with report_folder(folder) as stage:
         _verification_report(v, stage, fit_path=fit_path, data_path=data_path)

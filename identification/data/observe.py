@@ -38,7 +38,7 @@ from .observations import Observations
 PERSPECTIVE_PASSES = 3
 
 __all__ = ["Sensor", "load_sensor", "read_run_log", "RunLog", "observe", "Rejected", "ObserveResult",
-           "image_offsets_mm", "perspective_bias_n"]
+           "image_offsets_mm", "perspective_bias_n", "board_mark_mm"]
 
 
 @dataclass(frozen=True)
@@ -275,7 +275,7 @@ class ObserveResult:
     rejected: tuple
 
 
-def _board_mark_mm(board, row, col, origin_mm):
+def board_mark_mm(board, row, col, origin_mm):
     """Workpiece-frame position of a board mark: board x along workpiece x, board y (rows down the
     printed board) along workpiece −y, the board lying face up on the workpiece x-y plane."""
     x_b, y_b = board.mark_mm(row, col)
@@ -377,7 +377,7 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
                 d_xy = image_offsets_mm(sensor, xy, (w, h), dz, bias)
                 dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
         offsets = np.column_stack([d_xy, dz])
-        w_mm = np.array([_board_mark_mm(board, *board.position_of(m.code), origin) for m in on_board])
+        w_mm = np.array([board_mark_mm(board, *board.position_of(m.code), origin) for m in on_board])
         # where the nominal machine expects each decoded mark: a misread code lands a pitch or more away
         expected = np.einsum("ji,nj->ni", R_nominal[i], w_mm - p_nominal[i])
         miss = np.linalg.norm(expected[:, :2] - offsets[:, :2], axis=1)

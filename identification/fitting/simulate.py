@@ -41,9 +41,9 @@ def _is_table_axis(machine: Machine, axis) -> bool:
     q = pin.neutral(machine.model)
     pin.forwardKinematics(machine.model, data, q)
     jid = machine.model.getJointId(axis.joint)
-    from ..model import _joint_kind
+    from ..model import joint_kind
 
-    _, local = _joint_kind(machine.model.joints[jid])
+    _, local = joint_kind(machine.model.joints[jid])
     world = data.oMi[jid].rotation @ local
     return abs(abs(world[2]) - 1.0) < 1e-6
 

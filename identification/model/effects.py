@@ -13,7 +13,7 @@ import numpy as np
 
 from kinid.errors import DataError
 from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse_name
-from .machine import Machine, _joint_kind
+from .machine import Machine, joint_kind
 
 __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
            "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
@@ -197,7 +197,7 @@ def _axis_dependent_joints(machine) -> list:
             continue
         je, jk = machine.model.getJointId(e.code), machine.model.getJointId(machine.axis(e.axis).joint)
         de = data.oMi[je].rotation @ np.eye(3)["XYZABC".index(e.direction) % 3]
-        dk = data.oMi[jk].rotation @ _joint_kind(machine.model.joints[jk])[1]
+        dk = data.oMi[jk].rotation @ joint_kind(machine.model.joints[jk])[1]
         if np.linalg.norm(np.cross(de, dk)) > 1e-9:
             continue  # not parallel
         offset = data.oMi[jk].translation - data.oMi[je].translation

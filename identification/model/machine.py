@@ -24,7 +24,7 @@ from kinid.errors import DataError, MachineError
 from kinid.files import captured_stderr, read_limited_text
 from .placements import _evaluate_chunk
 from .urdf_checks import (_ERROR_CODE, MAX_URDF_BYTES, _ancestors, _axis_names, _check_placement,  # noqa: F401
-                          _joint_kind, _urdf_origins, check_urdf_limits)
+                          joint_kind, _urdf_origins, check_urdf_limits)
 
 __all__ = ["axis_limits", "check_machine", "Axis", "ErrorJoint", "Machine", "load_machine", "machine_from_urdf",
            "evaluate", "tool_in_workpiece_mm", "tool_rotation_in_workpiece"]
@@ -209,7 +209,7 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
     for jid in range(1, model.njoints):
         name = model.names[jid]
         jmodel = model.joints[jid]
-        kind, direction = _joint_kind(jmodel)
+        kind, direction = joint_kind(jmodel)
         in_chain = [c for c in ("workpiece", "tool") if jid in chains[c]]
         where = f"joint {name!r}"
         if kind is None:

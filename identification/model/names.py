@@ -24,11 +24,11 @@ ISO_AXES = {"X": ("linear", "X"), "Y": ("linear", "Y"), "Z": ("linear", "Z"), "U
 
 def axis_directions(machine) -> dict:
     """axis name -> (kind, direction letter) from a machine: the joint's axis in its own frame."""
-    from .machine import _joint_kind
+    from .machine import joint_kind
 
     out = {}
     for a in machine.axes:
-        _, direction = _joint_kind(machine.model.joints[machine.model.getJointId(a.joint)])
+        _, direction = joint_kind(machine.model.joints[machine.model.getJointId(a.joint)])
         letter = "XYZ"[int(np.argmax(np.abs(direction)))]
         out[a.name] = ("linear" if a.kind == "prismatic" else "rotary", letter)
     return out

@@ -14,7 +14,7 @@ import pinocchio as pin
 
 from kinid.errors import MachineError
 
-__all__ = ["check_urdf_limits", "MAX_URDF_BYTES", "MAX_URDF_JOINTS", "MAX_CHAIN_DEPTH"]
+__all__ = ["check_urdf_limits", "joint_kind", "MAX_URDF_BYTES", "MAX_URDF_JOINTS", "MAX_CHAIN_DEPTH"]
 
 
 _ERROR_CODE = re.compile(r"^E([XYZABC])(0?)([A-Z][A-Z0-9]*)$")
@@ -26,7 +26,7 @@ _AXIS_NAME = re.compile(r"^[A-Z][A-Z0-9]*$", re.IGNORECASE)
 _LOOKS_LIKE_CODE = re.compile(r"^E([A-Z])(0?)([A-Z][A-Z0-9]*)$")
 
 
-def _joint_kind(jmodel) -> tuple[str | None, np.ndarray | None]:
+def joint_kind(jmodel) -> tuple[str | None, np.ndarray | None]:
     """(kind, unit axis in the joint frame) of a 1-DOF joint, else (None, None)."""
     short = jmodel.shortname()
     m = re.fullmatch(r"JointModel(P|R|RUB)([XYZ])", short)

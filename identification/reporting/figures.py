@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinid.figures import legend_below, new_figure, panel_grid, save_figure
+from kinid.reports.figures import legend_below, new_figure, panel_grid, save_figure
 from ..model import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of
 
 __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram", "plot_singular_values",

@@ -1,7 +1,7 @@
 """The HTML reports of identify, diagnose and demo: where the model fails, and the error falling as
 effects are added — tables, summary and page (the figures: :mod:`~kinid.identification.reporting.figures`).
 
-A report folder is written whole or not at all (:func:`kinid.report_html.report_folder`).
+A report folder is written whole or not at all (:func:`kinid.reports.html.report_folder`).
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
-from kinid.report_html import Figure, Section, Table, report_folder, write_report
+from kinid.reports.html import Figure, Section, Table, report_folder, write_report
 from ..diagnosis import ALPHA
 from .figures import (plot_binned_residuals, plot_identified_errors, plot_maps, plot_measured_vs_model,
                              plot_periodogram, plot_residuals_vs_axes, plot_selection, plot_singular_values,
@@ -190,7 +190,7 @@ def _largest(fit_result, n=3) -> str:
 def _provenance(fit_result, obs, extra=()) -> list:
     import hashlib
 
-    from kinid.report_html import file_provenance, now_utc
+    from kinid.reports.html import file_provenance, now_utc
 
     m = fit_result.machine
     urdf = hashlib.sha256(m.urdf.encode()).hexdigest()
@@ -249,7 +249,7 @@ def diagnosis_report(diagnosis, obs, folder, *, provenance=()) -> Path:
     """Write the plots, ``residuals.csv`` and ``index.html`` of one diagnosis into ``folder``; returns the page's path.
 
     The folder is written whole or not at all, and replaces only an empty folder or an earlier report
-    (:func:`kinid.report_html.report_folder`; a DataError otherwise).
+    (:func:`kinid.reports.html.report_folder`; a DataError otherwise).
     """
     with report_folder(folder) as stage:
         _diagnosis_report(diagnosis, obs, stage, provenance)
@@ -305,7 +305,7 @@ def selection_report(steps, obs, folder, *, held_out=None, provenance=(), whole:
         By default the blocks of the data the selection's held-out check left out (when it ran).
     whole : bool
         Write the folder whole or not at all, replacing only an empty folder or an earlier report
-        (:func:`kinid.report_html.report_folder`), or (False) write the report's files into ``folder``
+        (:func:`kinid.reports.html.report_folder`), or (False) write the report's files into ``folder``
         beside what it holds (the demo, whose page goes into its own output folder beside its data).
     fit_file : str, optional
         Where the final fit was written, as the next step's command should name it.
