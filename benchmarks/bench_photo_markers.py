@@ -6,7 +6,7 @@ quality 85), with centre circles of 15-60 px diameter, and runs on each
 
 * ``detect_markers`` (the candidate search on a scale pyramid with local thresholds), and
 * the peer: overlapping tiles of 1024 px (256 px overlap), each given to the earlier detector
-  (one global threshold per tile, ``kinid.vision.ringcode._detect_single_scale``), duplicates merged,
+  (one global threshold per tile, ``kinid.vision.ringcode.detect._detect_single_scale``), duplicates merged,
 
 in one process, and prints decoded / wrong / missed and the wall time per frame of both (and, for
 reference, of the earlier search on the whole frame: one global threshold on a copy shrunk to ~1024 px).
@@ -36,7 +36,8 @@ import time
 import numpy as np
 
 from kinid.vision.render_photo import board_photo
-from kinid.vision.ringcode import _detect_single_scale, detect_markers
+from kinid.vision.ringcode import detect_markers
+from kinid.vision.ringcode.detect import _detect_single_scale
 
 TILE, OVERLAP = 1024, 256
 

@@ -13,10 +13,9 @@ from kinid.vision.laser_offsets import (
     axial_offset,
     focus_height,
     focus_measure,
-    radial_offset_from_edges,
     radial_offset_from_hole,
-    radial_offset_from_sphere,
 )
+from kinid.vision.laser_shapes import radial_offset_from_edges, radial_offset_from_sphere
 
 # the laser sits 12.4 mm in +x and 3.1 mm in -y of the camera's optical axis, 4.75 mm higher
 OFFSET = np.array([12.4, -3.1, 4.75])

@@ -5,12 +5,14 @@ module                 what it does
 =====================  =========================================================
 ``render``             anti-aliased renderer of marks, boards and patterns (tests, printing)
 ``circles``            sub-pixel centres of round marks, holes and spheres
-``ringcode``           ring-coded marks: detection, decoding, centres
+``disk_fit``           one mark's centre from a model of its image (blurred disk, weighted centroid)
+``ringcode``           ring-coded marks: detection, decoding, centres (a sub-package: detect, blobs, read)
 ``board``              board files (docs/formats.md, "Board file") and matching decoded marks to a board
 ``template``           template matching with sub-pixel refinement
 ``camera``             camera calibration (Zhang), distortion and undistortion
 ``motion_scale``       pixel equivalent, backlash from feature positions, pixel-to-machine matrix
-``laser_offsets``      camera / laser displacement sensor offsets (hole, sphere, edges, axial)
+``laser_offsets``      camera / laser displacement sensor offsets (hole, axial, focus height)
+``laser_shapes``       camera / laser radial offsets from a scanned ball or two edges
 =====================  =========================================================
 """
 from kinid.lazy import front_door as _front_door
@@ -25,7 +27,7 @@ _SOURCES = {
     "save_camera": "camera",
     "CircleResult": "circles", "locate_disk": "circles", "locate_hole": "circles", "locate_sphere": "circles",
     "axial_offset": "laser_offsets", "radial_offset_from_hole": "laser_offsets",
-    "radial_offset_from_sphere": "laser_offsets",
+    "radial_offset_from_sphere": "laser_shapes",
     "MatrixResult": "motion_scale", "ScaleResult": "motion_scale", "backlash_from_reversals": "motion_scale",
     "pixel_equivalent": "motion_scale", "pixel_to_machine_matrix": "motion_scale",
     "board_coverage": "render", "render_disk": "render", "render_pattern": "render",

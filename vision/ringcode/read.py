@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .circles import _det2, _inv2, fit_disk_model, weighted_centroid
+from ..disk_fit import _det2, _inv2, fit_disk_model, weighted_centroid
 
 __all__ = ["Marker", "canonical_code", "decode_from_segments", "read_ring"]
 
