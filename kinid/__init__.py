@@ -3,7 +3,7 @@ from vision measurements.
 
 The package has one ground floor and three domains:
 
-- ``kinid.errors``, ``kinid.files``, ``kinid.figures``, ``kinid.progress``, ``kinid.checks``,
+- ``kinid.errors``, ``kinid.files``, ``kinid.reports.figures``, ``kinid.progress``, ``kinid.checks``,
   ``kinid.threads`` — the ground floor that every domain may use;
 - :mod:`kinid.identification` — machines (URDF with ISO 230-1 error joints), fit, diagnosis;
 - :mod:`kinid.vision` — renderers and locators (ring-coded marks, circles, templates, camera);

@@ -237,7 +237,7 @@ def _warn_if_mm(path, deviation_um) -> None:
 def plot_runs(result: PositioningResult, path, *, axis: str = "", source: str = "") -> None:
     """The standard's plot: mean deviation per direction with ±2s bands against the target; the legend below the
     axes (never over the points), the edition, axis and file in the title."""
-    from kinid.figures import new_figure, save_figure
+    from kinid.reports.figures import new_figure, save_figure
 
     fig = new_figure((7.5, 4.2))
     ax = fig.subplots()
@@ -289,7 +289,7 @@ def _run(args) -> int:
     source = shown_path(Path(args.runs).name)
     axis = shown_path(args.axis) if args.axis else ""
     if args.report:
-        from kinid.report_html import check_report_folder
+        from kinid.reports.html import check_report_folder
 
         check_report_folder(args.report)
     if args.plot:
@@ -309,12 +309,12 @@ def _run(args) -> int:
 
 
 def write_report(result: PositioningResult, folder, runs_path, *, axis: str = "", source: str = "") -> None:
-    """The test report (kinid.report_html): the provenance, the axis values of the standard in a table, the values
+    """The test report (kinid.reports.html): the provenance, the axis values of the standard in a table, the values
     per target, the plot, and the text output."""
     from pathlib import Path
 
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc
-    from kinid.report_html import write_report as write_pages
+    from kinid.reports.html import Figure, Section, Table, file_provenance, now_utc
+    from kinid.reports.html import write_report as write_pages
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

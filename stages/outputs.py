@@ -8,7 +8,7 @@ command's inputs before it runs).
 ``--report DIR`` is written whole or not at all: the command checks the folder before its work
 (:func:`check_report`) and writes the report inside :func:`staged_report`, which hands the report writer
 the command's arguments with ``report`` naming a new folder that replaces ``DIR`` when the writer is done
-(:func:`kinid.report_html.report_folder`). ``--tables DIR`` too: checked by :func:`check_report`, written
+(:func:`kinid.reports.html.report_folder`). ``--tables DIR`` too: checked by :func:`check_report`, written
 inside :func:`staged_tables` (:func:`kinid.folders.listed_folder`).
 """
 from __future__ import annotations
@@ -59,7 +59,7 @@ def check_report(args) -> None:
     """Refuse ``--report DIR`` and ``--tables DIR`` before the command's work if they could not be replaced (a
     folder holding files that are not an earlier result of the command, a file, a read-only folder)."""
     if getattr(args, "report", None):
-        from kinid.report_html import check_report_folder
+        from kinid.reports.html import check_report_folder
 
         check_report_folder(args.report)
     if getattr(args, "tables", None):
@@ -88,7 +88,7 @@ def staged_report(args):
     """
     import argparse
 
-    from kinid.report_html import report_folder
+    from kinid.reports.html import report_folder
 
     with report_folder(args.report) as stage:
         yield argparse.Namespace(**{**vars(args), "report": str(stage)})

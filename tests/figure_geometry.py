@@ -1,6 +1,6 @@
 """Figure geometry as a reader meets it: legends over data, text too small at the size a report shows it.
 
-An independent check of the figures kinid draws (it shares no code with kinid.figures): a report page shows a
+An independent check of the figures kinid draws (it shares no code with kinid.reports.figures): a report page shows a
 figure at most :data:`SHOWN_PX` CSS pixels wide (its text column), so a PNG wider than that is shrunk, and its
 text with it. Text must be at least :data:`MIN_PT` points where it is read; a legend must cover no plotted
 point (markers, and lines sampled along their segments) of any panel; titles and axis labels must not run into
@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.collections import PathCollection
 from matplotlib.text import Text
 
-#: The report page's text column (kinid.report_html: 1080 px less its padding), CSS px.
+#: The report page's text column (kinid.reports.html: 1080 px less its padding), CSS px.
 SHOWN_PX = 1030
 #: The smallest text a reader should meet, points at the displayed size.
 MIN_PT = 8.0

@@ -1,7 +1,7 @@
 """Every figure kinid draws, checked at the size a report shows it: no legend over plotted data, no text below
 8 pt where it is read (tests/figure_geometry.py, an independent consumer).
 
-Every command that draws is run as a user would (each report, each ``--plot``), with kinid.figures.save_figure
+Every command that draws is run as a user would (each report, each ``--plot``), with kinid.reports.figures.save_figure
 watched: each figure is checked as it is saved.
 """
 from __future__ import annotations
@@ -48,13 +48,13 @@ def _commands(d: Path) -> list:
 @pytest.fixture(scope="module")
 def checked(tmp_path_factory):
     """figure name -> its problems, for every figure the commands save."""
-    import kinid.figures
+    import kinid.reports.figures
 
     d = tmp_path_factory.mktemp("figures")
     assert main(["simulate", "--machine", MACHINE, "--errors", str(EXAMPLES / "errors.json"), "--noise-um", "1",
                  "--seed", "4", "--out", str(d / "obs.csv")]) == 0
     found = {}
-    real = kinid.figures.save_figure
+    real = kinid.reports.figures.save_figure
 
     def save(fig, path, *, dpi=110, tight=True):
         name = f"{Path(path).parent.name.split('.kinid-new-')[0].lstrip('.')}/{Path(path).name}"
@@ -62,7 +62,7 @@ def checked(tmp_path_factory):
         return real(fig, path, dpi=dpi, tight=tight)
 
     with pytest.MonkeyPatch.context() as patch:
-        # kinid.figures, and every module that took save_figure from it by name before this test ran
+        # kinid.reports.figures, and every module that took save_figure from it by name before this test ran
         for module in [m for m in list(sys.modules.values()) if getattr(m, "save_figure", None) is real]:
             patch.setattr(module, "save_figure", save)
         for argv in _commands(d):
@@ -78,7 +78,7 @@ def test_every_figure_is_readable_where_it_is_shown(checked):
 
 def test_the_check_sees_a_legend_over_data_and_small_text():
     """The check can fail: a legend dropped on the data, and 8 pt text in a figure shown at half its width."""
-    from kinid.figures import new_figure
+    from kinid.reports.figures import new_figure
 
     fig = new_figure((6, 3))
     ax = fig.subplots()

@@ -39,7 +39,7 @@ import sys
 import time
 
 import kinid.folders as kd
-import kinid.report_html as kr
+import kinid.reports.html as kr
 
 MODE = os.environ.get("KT_MODE", "")
 ARG = int(os.environ.get("KT_ARG", "0") or 0)

@@ -3,13 +3,19 @@
 - Adding an effect basis is one registration (kinid.identification.model.bases): a test-only basis is
   registered here and goes through identify, diagnose and compensate untouched elsewhere. (Adding a
   controller format is tested the same way in test_compensation_files.py.)
-- The import graph of the whole package (imports inside functions included) has no cycle, and the
-  layers point one way: the ground floor and the shipped machine files, then vision, then
-  identification, then stages (and the URDF generator), then the command-line roof.
+- The import graph of the whole package (imports inside functions included, a name taken from a lazy
+  front door counted as an import of the module that defines it) has no cycle, and the layers point
+  one way: the ground floor and the shipped machine files, then vision, then identification, then
+  stages (and the URDF generator), then the command-line roof.
+- Inside identification, the sub-packages are layers too (model < data < fitting < diagnosis, planning
+  < compensation, reporting < commands), and one meets another only at its front door; no folder of
+  the package holds more than 15 modules.
 """
 from __future__ import annotations
 
 import ast
+import importlib
+import importlib.util
 import json
 from pathlib import Path
 
@@ -33,28 +39,54 @@ def _modules() -> dict:
     for folder, package in FOLDERS.items():
         for f in (ROOT / folder).rglob("*.py"):
             rel = f.relative_to(ROOT / folder).with_suffix("")
-            if folder == "kinid" and len(rel.parts) > 1:
+            if not (f.parent / "__init__.py").exists():
                 continue
             parts = [p for p in rel.parts if p != "__init__"]
             out[".".join([package, *parts])] = f
     return out
 
 
+def _front_door_sources(modules: dict) -> dict:
+    """Package -> {name: module of the package that defines it}, from the ``_SOURCES`` of lazy front doors."""
+    out = {}
+    for m, f in modules.items():
+        if f.name != "__init__.py":
+            continue
+        for node in ast.parse(f.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "_SOURCES" for t in node.targets):
+                out[m] = {k: f"{m}.{v}" for k, v in ast.literal_eval(node.value).items()}
+    return out
+
+
+def _imports(m: str, f: Path, modules: dict):
+    """(package or module imported from, name or None) for every import of module ``m`` (anywhere in the file)."""
+    here = m.split(".") if f.name == "__init__.py" else m.split(".")[:-1]
+    for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            base = ".".join(here[: len(here) - node.level + 1] + ([node.module] if node.module else [])) \
+                if node.level else node.module
+            for a in node.names:
+                yield base, a.name
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name, None
+
+
 def _graph() -> dict:
-    """Module -> the package modules it imports (anywhere in the file)."""
+    """Module -> the package modules it imports (anywhere in the file; a front door's name -> its module)."""
     modules = _modules()
+    sources = _front_door_sources(modules)
     edges = {m: set() for m in modules}
     for m, f in modules.items():
-        here = m.split(".") if f.name == "__init__.py" else m.split(".")[:-1]
-        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
-            targets = []
-            if isinstance(node, ast.ImportFrom):
-                base = ".".join(here[: len(here) - node.level + 1] + ([node.module] if node.module else [])) \
-                    if node.level else node.module
-                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names]
-            elif isinstance(node, ast.Import):
-                targets = [a.name for a in node.names]
-            edges[m] |= {t for t in targets if t in modules and t != m}
+        for base, name in _imports(m, f, modules):
+            if name is None:
+                target = base
+            elif f"{base}.{name}" in modules:
+                target = f"{base}.{name}"
+            else:
+                target = sources.get(base, {}).get(name, base)
+            if target in modules and target != m:
+                edges[m].add(target)
     return edges
 
 
@@ -96,10 +128,63 @@ def test_layers_point_one_way():
     assert not bad, "\n".join(bad)
 
 
-def test_identification_modules_stay_readable():
-    long = {f.name: n for f in (ROOT / "identification").glob("*.py")
+def test_identification_and_vision_modules_stay_readable():
+    long = {str(f.relative_to(ROOT)): n for folder in ("identification", "vision") for f in (ROOT / folder).rglob("*.py")
             if (n := len(f.read_text(encoding="utf-8").splitlines())) > 500}
     assert not long, f"modules over 500 lines: {long}"
+
+
+#: The sub-packages of identification and their floors: a sub-package imports only lower floors.
+SUB_LAYERS = {"model": 0, "data": 1, "fitting": 2, "diagnosis": 3, "planning": 3, "compensation": 4,
+              "reporting": 4, "commands": 5}
+
+
+def _sub(module: str):
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[:2] == ["kinid", "identification"] else None
+
+
+def test_identification_is_sub_packages_that_meet_at_front_doors():
+    """Every module of identification lives in a sub-package; one imports another only at its front door,
+    only names the door lists (``__all__``), and only from a lower floor."""
+    modules = _modules()
+    subs = {p.name for p in (ROOT / "identification").iterdir() if (p / "__init__.py").exists()}
+    assert subs == set(SUB_LAYERS), f"sub-packages {sorted(subs)} against the floors {sorted(SUB_LAYERS)}"
+    loose = [f.name for f in (ROOT / "identification").glob("*.py") if f.name != "__init__.py"]
+    assert not loose, f"modules outside the sub-packages: {loose}"
+    doors = {f"kinid.identification.{s}": importlib.import_module(f"kinid.identification.{s}") for s in subs}
+    bad = []
+    for m, f in modules.items():
+        here = _sub(m)
+        if here is None:
+            continue
+        for base, name in _imports(m, f, modules):
+            there = _sub(base)
+            if there is None or there == here:
+                continue
+            if base != f"kinid.identification.{there}" or name is None:
+                bad.append(f"{m} imports {base}{'.' + name if name else ''}: not through the front door")
+            elif name not in doors[base].__all__:
+                bad.append(f"{m} imports {name} from {base}, which its front door does not list")
+            elif SUB_LAYERS[there] >= SUB_LAYERS[here]:
+                bad.append(f"{m} ({here}, floor {SUB_LAYERS[here]}) imports {base} (floor {SUB_LAYERS[there]})")
+    assert not bad, "\n".join(bad)
+
+
+def test_every_front_door_name_is_defined_where_it_says():
+    """A front door's names resolve (the lazy door would otherwise fail only when a name is first used)."""
+    for package, names in _front_door_sources(_modules()).items():
+        door = importlib.import_module(package)
+        for name in names:
+            assert getattr(door, name) is not None, f"{package}.{name}"
+        assert set(door.__all__) <= set(names) | {n for n in door.__all__ if
+                                                   importlib.util.find_spec(f"{package}.{n}") is not None}
+
+
+def test_no_folder_holds_more_than_fifteen_modules():
+    crowded = {str(d.relative_to(ROOT)): n for folder in FOLDERS for d in [ROOT / folder, *(ROOT / folder).rglob("*")]
+               if d.is_dir() and (n := len([f for f in d.glob("*.py") if f.name != "__init__.py"])) > 15}
+    assert not crowded, f"folders with more than 15 modules: {crowded}"
 
 
 # --- a basis added by registration alone ----------------------------------------------------------

@@ -113,7 +113,7 @@ def test_the_report_is_also_one_pdf_of_a4_pages_holding_every_figure(report):
 
 
 def test_the_page_template_escapes_every_value_and_keeps_its_style():
-    from kinid.report_html import Section, Table, report_page
+    from kinid.reports.html import Section, Table, report_page
 
     page = report_page("a <b>", "s", [("file", "x<script>alert(1)</script>.csv")], ["it's \"quoted\""],
                        [Section("h&h", tables=(Table(("c",), (("<i>",),)),))])

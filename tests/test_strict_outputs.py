@@ -217,7 +217,7 @@ def test_report_into_a_folder_of_other_files_is_refused(tmp_path, capsys):
 
 def test_report_replaces_an_earlier_report_whole(tmp_path, capsys):
     from kinid.files import write_text
-    from kinid.report_html import report_folder, report_page
+    from kinid.reports.html import report_folder, report_page
 
     rep = tmp_path / "rep"
     with report_folder(rep) as stage:  # an earlier report with a figure the next one does not make
@@ -368,7 +368,7 @@ def test_verify_report_refused_early_replaced_and_interrupted(run, tmp_path, mon
 
 def _earlier_report(folder: Path, extra=()) -> Path:
     from kinid.files import write_text
-    from kinid.report_html import report_folder, report_page
+    from kinid.reports.html import report_folder, report_page
 
     with report_folder(folder) as stage:
         (stage / "fig.png").write_bytes(b"\x89PNG")
@@ -379,7 +379,7 @@ def _earlier_report(folder: Path, extra=()) -> Path:
 
 
 def test_not_earlier_report(tmp_path):
-    from kinid.report_html import not_earlier_report
+    from kinid.reports.html import not_earlier_report
 
     assert not_earlier_report(_earlier_report(tmp_path / "a")) == []
     # a file the page does not list, a sub-folder, a listed name made a link: not the report's own

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import io
 
-from .files import atomic_write
+from ..files import atomic_write
 
 __all__ = ["new_figure", "save_figure", "panel_grid", "legend_below", "SHOWN_WIDTH_IN"]
 

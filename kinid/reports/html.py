@@ -134,10 +134,10 @@ def write_report(folder, title: str, subtitle: str, provenance, summary, section
 
     Three forms of the same report: ``index.html`` (:func:`report_page`, figures beside it),
     :data:`ONE_FILE` (the page with its figures inside, :func:`write_one_file`) and :data:`PDF_FILE`
-    (A4 pages, :func:`kinid.report_pdf.write_pdf`): one file to send, to open or to print.
+    (A4 pages, :func:`kinid.reports.pdf.write_pdf`): one file to send, to open or to print.
     """
-    from .files import write_text
-    from .report_pdf import write_pdf
+    from ..files import write_text
+    from .pdf import write_pdf
 
     folder = Path(folder)
     page = folder / "index.html"
@@ -178,7 +178,7 @@ def report_folder(path):
     >>> with report_folder("report") as d:   # doctest: +SKIP
     ...     write_report(d, "Title", "kinid verb", provenance, summary, sections)
     """
-    from .folders import staged_folder
+    from ..folders import staged_folder
 
     with staged_folder(path, foreign=not_earlier_report) as stage:
         yield stage
@@ -187,7 +187,7 @@ def report_folder(path):
 
 def check_report_folder(path) -> None:
     """Refuse early what :func:`report_folder` would refuse to replace (before a command computes its report)."""
-    from .folders import check_output_folder
+    from ..folders import check_output_folder
 
     check_output_folder(path, foreign=not_earlier_report)
 
@@ -197,7 +197,7 @@ def _list_files(folder) -> None:
     import json
     import os
 
-    from .files import write_text
+    from ..files import write_text
 
     page = Path(folder) / "index.html"
     if not page.is_file():
@@ -223,8 +223,8 @@ def not_earlier_report(folder) -> list:
     import os
     import re
 
-    from .errors import KinidError
-    from .files import read_limited_text
+    from ..errors import KinidError
+    from ..files import read_limited_text
 
     folder = Path(folder)
     names = sorted(os.listdir(folder))
@@ -257,7 +257,7 @@ def not_earlier_report(folder) -> list:
 #: figures and the files it links inside it, so that it opens anywhere without the folder.
 ONE_FILE = "report.html"
 
-#: The report as A4 pages to print or send (:mod:`kinid.report_pdf`).
+#: The report as A4 pages to print or send (:mod:`kinid.reports.pdf`).
 PDF_FILE = "report.pdf"
 
 #: The media types of the files a report page shows or links, put inside :data:`ONE_FILE`.
@@ -270,7 +270,7 @@ def write_one_file(folder) -> None:
     import base64
     import re
 
-    from .files import write_text
+    from ..files import write_text
 
     folder = Path(folder)
     page = folder / "index.html"

@@ -30,7 +30,7 @@ def write_pdf(path, title: str, subtitle: str, provenance, summary, sections, *,
 
     from kinid import __version__
 
-    from .files import atomic_write
+    from ..files import atomic_write
 
     flow = _Flow()
     flow.text(title, 17, weight="bold")

@@ -10,9 +10,9 @@ __all__ = ["plot_result", "write_report", "gaps_um"]
 
 
 def write_report(res, args, truth, after, source) -> None:
-    """The HTML report of a backlash calibration (kinid.report_html)."""
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc
-    from kinid.report_html import write_report as write_pages
+    """The HTML report of a backlash calibration (kinid.reports.html)."""
+    from kinid.reports.html import Figure, Section, Table, file_provenance, now_utc
+    from kinid.reports.html import write_report as write_pages
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -90,7 +90,7 @@ def plot_result(res, path, *, truth=None, after=None) -> None:
     after : BacklashResult or None
         The same plan run again through the compensation: its gaps are drawn as "after".
     """
-    from kinid.figures import SHOWN_WIDTH_IN, new_figure, save_figure
+    from kinid.reports.figures import SHOWN_WIDTH_IN, new_figure, save_figure
 
     fig = new_figure((SHOWN_WIDTH_IN, 3.9))
     ax0, ax1, ax2 = fig.subplots(1, 3)

@@ -34,7 +34,7 @@ def plot_contour(measurement, out_png, *, magnification=None):
         Circles only: the deviation, µm, drawn as 0.4 of the plot radius
         (default: the largest absolute deviation).
     """
-    from kinid.figures import SHOWN_WIDTH_IN, new_figure, save_figure
+    from kinid.reports.figures import SHOWN_WIDTH_IN, new_figure, save_figure
 
     from .paths import CirclePath
 
@@ -98,11 +98,11 @@ def plot_contour(measurement, out_png, *, magnification=None):
 
 
 def write_report(m, args, *, frames, board, scale, simulated=False) -> None:
-    """The HTML report of a contour measurement (kinid.report_html)."""
+    """The HTML report of a contour measurement (kinid.reports.html)."""
     from pathlib import Path
 
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc
-    from kinid.report_html import write_report as write_pages
+    from kinid.reports.html import Figure, Section, Table, file_provenance, now_utc
+    from kinid.reports.html import write_report as write_pages
     from .report import plot_contour
 
     folder = Path(args.report)
@@ -135,7 +135,7 @@ def write_report(m, args, *, frames, board, scale, simulated=False) -> None:
 def _conditions(m, args, simulated):
     """What ISO 230-4 asks a circular test report to state, as far as the run knows it; the rest named as
     to be stated by whoever ran the test."""
-    from kinid.report_html import Table
+    from kinid.reports.html import Table
 
     tr, c = m.track, m.circular
     n = len(tr.located)

@@ -11,7 +11,7 @@ __all__ = ["plot_simulation", "simulation_text", "write_measured_report", "write
 
 def plot_simulation(path, result) -> None:
     """The simulated gantry before and after compensation: plate offsets and what is left, per head axis."""
-    from kinid.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
+    from kinid.reports.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
 
     g, table, smooth = result["gantry"], result["table"], result["smooth"]
     y0 = float(table.y_mm[0])
@@ -83,7 +83,7 @@ def write_simulated_report(args, result) -> None:
     the rounds, and the table and the smooth model checked at held-out positions against the simulated truth."""
     from pathlib import Path
 
-    from kinid.report_html import Figure, Section, Table, now_utc, write_report
+    from kinid.reports.html import Figure, Section, Table, now_utc, write_report
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -125,10 +125,10 @@ def write_simulated_report(args, result) -> None:
 
 
 def write_measured_report(args, table, smooth) -> None:
-    """The HTML report of one measured round (kinid.report_html)."""
+    """The HTML report of one measured round (kinid.reports.html)."""
     from pathlib import Path
 
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, write_report
+    from kinid.reports.html import Figure, Section, Table, file_provenance, now_utc, write_report
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -153,7 +153,7 @@ def write_measured_report(args, table, smooth) -> None:
 
 
 def plot_measured(path, table, smooth) -> None:
-    from kinid.figures import SHOWN_WIDTH_IN, new_figure, save_figure
+    from kinid.reports.figures import SHOWN_WIDTH_IN, new_figure, save_figure
 
     fig = new_figure((SHOWN_WIDTH_IN, 3.8))
     ax0, ax1 = fig.subplots(1, 2)

@@ -145,7 +145,7 @@ def plot_demo(result: dict, path) -> None:
     model can represent) against position modulo the lead; the residual of
     the full model against the same.
     """
-    from kinid.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
+    from kinid.reports.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
 
     arrays = result["_arrays"]
     fig = new_figure((SHOWN_WIDTH_IN, 3.6))

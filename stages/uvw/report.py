@@ -21,12 +21,12 @@ def quantity(name: str, value: float, std: float, truth: str = "") -> str:
 
 
 def write_measured_report(models, args) -> None:
-    """The HTML report of the actuator models (kinid.report_html)."""
+    """The HTML report of the actuator models (kinid.reports.html)."""
     from pathlib import Path
 
     import numpy as np
 
-    from kinid.report_html import Figure, Section, Table, file_provenance, now_utc, write_report
+    from kinid.reports.html import Figure, Section, Table, file_provenance, now_utc, write_report
 
     folder = Path(args.report)
     folder.mkdir(parents=True, exist_ok=True)
@@ -58,7 +58,7 @@ def write_simulated_report(result: dict, args) -> None:
     the simulated truth, and the patent's method and the model on the same random alignment moves."""
     from pathlib import Path
 
-    from kinid.report_html import Figure, Section, Table, now_utc, write_report
+    from kinid.reports.html import Figure, Section, Table, now_utc, write_report
 
     from .demo import plot_demo
 
@@ -136,7 +136,7 @@ def plot_measured(models, path) -> None:
     """Measured error against command per actuator with the model (both directions), and the residuals."""
     import numpy as np
 
-    from kinid.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
+    from kinid.reports.figures import SHOWN_WIDTH_IN, legend_below, new_figure, save_figure
 
     fig = new_figure((SHOWN_WIDTH_IN, 6.4))
     axes = fig.subplots(2, len(models), squeeze=False)
