@@ -31,11 +31,9 @@ import numpy as np
 
 from kinid.axis_tables import AxisErrorTable, TableOptions, controller_format, default_formats, neutral_csv_text
 from kinid.errors import DataError
-from ..model import basis_of
-from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
-from ..model import basis_values
+from ..model import axis_limits, basis_of, basis_values
 from ..fitting import FitResult
-from ..model import axis_limits
+from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
 __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axis_error_columns",

@@ -22,13 +22,10 @@ import math
 
 from kinid.stats import chi2_sf, f_logsf
 
-from ..diagnosis import Diagnosis, diagnose
-from ..model import default_model
-from ..fitting import FitResult, fit
-from ..model import evaluate
-from ..fitting import Noise
+from ..model import default_model, evaluate
 from ..data import Observations
-from ..fitting import design, joint_values
+from ..fitting import FitResult, Noise, design, fit, joint_values
+from ..diagnosis import Diagnosis, diagnose
 
 __all__ = ["Verification", "verify", "setup_effects", "ALPHA"]
 

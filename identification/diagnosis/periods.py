@@ -40,8 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Machine
-from ..data import Observations
-from ..data import distinct_positions, position_starts
+from ..data import Observations, distinct_positions, position_starts
 
 __all__ = ["PeriodEstimate", "search_periods", "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "period_name"]
 

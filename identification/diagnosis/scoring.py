@@ -29,12 +29,9 @@ import numpy as np
 from kinid.stats import chi2_logsf, f_logsf
 from kinid.threads import blas_single_threaded
 
-from ..model import basis_of
-from ..fitting import FitResult
-from ..fitting import model_pass
-from ..model import Machine
+from ..model import Machine, basis_of
 from ..data import Observations
-from ..fitting import design, effect_columns
+from ..fitting import FitResult, design, effect_columns, model_pass
 from . import score_sums
 from .score_sums import (EXACT_COLUMNS, Memo, basis_values_once, column_groups, group_sums, model_products,
                          projected_exactly)

@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..data import row_groups
-from ..data import positions_of
+from ..data import positions_of, row_groups
 
 __all__ = ["Structure", "structure_left"]
 

@@ -19,13 +19,12 @@ from kinid.checks import check_positive
 from kinid.errors import DataError
 from kinid.threads import blas_single_threaded
 
-from ..model import check_effects, default_model, model_effects  # noqa: F401 (model_effects re-exported)
-from .identifiability import RANK_TOL, analyse, identifiable_columns, observability
-from .lm_step import lm_step as _lm_step
-from ..model import Machine, check_machine
-from .noise import Noise
+from ..model import Machine, check_effects, check_machine, default_model, model_effects  # noqa: F401 (re-exported)
 from ..data import Observations, check_observations
 from .fit_pass import model_pass_qr
+from .identifiability import RANK_TOL, analyse, identifiable_columns, observability
+from .lm_step import lm_step as _lm_step
+from .noise import Noise
 from .residuals import design, residuals
 
 __all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "FIT_FORMAT"]

@@ -16,12 +16,11 @@ from kinid.errors import DataError, KinidError
 from kinid.files import read_json, write_json
 from kinid.schema import Fields, Flag, Items, Number, Row, Table, Text, validate
 
-from ..model import parse_effect
+from ..model import machine_from_urdf, parse_effect
+from ..data import SetAside
 from .fit import FIT_FORMAT, FitResult
 from .identifiability import Alias
-from ..model import machine_from_urdf
 from .noise import Noise
-from ..data import SetAside
 
 __all__ = ["fit_to_dict", "save_fit", "load_fit", "FIT_SCHEMA"]
 

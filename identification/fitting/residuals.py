@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import basis_values
-from ..model import Machine, evaluate
+from ..model import Machine, basis_values, evaluate
 from ..data import Observations
 
 __all__ = ["Design", "design", "joint_values", "residuals", "effect_columns"]

@@ -14,14 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .alignment import solve_axes
-from ..model import basis_of
-from ..model import parse_effect
 from kinid.errors import DataError
 from kinid.files import read_json
 from kinid.schema import Either, Items, Number, Table, validate
-from ..model import Machine, evaluate, tool_rotation_in_workpiece
+
+from ..model import Machine, basis_of, evaluate, parse_effect, tool_rotation_in_workpiece
 from ..data import Observations, read_observations
+from .alignment import solve_axes
 from .residuals import design, joint_values
 
 __all__ = ["patent_plan", "load_plan", "load_errors", "simulate", "approach_directions", "mark_offsets_mm", "PATENT_MARKS_MM"]

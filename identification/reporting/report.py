@@ -14,8 +14,7 @@ from kinid.errors import DataError
 from kinid.reports.html import Figure, Section, Table, report_folder, write_report
 from ..diagnosis import ALPHA
 from .figures import (plot_binned_residuals, plot_identified_errors, plot_maps, plot_measured_vs_model,
-                             plot_periodogram, plot_residuals_vs_axes, plot_selection, plot_singular_values,
-                             plot_time)
+                      plot_periodogram, plot_residuals_vs_axes, plot_selection, plot_singular_values, plot_time)
 
 __all__ = ["diagnosis_report", "selection_report", "plot_maps", "plot_residuals_vs_axes", "plot_periodogram",
            "plot_singular_values", "plot_selection", "plot_identified_errors", "plot_binned_residuals", "errors_table",
