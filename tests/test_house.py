@@ -287,3 +287,49 @@ def test_a_name_parsed_once_is_refused_once_its_basis_leaves_the_registry():
         BASES.pop("triangle")
     with pytest.raises(Exception, match="expected poly<k>"):
         parse_effect("EXX:triangle:12", m)
+
+
+def test_only_the_basis_registry_switches_on_a_basis_kind():
+    """No module but kinid.identification.model.bases compares anything with a basis kind or an effect name's
+    kind part (``e.basis == "local"``, ``":periodic:" in name``), or keys a table by kinds: what a kind does
+    is a field of its Basis."""
+    kinds = set(BASES)
+    named = [f":{k}" for k in kinds]
+    bases_file = ROOT / "identification" / "model" / "bases.py"
+    bad = []
+    for m, f in _modules().items():
+        if f == bases_file or not m.startswith("kinid.identification"):
+            continue
+        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare):
+                if any(isinstance(c, ast.Name) and c.id == "BASES" for c in node.comparators):
+                    continue  # whether a kind is registered: a question to the registry
+                operands = [node.left, *node.comparators]
+                strings = [c.value for o in operands for c in ast.walk(o)
+                           if isinstance(c, ast.Constant) and isinstance(c.value, str)]
+                attrs = [o.attr for o in operands if isinstance(o, ast.Attribute)]
+                if any(s in kinds or any(n in s for n in named) for s in strings) and (
+                        "basis" in attrs or "kind" not in attrs):
+                    bad.append(f"{m}:{node.lineno}: {ast.unparse(node)}")
+                elif "basis" in attrs:
+                    bad.append(f"{m}:{node.lineno}: {ast.unparse(node)}")
+            elif isinstance(node, ast.Dict):
+                keys = {k.value for k in node.keys if isinstance(k, ast.Constant) and isinstance(k.value, str)}
+                if len(keys & kinds) >= 2:
+                    bad.append(f"{m}:{node.lineno}: a table keyed by basis kinds {sorted(keys & kinds)}")
+    assert not bad, "switches on a basis kind outside the registry:\n" + "\n".join(bad)
+
+
+def test_the_architecture_page_is_drawn_from_the_folders():
+    """docs/architecture.md has one row per sub-package of identification, on its floor, naming every module."""
+    import re
+
+    rows = {}
+    for line in (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8").splitlines():
+        m = re.match(r"\s*\|\s*(\d+)\s*\|\s*`(\w+)`\s*\|(.*)\|\s*$", line)
+        if m:
+            rows[m.group(2)] = (int(m.group(1)), set(re.findall(r"`(\w+)`", m.group(3))))
+    assert {k: v[0] for k, v in rows.items()} == SUB_LAYERS
+    for sub, (_, named) in rows.items():
+        modules = {f.stem for f in (ROOT / "identification" / sub).glob("*.py")} - {"__init__"}
+        assert modules <= named, f"docs/architecture.md's row of {sub} does not name {sorted(modules - named)}"

@@ -16,13 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fitting import solve_axes
-from ..diagnosis import forward_select
-from ..model import default_model
-from ..model import load_machine
+from ..model import chosen_of, default_model, load_machine
 from ..data import write_observations
+from ..fitting import errors_from_mapping, patent_plan, simulate, solve_axes
+from ..diagnosis import forward_select
 from ..reporting import selection_report
-from ..fitting import errors_from_mapping, patent_plan, simulate
 
 __all__ = ["run_demo", "demo_truth", "HIDDEN_EFFECT", "CASES"]
 
@@ -47,7 +45,7 @@ def _same_effect(added: str, hidden: str) -> bool:
     a, h = added.split(":"), hidden.split(":")
     if a[:2] != h[:2]:
         return False
-    if len(h) == 3 and h[1] == "periodic" and len(a) == 3:
+    if chosen_of(hidden) == "period" and len(h) == 3 and len(a) == 3:
         return abs(float(a[2]) - float(h[2])) <= 0.01 * float(h[2])
     return a == h
 

@@ -14,6 +14,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from ..model import basis_of
 from ..fitting import FitResult
 
 __all__ = ["constant_errors", "setup_offsets", "calibrated_urdf", "K_EXPANDED"]
@@ -31,7 +32,7 @@ def constant_errors(result: FitResult, compensated=None) -> list:
     why = dict(compensated.left_out) if compensated is not None else {}
     out, k = [], 0
     for e in result.effects:
-        if e.basis == "constant":
+        if basis_of(e).constant:
             ok = bool(result.identifiable[k])
             std = float(result.std[k]) if ok and np.isfinite(result.std[k]) else None
             row = {"name": e.name, "value": float(result.values[k]) if ok else None, "std": std,

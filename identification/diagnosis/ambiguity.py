@@ -21,8 +21,7 @@ import math
 import numpy as np
 
 from ..model import Machine
-from ..data import Observations
-from ..data import distinct_positions
+from ..data import Observations, distinct_positions
 
 __all__ = ["period_twins", "TWIN_DELTA", "TWIN_PERIODS"]
 
@@ -43,7 +42,7 @@ def period_twins(machine: Machine, obs: Observations, result, effect: str, sigma
     from .scoring import score_candidates
 
     e = parse_effect(effect, machine)
-    if basis_of(e).kind != "periodic":
+    if basis_of(e).chosen != "period":
         return ()
     joint = machine.error_joint(e.code)
     period = float(effect.split(":")[2])

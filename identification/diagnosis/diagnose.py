@@ -28,14 +28,12 @@ from kinid.checks import check_positive
 from kinid.stats import chi2_isf, chi2_sf
 from kinid.threads import blas_single_threaded
 
-from ..model import check_effects
-from ..fitting import FitResult, fit
-from ..fitting import axis_residuals, hat_diagonal, model_pass, noise_from_replicates, studentized
-from ..model import Machine, check_machine
-from ..fitting import Noise, resolve_noise
+from ..model import (Machine, check_effects, check_machine, chosen_of, implausible_candidate, share_of_limit,
+                     warning_lines)
 from ..data import Observations, check_observations
+from ..fitting import (FitResult, Noise, axis_residuals, fit, hat_diagonal, model_pass, noise_from_replicates,
+                       resolve_noise, studentized)
 from .local_errors import proposed_maps
-from ..model import implausible_candidate, share_of_limit, warning_lines
 from .scoring import Candidate, _f_log10_p, fit_side
 from .searched import score_all
 from .structure import structure_left
@@ -482,7 +480,7 @@ def _undetermined(machine, obs, result, best, sigma, d_errors, q0, side=None):
     from ..data import distinct_positions
 
     parts = best.effect.split(":")
-    if len(parts) < 3 or parts[1] != "periodic":
+    if chosen_of(best.effect) != "period":
         return "", ()
     twins = period_twins(machine, obs, result, best.effect, sigma, d_errors=d_errors, q0=q0, side=side)
     if not twins:

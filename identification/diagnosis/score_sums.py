@@ -75,15 +75,16 @@ def column_groups(machine, obs, candidates, memo: Memo) -> list:
     (each window's columns a subset of the grid's B-splines, computed once), every other candidate with the
     other candidates of its joint (each basis's values over a chunk of alignments computed once in ``memo``, for
     all the joints of its axis)."""
-    from ..model import local_column_index, local_columns, local_grid
+    from ..model import local_column_index, local_columns
 
     codes = machine.error_codes
     n = len(obs)
     plain, grids = {}, {}
     for i, e in enumerate(candidates):
         j = codes.index(e.code)
-        if e.basis == "local":
-            grids.setdefault((j, e.axis, local_grid(e)), []).append((i, e))
+        grid = basis_of(e).window_grid
+        if grid is not None:
+            grids.setdefault((j, e.axis, grid(e)), []).append((i, e))
         else:
             plain.setdefault(j, []).append((i, e))
 

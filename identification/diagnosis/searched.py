@@ -8,11 +8,9 @@ import math
 
 import numpy as np
 
-from ..model import candidate_library
-from ..fitting import FitResult
-from ..fitting import model_pass
-from ..model import Machine
+from ..model import Machine, candidate_library, chosen_of
 from ..data import Observations
+from ..fitting import FitResult, model_pass
 from .periods import bounded_minimum
 from .scoring import score_candidates
 
@@ -49,7 +47,7 @@ def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side
     # extra parameter gains by chance (χ²₁ at 0.001), else the listed period is the simpler account
     listed_best = {}
     for c in scored:
-        if c.status == "live" and ":periodic:" in c.effect:
+        if c.status == "live" and chosen_of(c.effect) == "period":
             code = c.effect.split(":")[0]
             listed_best[code] = max(listed_best.get(code, 0.0), c.statistic)
     out = []
@@ -100,7 +98,7 @@ def found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q
         return []
     listed = {}
     for c in scored:
-        if c.status == "live" and ":warmup:" in c.effect:
+        if c.status == "live" and chosen_of(c.effect) == "time constant":
             code = c.effect.split(":")[0]
             if code not in listed or c.statistic > listed[code].statistic:
                 listed[code] = c
@@ -155,8 +153,8 @@ def refined_time_constant(machine: Machine, obs: Observations, result: FitResult
     from ..model import parse_effect
     from .scoring import fit_side
 
-    code, kind, tau = (name.split(":") + ["", ""])[:3]
-    if kind != "warmup" or obs.t_s is None:
+    code, _, tau = (name.split(":") + ["", ""])[:3]
+    if chosen_of(name) != "time constant" or obs.t_s is None:
         return name
     d_errors, _, q0 = model_pass(machine, obs, result, d_errors)
     side = fit_side(machine, obs, result, sigma, d_errors, q0)  # one for the thirty-odd τ scored

@@ -10,12 +10,10 @@ from kinid.checks import check_positive
 from kinid.progress import as_progress
 from kinid.threads import blas_single_threaded
 
-from .diagnose import ALPHA, Diagnosis, diagnose, passed_over
-from ..model import check_effects
-from ..fitting import FitResult
-from ..model import Machine, check_machine
+from ..model import Machine, check_effects, check_machine, chosen_of, implausible_effects
 from ..data import Observations, check_observations
-from ..model import implausible_effects
+from ..fitting import FitResult
+from .diagnose import ALPHA, Diagnosis, diagnose, passed_over
 
 __all__ = ["SelectionStep", "forward_select", "what_is_left"]
 
@@ -292,7 +290,7 @@ def _chosen_again(machine, obs, name: str, result, start: str | None = None, sig
     the turn's candidate. ``result``: the fit of the model on all of ``obs``; ``start``: the
     candidate the diagnosis proposed, where ``name`` is it refined (a warm-up's time constant); ``sigma`` the
     noise σ, µm."""
-    make = CHOOSERS.get((name.split(":") + [""])[1])
+    make = CHOOSERS.get(chosen_of(name))
     return None if make is None else make(machine, obs, name, result, start or name, sigma)
 
 
@@ -344,7 +342,7 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
 
 #: How the held-out check's turns choose again what the data chose, by the kind of candidate (the choice's name
 #: and the gain it must bring: :data:`~kinid.identification.fitting.crossval.CHOSEN_AGAIN`).
-CHOOSERS = {"periodic": _period_again, "local": _window_again, "warmup": _time_constant_again}
+CHOOSERS = {"period": _period_again, "window": _window_again, "time constant": _time_constant_again}
 
 
 def _first_determined(dg):

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import basis_of
+
 __all__ = ["PRIOR_UM", "PRIOR_URAD", "SCALES", "PriorChoice", "prior_std", "choose_prior", "HeldOutCheck", "held_out_check"]
 
 #: Default size of a location error along an axis (µm) and about one (µrad): a machine or robot built to drawing.
@@ -57,7 +59,7 @@ def prior_std(machine, effects, scale: float = 1.0, prior_um: float = PRIOR_UM, 
     out = []
     for e in effects:
         joint = machine.error_joint(e.code)
-        constant = e.basis == "constant" and joint.axis not in ("W", "T")
+        constant = basis_of(e).constant and joint.axis not in ("W", "T")
         size = (prior_um if e.unit == "um" else prior_urad) * scale
         out += [size if constant else np.inf] * e.n_params
     return np.array(out, float)

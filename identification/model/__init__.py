@@ -7,7 +7,7 @@ from kinid.lazy import front_door as _front_door
 
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
-    "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases",
+    "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "chosen_of": "bases",
     "local_column_index": "bsplines", "local_columns": "bsplines", "local_grid": "bsplines",
     "axis_dependent_joints": "effects", "basis_values": "effects", "candidate_library": "effects",
     "check_effects": "effects", "default_model": "effects", "model_effects": "effects",
@@ -22,9 +22,10 @@ _SOURCES = {
 
 __all__ = ["LINEAR_PERIODS_MM", "Machine", "ROTARY_PERIODS_DEG", "axis_dependent_joints", "axis_directions",
            "axis_limits", "basis_of", "basis_values", "candidate_library", "check_effects", "check_machine",
-           "default_model", "effect_description", "evaluate", "identification_urdf", "implausible_candidate",
-           "implausible_effects", "joint_kind", "load_machine", "local_column_index", "local_columns",
-           "local_grid", "machine_from_urdf", "model_effects", "parse_effect", "plain_name", "position_tables",
-           "share_of_limit", "tool_in_workpiece_mm", "tool_rotation_in_workpiece", "warning_lines"]
+           "chosen_of", "default_model", "effect_description", "evaluate", "identification_urdf",
+           "implausible_candidate", "implausible_effects", "joint_kind", "load_machine", "local_column_index",
+           "local_columns", "local_grid", "machine_from_urdf", "model_effects", "parse_effect", "plain_name",
+           "position_tables", "share_of_limit", "tool_in_workpiece_mm", "tool_rotation_in_workpiece",
+           "warning_lines"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

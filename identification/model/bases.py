@@ -34,10 +34,11 @@ import numpy as np
 
 from kinid.errors import DataError
 
-from .bsplines import _bsplines
+from .bsplines import _bsplines, local_grid
 
 __all__ = ["Basis", "BasisInput", "BASES", "register_basis", "basis_of", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG",
-           "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name"]
+           "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name",
+           "DRIFT_HORIZON_S", "basis_of_name", "chosen_of"]
 
 #: Periods the diagnosis tries on every position-dependent joint (mm for linear, deg for rotary axes).
 LINEAR_PERIODS_MM = (2, 4, 5, 8, 10, 16, 20)
@@ -84,8 +85,16 @@ def _last_size(effect, beta, cov):
     return float(beta[-1]), float(np.sqrt(max(cov[-1, -1], 0.0)))
 
 
-def _no_candidates(joint, axis_kind, *, varying, has_directions, has_time):
+def _no_candidates(joint, axis_kind, *, varying, has_directions, has_time, **_):
     return []
+
+
+def _largest_value(effect, theta) -> float:
+    return float(np.max(np.abs(theta))) if np.size(theta) else 0.0
+
+
+#: Drift sizes are judged over this time, s.
+DRIFT_HORIZON_S = 3600.0
 
 
 @dataclass(frozen=True)
@@ -119,12 +128,22 @@ class Basis:
         How the effect varies, in words.
     size : callable (effect, beta, cov) -> (value, std)
         One number for a candidate's size (the amplitude of a periodic term, the peak of a map …).
-    candidates : callable (joint, axis_kind, varying=, has_directions=, has_time=) -> list of str
-        Effect names of this kind the diagnosis tries on ``joint``.
+    candidates : callable (joint, axis_kind, varying=, has_directions=, has_time=, linear_axes=, **) -> list of str
+        Effect names of this kind the diagnosis tries on ``joint`` (``linear_axes``: the names of the machine's
+        linear axes; further keywords may come, so accept ``**_``).
     note : callable (effect, beta, axis_unit) -> str, or None
         A sentence for a scored candidate (where a map's error is).
     knots_plot : bool
         Reports plot its identified values at knots (maps) rather than as a curve only.
+    chosen : str
+        What of the name the diagnosis chooses from the data among many (``period``, ``window``, ``time
+        constant``), which the held-out check chooses again on each turn's training blocks; empty for none.
+    window_grid : callable (effect) -> tuple, or None
+        The grid of B-splines the effect's columns are a window of (local errors): the score test computes
+        the grid's columns once for every window on it.
+    extent : callable (effect, theta) -> float
+        The largest value the effect reaches (its size judged against what a machine can have); a drift,
+        per second, over :data:`DRIFT_HORIZON_S`.
     """
 
     kind: str
@@ -141,11 +160,19 @@ class Basis:
     candidates: Callable = _no_candidates
     note: Callable | None = None
     knots_plot: bool = False
+    chosen: str = ""
+    window_grid: Callable | None = None
+    extent: Callable = _largest_value
 
     @property
     def tabulated(self) -> bool:
         """A compensation table over the axis holds it (driven by the axis's position or direction)."""
         return self.driver in ("position", "direction")
+
+    @property
+    def constant(self) -> bool:
+        """Does not vary: one value (a location error, a set-up)."""
+        return self.driver == "none"
 
     @property
     def positional(self) -> bool:
@@ -166,6 +193,23 @@ def register_basis(basis: Basis) -> Basis:
                         parameter="driver")
     BASES[basis.kind] = basis
     return basis
+
+
+def basis_of_name(name: str):
+    """The registered basis an effect name is written with (``EXX:periodic:10`` -> periodic; a bare code ->
+    constant), without parsing it against a machine; None for a name no basis reads."""
+    rest = name.strip().partition(":")[2]
+    for basis in BASES.values():
+        if (basis.grammar is None and not rest) or (basis.grammar is not None and rest
+                                                     and re.fullmatch(basis.grammar, rest)):
+            return basis
+    return None
+
+
+def chosen_of(name: str) -> str:
+    """What of effect ``name`` the diagnosis chose from the data among many (:attr:`Basis.chosen`), or ``""``."""
+    basis = basis_of_name(name)
+    return basis.chosen if basis is not None else ""
 
 
 def basis_of(effect) -> Basis:
@@ -196,7 +240,7 @@ register_basis(Basis(
     n_params=_one, param_names=_own_name, param_units=_unit,
     values=lambda e, q, t, s: np.ones((_rows(q, t, s), 1)),
     describe=lambda e, u: "constant",
-    candidates=lambda j, kind, *, varying, has_directions, has_time: [j.code] if j.location else []))
+    candidates=lambda j, kind, *, varying, has_directions, has_time, **_: [j.code] if j.location else []))
 
 
 def _rows(*arrays) -> int:
@@ -217,7 +261,7 @@ register_basis(Basis(
                                  for j in range(1, e.degree + 1)],
     values=lambda e, q, t, s: np.stack([q ** j for j in range(1, e.degree + 1)], axis=1),
     describe=lambda e, u: f"polynomial of degree {e.degree} in {e.axis}",
-    candidates=lambda j, kind, *, varying, has_directions, has_time:
+    candidates=lambda j, kind, *, varying, has_directions, has_time, **_:
         [f"{j.code}:poly{k}" for k in (1, 2, 3)] if varying else []))
 
 
@@ -255,8 +299,8 @@ register_basis(Basis(
     kind="periodic", grammar=rf"periodic:(?P<period>{NUMBER})", syntax="periodic:<P>", driver="position",
     parse=_parse_period, n_params=lambda e: 2, param_names=lambda e: [f"{e.name}[sin]", f"{e.name}[cos]"],
     param_units=lambda e, u, q: [u, u], values=_periodic_values,
-    describe=lambda e, u: f"periodic in {e.axis}, period {e.period:g}{u}", size=_amplitude,
-    candidates=lambda j, kind, *, varying, has_directions, has_time:
+    describe=lambda e, u: f"periodic in {e.axis}, period {e.period:g}{u}", size=_amplitude, chosen="period",
+    candidates=lambda j, kind, *, varying, has_directions, has_time, **_:
         [f"{j.code}:periodic:{p}" for p in (LINEAR_PERIODS_MM if kind == "prismatic" else ROTARY_PERIODS_DEG)]
         if varying else []))
 
@@ -268,7 +312,7 @@ register_basis(Basis(
     n_params=_one, param_names=_own_name, param_units=_unit,
     values=lambda e, q, t, s: (np.asarray(s, float) / 2.0).reshape(-1, 1),
     describe=lambda e, u: f"reversal with the approach direction of {e.axis}",
-    candidates=lambda j, kind, *, varying, has_directions, has_time:
+    candidates=lambda j, kind, *, varying, has_directions, has_time, **_:
         [f"{j.code}:reversal"] if varying and has_directions else []))
 
 register_basis(Basis(
@@ -276,29 +320,11 @@ register_basis(Basis(
     n_params=_one, param_names=_own_name, param_units=lambda e, u, q: [f"{u}/s"],
     values=lambda e, q, t, s: np.asarray(t, float).reshape(-1, 1),
     describe=lambda e, u: "drift with time",
-    candidates=lambda j, kind, *, varying, has_directions, has_time: [f"{j.code}:drift"] if has_time else []))
+    extent=lambda e, theta: _largest_value(e, theta) * DRIFT_HORIZON_S,
+    candidates=lambda j, kind, *, varying, has_directions, has_time, **_: [f"{j.code}:drift"] if has_time else []))
 
 
-# --- errors of one axis that vary with another axis's position -----------------------------------
-
-def _parse_cross(m, ctx: BasisInput) -> dict:
-    other = m.group("other")
-    if other not in ctx.machine.axis_names:
-        raise ctx.fail(f"{other!r} is not an axis of this machine; axes: {', '.join(ctx.machine.axis_names)}")
-    if other == ctx.axis:
-        raise ctx.fail(f"the other axis must differ from the joint's own axis {ctx.axis}; use poly<k> for that")
-    return {"args": (other,)}
-
-
-register_basis(Basis(
-    kind="with", grammar=r"with:(?P<other>[A-Za-z][A-Za-z0-9]*)", syntax="with:<other axis>", driver="positions",
-    parse=_parse_cross, n_params=lambda e: 2,
-    param_names=lambda e: [f"{e.name}[{e.args[0]}]", f"{e.name}[{e.axis}·{e.args[0]}]"],
-    param_units=lambda e, u, q: [f"{u}/mm", f"{u}/mm²"],
-    values=lambda e, q, t, s: np.stack([q[:, 1], q[:, 0] * q[:, 1]], axis=1),
-    describe=lambda e, u: (f"varies with the position of {e.args[0]}, and its slope along {e.axis} too "
-                           f"(a thermal gradient, a twist)")))
-
+# --- warm-up ------------------------------------------------------------------------------------
 
 #: Time constants (s) of the warm-up candidates: a log grid a factor 3 apart (a fit at the nearest
 #: one keeps ≥ 90 % of a first-order growth of any τ between them over a run of a few τ).
@@ -314,10 +340,11 @@ def _parse_tau(m, ctx):
 
 register_basis(Basis(
     kind="warmup", grammar=rf"warmup:(?P<tau>{NUMBER})", syntax="warmup:<tau_s>", driver="time", parse=_parse_tau,
+    chosen="time constant",
     n_params=_one, param_names=_own_name, param_units=_unit,
     values=lambda e, q, t, s: (1.0 - np.exp(-np.maximum(np.asarray(t, float), 0.0) / e.args[0])).reshape(-1, 1),
     describe=lambda e, u: f"thermal growth levelling off, A·(1 − e^(−t/τ)) with τ = {e.args[0]:g} s from t = 0",
-    candidates=lambda j, kind, *, varying, has_directions, has_time:
+    candidates=lambda j, kind, *, varying, has_directions, has_time, **_:
         [f"{j.code}:warmup:{tau}" for tau in WARMUP_TAUS_S] if has_time and j.location else []))
 
 
@@ -408,7 +435,32 @@ register_basis(Basis(
     param_units=lambda e, u, q: [u] * (len(e.knots) - 4), values=_local_values,
     describe=lambda e, u: (f"local error of {e.axis} between {e.knots[0]:g} and {e.knots[-1]:g}{u}, knots every "
                            f"{e.knots[1] - e.knots[0]:g}{u}"),
-    size=_peak, note=_where_note(lambda e: e.knots[2:-2])))
+    size=_peak, note=_where_note(lambda e: e.knots[2:-2]), chosen="window", window_grid=local_grid))
+
+
+# --- errors of one axis that vary with another axis's position (the last candidates listed) ---
+
+def _parse_cross(m, ctx: BasisInput) -> dict:
+    other = m.group("other")
+    if other not in ctx.machine.axis_names:
+        raise ctx.fail(f"{other!r} is not an axis of this machine; axes: {', '.join(ctx.machine.axis_names)}")
+    if other == ctx.axis:
+        raise ctx.fail(f"the other axis must differ from the joint's own axis {ctx.axis}; use poly<k> for that")
+    return {"args": (other,)}
+
+
+register_basis(Basis(
+    kind="with", grammar=r"with:(?P<other>[A-Za-z][A-Za-z0-9]*)", syntax="with:<other axis>", driver="positions",
+    parse=_parse_cross, n_params=lambda e: 2,
+    param_names=lambda e: [f"{e.name}[{e.args[0]}]", f"{e.name}[{e.axis}·{e.args[0]}]"],
+    param_units=lambda e, u, q: [f"{u}/mm", f"{u}/mm²"],
+    values=lambda e, q, t, s: np.stack([q[:, 1], q[:, 0] * q[:, 1]], axis=1),
+    describe=lambda e, u: (f"varies with the position of {e.args[0]}, and its slope along {e.axis} too "
+                           f"(a thermal gradient, a twist)"),
+    # a translation error of a linear axis that varies with another linear axis's position
+    candidates=lambda j, kind, *, varying, linear_axes=(), **_:
+        [f"{j.code}:with:{b}" for b in linear_axes if b != j.axis]
+        if varying and kind == "prismatic" and not j.location and j.kind == "prismatic" else []))
 
 
 def parse_name(name: str, joint, machine, source: str) -> tuple:

@@ -146,10 +146,7 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
         kind = machine.axis(j.axis).kind if j.code in varying else ""
         for basis in BASES.values():
             out += basis.candidates(j, kind, varying=j.code in varying, has_directions=has_directions,
-                                    has_time=has_time)
-        # a translation error of a linear axis that varies with another linear axis's position
-        if "with" in BASES and j.code in varying and kind == "prismatic" and not j.location and j.kind == "prismatic":
-            out += [f"{j.code}:with:{b}" for b in linear if b != j.axis]
+                                    has_time=has_time, linear_axes=linear)
     out += position_tables(machine, positions or {})
     return [parse_effect(n, machine) for n in out if n not in have]
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .bases import basis_of
+from .bases import DRIFT_HORIZON_S, basis_of
 from .effects import basis_values, parse_effect
 
 __all__ = ["Implausible", "implausible_effects", "implausible_candidate", "warning_lines", "machine_limit",
@@ -41,8 +41,6 @@ __all__ = ["Implausible", "implausible_effects", "implausible_candidate", "warni
 LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
 #: A constant beyond this many of its prior's standard deviations is flagged.
 PRIOR_MULTIPLE = 5.0
-#: Drift sizes are judged over this time, s.
-DRIFT_HORIZON_S = 3600.0
 
 
 @dataclass(frozen=True)
@@ -128,9 +126,7 @@ def _size(effect, theta, machine, axis_ranges) -> float:
         axes[:, machine.axis_names.index(effect.axis)] = q
         dirs = {effect.axis: np.where(np.arange(q.size) % 2 == 0, 1.0, -1.0)}
         return float(np.max(np.abs(basis_values(effect, machine, axes, directions=dirs) @ theta)))
-    if basis.kind == "drift":
-        return float(np.max(np.abs(theta))) * DRIFT_HORIZON_S
-    return float(np.max(np.abs(theta))) if theta.size else 0.0
+    return basis.extent(effect, theta)
 
 
 def implausible_effects(result, names=None) -> tuple:
