@@ -122,5 +122,29 @@ def read_untrusted_bytes(path, *, what: str, max_bytes: int, error=None, missing
     return b"".join(chunks)
 
 
+def read_limited_text(path, *, what: str, max_bytes: int, error=None) -> str:
+    """The UTF-8 text of a file of at most ``max_bytes``; every problem one ``error`` naming the file.
+
+    The file is opened by :func:`read_untrusted_bytes`: a FIFO, a device, a socket, a folder or a name
+    with a control character is refused before anything is read.
+
+    Parameters
+    ----------
+    what : str
+        What the file is, for messages ("CSV file", "machine file").
+    error : type, optional
+        The KinidError subclass to raise (default DataError).
+    """
+    from .errors import DataError
+
+    error = error or DataError
+    raw = read_untrusted_bytes(path, what=what, max_bytes=max_bytes, error=error)
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} is not UTF-8 text (byte {exc.start})", path=shown_path(path),
+                    line=raw[:exc.start].count(b"\n") + 1) from None
+
+
 def _article(what: str) -> str:
     return "an" if what[:1].lower() in "aeiou" else "a"

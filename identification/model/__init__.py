@@ -17,9 +17,10 @@ _SOURCES = {
     "axis_directions": "names", "effect_description": "names", "plain_name": "names",
     "implausible_candidate": "plausibility", "implausible_effects": "plausibility",
     "share_of_limit": "plausibility", "warning_lines": "plausibility", "identification_urdf": "urdf_import",
+    "MAX_URDF_BYTES": "urdf_checks",
 }
 
-__all__ = ["LINEAR_PERIODS_MM", "Machine", "ROTARY_PERIODS_DEG", "axis_dependent_joints", "axis_directions",
+__all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG", "axis_dependent_joints", "axis_directions",
            "axis_limits", "basis_of", "basis_values", "candidate_library", "check_effects", "check_machine",
            "default_model", "effect_description", "evaluate", "identification_urdf", "implausible_candidate",
            "implausible_effects", "load_machine", "local_column_index", "local_columns", "local_grid",
