@@ -89,9 +89,67 @@ MODEL_CASES = [
     ("no root link", lambda d: _model(d, "noroot.urdf", "<robot name='r'/>"), r"noroot\.urdf: .*(no root link|no link)"),
 ]
 
+HOLE = "role,x_mm,y_mm,z_mm,b_deg,c_deg\n" + "".join(f"camera,{c},0,0,0,0\nlaser,{c + 518},0,0,0,0\n" for c in (0, 0.001, 0.002))
+PLAN = ["plan", "--machine", "m.urdf", "--out", "p.csv"]
 
-@pytest.mark.parametrize("name, argv, expected", JSON_CASES + MODEL_CASES,
-                         ids=[c[0] for c in JSON_CASES + MODEL_CASES])
+NUMBER_CASES = [
+    ("identify σ 1e-300 µm", lambda d: ["identify", "--machine", "m.urdf", "--data", "obs.csv", "--noise-um", "1e-300",
+                                        "--out", "f.json"], r"--noise-um must be a number in \[0\.0001, 100000\] \(σ in µm\), got 1e-300"),
+    ("diagnose σ 1e300 µm", lambda d: ["diagnose", "--fit", "fit.json", "--data", "obs.csv", "--noise-um", "1e300"],
+     r"--noise-um must be a number in \[0\.0001, 100000\] \(σ in µm\)"),
+    ("sensor σ 1e300 mm", lambda d: ["sensor", "--machine", "m.urdf", "--hole", _text(d, "hole.csv", HOLE), "--sigma-mm", "1e300",
+                                     "--out", "s.json"], r"--sigma-mm must be a number in \[1e-07, 100\] \(σ in mm\), got 1e\+300"),
+    ("sensor stand-off 1e-30 mm", lambda d: ["sensor", "--machine", "m.urdf", "--sphere", _text(d, "hole.csv", HOLE),
+                                             "--standoff-mm", "1e-30", "--out", "s.json"], r"--standoff-mm must be a number in \[0\.0001, 100000\]"),
+    ("plan σ 1e300 µm", lambda d: PLAN + ["--noise-um", "1e300"], r"--noise-um must be a number in \[0\.0001, 100000\]"),
+    ("plan alignment 1e308 s", lambda d: PLAN + ["--align-s", "1e308"], r"--align-s must be a number in \[0, 1e\+06\] \(time in s\)"),
+    ("plan speed 1e-300", lambda d: PLAN + ["--speed-mm-s", "1e-300"], r"--speed-mm-s must be a number in \[0\.001, 1e\+06\]"),
+    ("compensate step 1e-9 mm", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--step-mm", "1e-9"],
+     r"--step-mm must be a number in \[0\.001, 10000\] \(step in mm\), got 1e-09"),
+]
+
+PROMISE_CASES = [
+    ("sensor laser 518 mm away", lambda d: ["sensor", "--machine", "m.urdf", "--hole", _text(d, "hole.csv", HOLE), "--out", "s.json"],
+     r"hole\.csv: the readings put the laser 518 mm from the camera's axis, more than 200 mm: not on the same tool"),
+    ("axis number superscript", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--axis-number", "X=²"],
+     r"--axis-number takes AXIS=N with N a whole number from 1 to 64, got 'X=²'"),
+    ("axis number of 23 digits", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--axis-number",
+                                            "X=99999999999999999999999"], r"--axis-number takes AXIS=N with N a whole number from 1 to 64"),
+    ("axis number 65", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--axis-number", "X=65"],
+     r"from 1 to 64, got 'X=65'"),
+    ("two axes one number", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--axis-number", "X=3", "C=3"],
+     r"--axis-number gives axes 'X' and 'C' the same number 3"),
+    ("plan grid counted before it is built", lambda d: PLAN + ["--marks-mm", "0", "0", "0"] + [
+        f"--range={a}=-{h}:{h}:{2 * h / 9999}" for a, h in (("X", 100), ("Y", 100), ("B", 30), ("C", 180))] + ["--solve", "Z"],
+     r"--range .*candidate alignments; at most 200,000"),
+]
+
+
+
+def _rows(d, n):
+    lines = (d / "obs.csv").read_text(encoding="utf-8").splitlines()
+    return _text(d, f"rows{n}.csv", "\n".join(lines[:n + 1]) + "\n")
+
+
+ROW_CASES = [
+    ("identify one row, σ from residuals", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 1), "--out", "f.json"],
+     r"rows1\.csv: 1 observation row\(s\); a fit needs at least 2"),
+    ("identify one row, σ given", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 1), "--noise-um", "1", "--out", "f.json"],
+     r"rows1\.csv: 1 observation row\(s\); a fit needs at least 2"),
+    ("identify one row with a prior", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 1), "--prior", "--out", "f.json"],
+     r"rows1\.csv: 1 observation row\(s\); a fit needs at least 2"),
+    ("verify two rows", lambda d: ["verify", "--fit", "fit.json", "--data", _rows(d, 2)],
+     r"rows2\.csv: 2 observation row\(s\); a verification needs at least 3"),
+    ("diagnose three rows", lambda d: ["diagnose", "--fit", "fit.json", "--data", _rows(d, 3)],
+     r"rows3\.csv: 3 observation row\(s\); a diagnosis needs at least 4"),
+    ("auto three rows", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 3), "--auto", "--out", "f.json"],
+     r"rows3\.csv: 3 observation row\(s\); a diagnosis needs at least 4"),
+]
+
+ALL = JSON_CASES + MODEL_CASES + NUMBER_CASES + ROW_CASES + PROMISE_CASES
+
+
+@pytest.mark.parametrize("name, argv, expected", ALL, ids=[c[0] for c in ALL])
 def test_bad_input_at_the_door(workdir, capsys, monkeypatch, name, argv, expected):  # noqa: F811
     refused_in(workdir, capsys, monkeypatch, name, argv, expected)
 
