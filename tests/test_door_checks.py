@@ -104,6 +104,9 @@ NUMBER_CASES = [
     ("plan σ 1e300 µm", lambda d: PLAN + ["--noise-um", "1e300"], r"--noise-um must be a number in \[0\.0001, 100000\]"),
     ("plan alignment 1e308 s", lambda d: PLAN + ["--align-s", "1e308"], r"--align-s must be a number in \[0, 1e\+06\] \(time in s\)"),
     ("plan speed 1e-300", lambda d: PLAN + ["--speed-mm-s", "1e-300"], r"--speed-mm-s must be a number in \[0\.001, 1e\+06\]"),
+    ("iso230-2 deviation 1e155 µm", lambda d: ["iso230-2", _text(d, "runs.csv", "target_mm,run,direction,deviation_um\n" + "".join(
+        f"{t},{r},{s},{1e155 if (t, r, s) == (10, 2, -1) else 1.5}\n" for t in (0, 10) for r in (1, 2) for s in (1, -1))), "--json"],
+     r"runs\.csv:\d+, column 'deviation_um': a deviation of 1e\+155 µm is beyond 1e\+06 µm"),
     ("compensate step 1e-9 mm", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--step-mm", "1e-9"],
      r"--step-mm must be a number in \[0\.001, 10000\] \(step in mm\), got 1e-09"),
 ]
