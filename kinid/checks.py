@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import DataError
 
-__all__ = ["check_number", "check_positive", "check_nonnegative", "check_int", "check_array", "check_choice",
+__all__ = ["check_number", "check_positive", "check_plausible", "PLAUSIBLE", "check_nonnegative", "check_int", "check_array", "check_choice",
            "check_image", "check_instance", "check_methods"]
 
 
@@ -43,6 +43,42 @@ def check_positive(name: str, value, *, error=DataError) -> float:
     v = float(value) if _is_number(value) else math.nan
     if not (math.isfinite(v) and v > 0):
         raise error(f"must be a positive number, got {value!r}", parameter=name)
+    return v
+
+
+#: Plausible bounds (least, most) of a quantity that enters at the door, by kind and unit: wide enough for any
+#: machine, sensor or run, narrow enough that nothing computed from it over- or underflows (a σ of 1e-300 µm
+#: divides to infinity, one of 1e300 mm squares to it, an alignment of 1e308 s sums to infinity).
+PLAUSIBLE = {
+    "sigma_um": (1e-4, 1e5),       # σ of a reading: 0.1 nm .. 100 mm
+    "sigma_mm": (1e-7, 100.0),
+    "size_mm": (1e-4, 1e5),        # a stand-off, a radius, a target: 0.1 µm .. 100 m
+    "size_um": (1e-4, 1e8),
+    "step_mm": (1e-3, 1e4),        # a table's grid step: 1 µm .. 10 m
+    "step_deg": (1e-4, 360.0),
+    "speed_mm_s": (1e-3, 1e6),
+    "accel_mm_s2": (1e-3, 1e8),
+    "speed_deg_s": (1e-3, 1e6),
+    "accel_deg_s2": (1e-3, 1e8),
+    "time_s": (0.0, 1e6),          # a settling or alignment time: up to 11 days
+}
+
+
+def check_plausible(name: str, value, kind: str, *, error=DataError) -> float:
+    """``value`` as a float within the plausible bounds :data:`PLAUSIBLE` of ``kind`` (``"sigma_um"``, ...).
+
+    >>> check_plausible("noise_um", 1e-300, "sigma_um")
+    Traceback (most recent call last):
+    ...
+    kinid.errors.DataError: noise_um must be a number in [0.0001, 100000] (σ in µm), got 1e-300
+    """
+    low, high = PLAUSIBLE[kind]
+    v = float(value) if _is_number(value) else math.nan
+    if not (math.isfinite(v) and low <= v <= high):
+        what, _, unit = kind.partition("_")
+        unit = {"um": "µm", "mm_s": "mm/s", "mm_s2": "mm/s²", "deg_s": "°/s", "deg_s2": "°/s²", "deg": "°"}.get(unit, unit)
+        what = "σ" if what == "sigma" else what
+        raise error(f"must be a number in [{low:g}, {high:g}] ({what} in {unit}), got {value!r}", parameter=name)
     return v
 
 

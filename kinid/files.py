@@ -1,5 +1,6 @@
 """Files: outputs written whole or not at all, and the readers of CSV and JSON (with size limits); the image
-reader (kinid.images) and the opener of untrusted file names (kinid.untrusted) are re-exported here."""
+reader (kinid.images), the opener of untrusted file names (kinid.untrusted) and the JSON reader (kinid.untrusted) are
+re-exported here."""
 from __future__ import annotations
 
 import contextlib
@@ -9,7 +10,8 @@ import tempfile
 from pathlib import Path
 
 from .images import MAX_IMAGE_BYTES, MAX_IMAGE_PIXELS, image_size, read_image  # noqa: F401 (re-exported)
-from .untrusted import read_untrusted_bytes, shown_path  # noqa: F401 (re-exported)
+from .untrusted import (MAX_JSON_BYTES, MAX_JSON_DEPTH, read_json, read_limited_text,  # noqa: F401 (re-exported)
+                        read_untrusted_bytes, shown_path)
 
 __all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "iter_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS", "MAX_IMAGE_BYTES", "json_text", "read_untrusted_bytes",
@@ -140,30 +142,6 @@ def strict_json(data, **kwargs) -> str:
     return json.dumps(json_finite(data), allow_nan=False, **kwargs)
 
 
-def read_limited_text(path, *, what: str, max_bytes: int, error=None) -> str:
-    """The UTF-8 text of a file of at most ``max_bytes``; every problem one ``error`` naming the file.
-
-    The file is opened by :func:`read_untrusted_bytes`: a FIFO, a device, a socket, a folder or a name
-    with a control character is refused before anything is read.
-
-    Parameters
-    ----------
-    what : str
-        What the file is, for messages ("CSV file", "machine file").
-    error : type, optional
-        The KinidError subclass to raise (default DataError).
-    """
-    from .errors import DataError
-
-    error = error or DataError
-    raw = read_untrusted_bytes(path, what=what, max_bytes=max_bytes, error=error)
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise error(f"{what} is not UTF-8 text (byte {exc.start})", path=shown_path(path),
-                    line=raw[:exc.start].count(b"\n") + 1) from None
-
-
 #: Limits on a CSV file kinid reads.
 MAX_CSV_BYTES = 512 * 1024 * 1024
 MAX_CSV_CELL = 4096
@@ -274,53 +252,6 @@ def csv_number(cells, index: int, *, path, line, column) -> float:
     if not math.isfinite(value):
         raise DataError(f"{cell!r} is not a finite number", path=path, line=line, column=column)
     return value
-
-
-#: Limits on JSON files kinid reads (fit, error set, board, camera files).
-MAX_JSON_BYTES = 64 * 1024 * 1024
-MAX_JSON_DEPTH = 32
-
-
-def read_json(path, *, what: str = "JSON file", max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH):
-    """Read a JSON file with limits on its size and nesting; every problem a DataError naming the file.
-
-    Parameters
-    ----------
-    what : str
-        What the file is, for messages ("fit file", "board file").
-    """
-    import json
-
-    from .errors import DataError
-
-    text = read_limited_text(path, what=what, max_bytes=max_bytes)
-    depth, in_string, escaped = 0, False, False
-    for ch in text:
-        if in_string:
-            if escaped:
-                escaped = False
-            elif ch == "\\":
-                escaped = True
-            elif ch == '"':
-                in_string = False
-        elif ch == '"':
-            in_string = True
-        elif ch in "[{":
-            depth += 1
-            if depth > max_depth:
-                raise DataError(f"{what} nests deeper than {max_depth} levels", path=path)
-        elif ch in "]}":
-            depth -= 1
-    try:
-        return json.loads(text, parse_constant=lambda c: _reject_constant(c, path, what))
-    except json.JSONDecodeError as exc:
-        raise DataError(f"not valid JSON: {exc.msg} (column {exc.colno})", path=path, line=exc.lineno) from None
-
-
-def _reject_constant(name, path, what):
-    from .errors import DataError
-
-    raise DataError(f"{what} holds {name}, which is not a JSON number", path=path)
 
 
 class _Captured:

@@ -181,6 +181,10 @@ def evaluate_runs(target_mm, direction, deviation_um) -> PositioningResult:
         runs=int(min(n_up, n_down)))
 
 
+#: The largest deviation from a target a run may hold, µm (1 m: beyond any axis's positioning error).
+MAX_DEVIATION_UM = 1e6
+
+
 def read_runs(path):
     """(target_mm, direction, deviation_um) arrays from RUNS.csv; DataError naming the line and column."""
     import numpy as np
@@ -203,6 +207,9 @@ def read_runs(path):
         if values[2] not in (1.0, -1.0):
             raise DataError(f"direction must be +1 or -1, found {cells[idx[2]].strip()!r}", path=path, line=lineno,
                             column="direction")
+        if not abs(values[3]) <= MAX_DEVIATION_UM:  # 1e155 squared to infinity: the results were null
+            raise DataError(f"a deviation of {values[3]:g} µm is beyond {MAX_DEVIATION_UM:g} µm (1 m): a deviation is "
+                            f"in µm from the target", path=path, line=lineno, column="deviation_um")
         key = tuple(values[:3])
         if key in seen:
             raise DataError(f"target {values[0]:g} mm, run {values[1]:g}, direction {values[2]:+g} is measured twice, "

@@ -138,6 +138,12 @@ CASES = [
 
 @pytest.mark.parametrize("name, argv, expected", CASES, ids=[c[0] for c in CASES])
 def test_bad_input_gives_one_line_and_status_2(workdir, capsys, monkeypatch, name, argv, expected):
+    refused_in(workdir, capsys, monkeypatch, name, argv, expected)
+
+
+def refused_in(workdir, capsys, monkeypatch, name, argv, expected):
+    """Run ``argv(workdir)`` in ``workdir``: exit 2, one line on stderr matching ``expected``, no traceback, and no
+    file of the folder changed (the other corpora, tests/test_door_checks.py, run their cases through it too)."""
     monkeypatch.chdir(workdir)
     before = _digest(workdir)
     args = argv(workdir)
@@ -153,6 +159,8 @@ def test_bad_input_gives_one_line_and_status_2(workdir, capsys, monkeypatch, nam
     after = _digest(workdir)
     changed = [k for k, v in before.items() if after.get(k) != v]
     assert not changed, f"{name}: input files changed: {changed}"
+    written = sorted(set(after) - set(before))
+    assert not written, f"{name}: files written: {written}"
 
 
 def test_exact_duplicate_rows_are_not_replicates(workdir, capsys, monkeypatch):

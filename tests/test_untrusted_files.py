@@ -247,9 +247,15 @@ def test_iso230_2_json_is_strict(tmp_path, capsys):
     rows = ["target_mm,run,direction,deviation_um", "0,1,1,1e308", "0,2,1,-1e308", "0,1,-1,1e308", "0,2,-1,1e308",
             "10,1,1,1", "10,2,1,2", "10,1,-1,1", "10,2,-1,3"]
     runs.write_text("\n".join(rows) + "\n")
+    # deviations of 1e308 µm squared to infinity and gave null results with exit 0; a deviation beyond a metre is
+    # now refused at the door, naming its line and column, and nothing is printed as a result
+    assert main(["iso230-2", str(runs), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1 and "deviation_um" in captured.err
+    runs.write_text("\n".join(rows[:1] + ["0,1,1,1", "0,2,1,-1", "0,1,-1,1", "0,2,-1,1"] + rows[5:]) + "\n")
     assert main(["iso230-2", str(runs), "--json"]) == 0
     out = _strict(capsys.readouterr().out)
-    assert out["A_um"] is None and out["positions"][1]["mean_um"] == pytest.approx(1.75)
+    assert out["positions"][1]["mean_um"] == pytest.approx(1.75)
 
 
 def test_dual_axis_json_is_strict(tmp_path, capsys):
@@ -279,14 +285,20 @@ def fit_file(tmp_path_factory):
     return folder / "fit.json"
 
 
-@pytest.mark.parametrize("option, value", [("--step-mm", "1e-9"), ("--step-mm", "1e-6"), ("--step-deg", "1e-7")])
-def test_compensate_refuses_a_step_too_fine(fit_file, tmp_path, option, value):
+@pytest.mark.parametrize("option, value, message", [
+    ("--step-mm", "1e-9", "[0.001, 10000] (step in mm)"), ("--step-mm", "1e-6", "[0.001, 10000] (step in mm)"),
+    ("--step-deg", "1e-7", "[0.0001, 360] (step in °)"), ("--step-mm", "0.0011", "1,000,000 points")])
+def test_compensate_refuses_a_step_too_fine(fit_file, tmp_path, option, value, message):
+    """A step below the plausible bound of a table's step is refused at the door (it was also refused where a
+    table would use it, but accepted by a fit without tables); one within it that would still make more than a
+    million points is refused before anything is allocated."""
     out = tmp_path / "comp"
-    outcome = guarded(_cli, ["compensate", "--fit", str(fit_file), "--out", str(out), option, value], limit=60.0)
+    outcome = guarded(_cli, ["compensate", "--fit", str(fit_file), "--out", str(out), option, value,
+                             "--range", "travel"], limit=60.0)
     assert outcome[0] == "ok", outcome
     status, err, _ = outcome[1]
     assert status == 2 and len(err.strip().splitlines()) == 1, err
-    assert "1,000,000 points" in err and value.replace("1e-", "1e-0") in err, err
+    assert message in err and (value.replace("1e-", "1e-0") in err or value in err), err
     if option == "--step-deg":
         assert "--step-deg" in err, err
     assert not out.exists()

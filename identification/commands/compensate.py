@@ -42,16 +42,27 @@ def register(sub) -> None:
     p.set_defaults(run=_compensate, outputs={"out": "replaced folder"})
 
 
+#: The axis numbers a controller's tables may name (a CNC has at most a few dozen axes).
+MAX_AXIS_NUMBER = 64
+
+
 def _axis_numbers(items) -> dict:
     from kinid.errors import DataError
 
     out = {}
     for item in items:
         axis, sep, number = item.partition("=")
-        if not sep or not axis or not number.strip().isdigit() or int(number) < 1:
-            raise DataError(f"--axis-number takes AXIS=N with N a positive whole number, got {item!r}")
+        number = number.strip()
+        if (not sep or not axis or not (number.isascii() and number.isdigit()) or len(number) > 3
+                or not 1 <= int(number) <= MAX_AXIS_NUMBER):
+            raise DataError(f"--axis-number takes AXIS=N with N a whole number from 1 to {MAX_AXIS_NUMBER}, got "
+                            f"{item!r}")
         if axis in out:
-            raise DataError(f"--axis-number gives axis {axis} twice")
+            raise DataError(f"--axis-number gives axis {axis!r} twice")
+        other = next((a for a, n in out.items() if n == int(number)), None)
+        if other is not None:
+            raise DataError(f"--axis-number gives axes {other!r} and {axis!r} the same number {int(number)}; each axis "
+                            f"its own number")
         out[axis] = int(number)
     return out
 
@@ -59,13 +70,14 @@ def _axis_numbers(items) -> dict:
 def _compensate(args) -> int:
     from pathlib import Path
 
-    from kinid.checks import check_positive
+    from kinid.checks import check_plausible, check_positive
     from ..compensation import write_compensation
     from ..fitting import load_fit
 
-    for option, value in (("--step-mm", args.step_mm), ("--step-deg", args.step_deg)):
+    for option, value, kind in (("--step-mm", args.step_mm, "step_mm"), ("--step-deg", args.step_deg, "step_deg")):
         if value is not None:
             check_positive(option, value)
+            check_plausible(option, value, kind)
     numbers = _axis_numbers(args.axis_numbers)
     result = load_fit(args.fit)
     out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,

@@ -101,8 +101,12 @@ def register(sub) -> None:
 def _positive(value, name):
     import numpy as np
 
+    from kinid.checks import check_plausible
+
     if value is not None and not (np.isfinite(value) and value > 0):
         raise DataError(f"{name} must be a positive number of µm, got {value}")
+    if value is not None:
+        check_plausible(name, value, "sigma_um")  # 1e-300 µm divided to infinity
 
 
 def _axes_list(text, machine):
@@ -141,11 +145,12 @@ def _identify(args) -> int:
     from ..fitting import fit, model_effects
     from ..fitting import save_fit
     from ..model import load_machine
-    from ..data import read_observations
+    from ..data import check_row_count, read_observations
 
     _positive(args.noise_um, "--noise-um")
     machine = load_machine(args.machine)
     obs = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits))
+    check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
     effects = model_effects(machine, args.add)
     if args.prior_um is not None or args.prior_urad is not None:
         if not args.prior:
@@ -282,12 +287,13 @@ def _diagnose(args) -> int:
     from ..diagnosis import diagnose
     from ..fitting import load_fit
     from ..fitting import Noise
-    from ..data import read_observations
+    from ..data import check_row_count, read_observations
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
     obs = _without_duplicates(read_observations(args.data, loaded.machine,
                                                 check_limits=not args.allow_outside_limits))
+    check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
         obs = obs.subset(np.array([i for i, ln in enumerate(obs.lines) if ln not in aside_lines]))

@@ -30,25 +30,32 @@ def _model(args) -> int:
     import math
     from pathlib import Path
 
-    from kinid.errors import DataError
-    from kinid.files import read_limited_text, write_text
+    from kinid.errors import DataError, KinidError, MachineError
+    from kinid.files import read_limited_text, shown_path, write_text
 
     from ..model import machine_from_urdf
-    from ..model import identification_urdf
+    from ..model import MAX_URDF_BYTES, identification_urdf
 
     if not all(math.isfinite(v) and abs(v) <= 10_000.0 for v in args.tool_offset_mm):
         raise DataError(f"must be three finite numbers of at most 10 m, got {list(args.tool_offset_mm)}",
                         parameter="tool_offset_mm")
-    text = read_limited_text(args.urdf, what="URDF", max_bytes=50_000_000)
+    text = read_limited_text(args.urdf, what="URDF", max_bytes=MAX_URDF_BYTES, error=MachineError)
     out = identification_urdf(text, tool=args.tool, base=args.base, workpiece=args.workpiece,
                               tool_offset_m=tuple(v / 1e3 for v in args.tool_offset_mm),
-                              position_errors=args.position_errors, path=args.urdf)
-    machine = machine_from_urdf(out, args.out)  # kinid's own loader accepts it, or nothing is written
+                              position_errors=args.position_errors, path=shown_path(args.urdf))
+    try:
+        machine = machine_from_urdf(out, args.out)  # kinid's own loader accepts it, or nothing is written
+    except KinidError as exc:  # the source's fault or kinid model's: either way the message names the source
+        raise MachineError(f"the identification machine made from it does not load ({exc.message})",
+                           path=shown_path(args.urdf)) from None
     write_text(args.out, out)
-    axes = ", ".join(a.name if a.joint == a.name else f"{a.name} ({a.joint})" for a in machine.axes)
+    axes = ", ".join(a.name if a.joint == a.name else f"{a.name} ({shown_path(a.joint)})" for a in machine.axes)
     print(f"{len(machine.axes)} motion axes: {axes}; {len(machine.error_joints)} error joints "
           f"(location errors before every axis{', position-dependent after it' if args.position_errors else ''}, "
-          f"set-up W and T); written to {Path(args.out).name}")
-    print(f"next: kinid simulate or kinid identify --machine {args.out} --data <observations.csv> "
+          f"set-up W and T); written to {shown_path(Path(args.out).name)}")
+    if any(a.joint != a.name for a in machine.axes):
+        print("the short names (kept in the machine's <kinid> element) name the axes in observations, fits and "
+              "tables; the URDF's joints keep their names")
+    print(f"next: kinid simulate or kinid identify --machine {shown_path(args.out)} --data <observations.csv> "
           f"(columns {', '.join(a.column for a in machine.axes)})")
     return 0

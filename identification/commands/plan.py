@@ -134,11 +134,16 @@ def _plan(args) -> int:
     from ..planning import TravelModel
     from ..fitting import PATENT_MARKS_MM
 
-    from kinid.checks import check_positive
+    from kinid.checks import check_plausible, check_positive
 
     for name in ("target_um", "noise_um", "speed_mm_s", "accel_mm_s2", "speed_deg_s", "accel_deg_s2", "align_s"):
         if getattr(args, name) is not None:
             check_positive(name, getattr(args, name))
+    for name, kind in (("target_um", "size_um"), ("noise_um", "sigma_um"), ("speed_mm_s", "speed_mm_s"),
+                       ("accel_mm_s2", "accel_mm_s2"), ("speed_deg_s", "speed_deg_s"),
+                       ("accel_deg_s2", "accel_deg_s2"), ("align_s", "time_s")):
+        if getattr(args, name) is not None:
+            check_plausible(name, getattr(args, name), kind)  # 1e300 µm overflowed, 1e308 s summed to infinity
     if not (args.settle_s >= 0 and args.settle_s < 3600):
         raise DataError(f"must be 0 to 3600 s, got {args.settle_s}", parameter="--settle-s")
     if not 0.0 < args.power < 1.0:

@@ -93,18 +93,19 @@ def _sensor(args) -> int:
     import math
     from pathlib import Path
 
-    from kinid.checks import check_positive
+    from kinid.checks import check_plausible, check_positive
     from kinid.errors import DataError
     from kinid.files import read_json, write_json
     from kinid.schema import validate
     from ..data import read_axis_table
     from ..model import load_machine
-    from ..data import SENSOR_SCHEMA
+    from ..data import SENSOR_SCHEMA, check_laser_offset
 
-    for option, value in (("--standoff-mm", args.standoff_mm), ("--radius-mm", args.radius_mm),
-                          ("--sigma-mm", args.sigma_mm)):
+    for option, value, kind in (("--standoff-mm", args.standoff_mm, "size_mm"), ("--radius-mm", args.radius_mm, "size_mm"),
+                                ("--sigma-mm", args.sigma_mm, "sigma_mm")):
         if value is not None:
             check_positive(option, value)
+            check_plausible(option, value, kind)
     machine = load_machine(args.machine)
     base = {}
     if args.base:
@@ -119,6 +120,7 @@ def _sensor(args) -> int:
     standoff = args.standoff_mm if args.standoff_mm is not None else base.get("laser_standoff_mm")
     offset, std, result = laser_offset(machine, table, method=method, standoff_mm=standoff,
                                        radius_mm=args.radius_mm, sigma_mm=args.sigma_mm)
+    check_laser_offset(offset, path=source, what="the readings put the laser")  # the rule observe reads it by
     out = dict(base)
     out["laser_offset_mm"] = [round(float(v), 6) for v in offset]
     out["laser_offset_std_mm"] = [round(float(v), 6) if math.isfinite(v) else None for v in std]

@@ -35,7 +35,7 @@ def _fit_of_compensation(folder) -> str:
     from pathlib import Path
 
     from kinid.errors import DataError
-    from kinid.files import read_json
+    from kinid.files import MAX_JSON_BYTES, read_json, read_untrusted_bytes
     from kinid.schema import Fields, Text, validate
 
     # what verify reads of a compensation.json (the rest is for people): the fit it was made from
@@ -50,7 +50,8 @@ def _fit_of_compensation(folder) -> str:
     path = Path(fit["file"])
     for candidate in (path, Path(folder) / path.name):
         if candidate.is_file():
-            digest = hashlib.sha256(candidate.read_bytes()).hexdigest()
+            # the sized opener: a fit is a JSON file of at most MAX_JSON_BYTES, whatever compensation.json names
+            digest = hashlib.sha256(read_untrusted_bytes(candidate, what="fit file", max_bytes=MAX_JSON_BYTES)).hexdigest()
             if digest != fit.get("sha256"):
                 raise DataError(f"{candidate}: not the fit the compensation in {folder} was made from (its SHA-256 "
                                 f"differs); give the right one with --fit")
@@ -61,14 +62,15 @@ def _fit_of_compensation(folder) -> str:
 def _verify(args) -> int:
     from pathlib import Path
 
-    from kinid.checks import check_positive
+    from kinid.checks import check_plausible, check_positive
     from kinid.files import strict_json
     from ..fitting import load_fit
-    from ..data import read_observations
+    from ..data import check_row_count, read_observations
     from ..compensation import verify
 
     if args.noise_um is not None:
         check_positive("--noise-um", args.noise_um)
+        check_plausible("--noise-um", args.noise_um, "sigma_um")
     if args.report:  # a folder it may not replace is refused before the work, not after
         from kinid.reports.html import check_report_folder
 
@@ -76,6 +78,7 @@ def _verify(args) -> int:
     fit_path = args.fit or _fit_of_compensation(args.compensation)
     result = load_fit(fit_path)
     after = read_observations(args.data, result.machine, check_limits=not args.allow_outside_limits)
+    check_row_count(after, "a verification")
     before = None if args.before is None else read_observations(args.before, result.machine,
                                                                 check_limits=not args.allow_outside_limits)
     out = verify(result, after, before=before, noise_um=args.noise_um)

@@ -128,6 +128,20 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     return Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets, shifts)
 
 
+#: The fewest observation rows each computation is made from (below them a fit's SVD, the replicate noise and the
+#: score test's degrees of freedom fail with numpy's errors instead of a message): a fit 2, a verification 3, a
+#: diagnosis (kinid diagnose, identify --auto) 4.
+MIN_ROWS = {"a fit": 2, "a verification": 3, "a diagnosis": 4}
+
+
+def check_row_count(obs, what: str) -> None:
+    """Refuse observations with fewer rows than :data:`MIN_ROWS` ``[what]``: one DataError naming the file."""
+    need = MIN_ROWS[what]
+    if len(obs) < need:
+        raise DataError(f"{len(obs)} observation row(s); {what} needs at least {need}: measure more alignments",
+                        path=getattr(obs, "source", None))
+
+
 def check_observations(obs, name: str = "obs") -> Observations:
     """``obs`` if it is :class:`Observations`; DataError naming the argument otherwise."""
     if not isinstance(obs, Observations):

@@ -93,6 +93,19 @@ SENSOR_SCHEMA = Fields({}, optional={
 })
 
 
+#: The farthest a laser beside the camera can sit from the camera's axis on one tool, mm.
+MAX_LASER_OFFSET_MM = 200.0
+
+
+def check_laser_offset(offset_mm, *, path, column=None, what="a laser") -> None:
+    """Refuse a laser offset (x, y) in the tool frame, mm, farther than :data:`MAX_LASER_OFFSET_MM` from the camera's
+    axis: the one rule ``kinid observe`` reads a sensor file by and ``kinid sensor`` writes one by."""
+    distance = math.hypot(*offset_mm)
+    if math.isfinite(distance) and distance > MAX_LASER_OFFSET_MM:  # a non-finite one is refused where it is written
+        raise DataError(f"{what} {distance:.4g} mm from the camera's axis, more than {MAX_LASER_OFFSET_MM:g} mm: not "
+                        f"on the same tool; the offset is in mm, in the tool frame", path=path, column=column)
+
+
 def load_sensor(path) -> Sensor:
     """Read a sensor file (JSON, docs/formats.md "Sensor file").
 
@@ -117,9 +130,7 @@ def load_sensor(path) -> Sensor:
     axis_px = pair("optical_axis_px")
     laser_offset = pair("laser_offset_mm") or (0.0, 0.0)
     laser_std = pair("laser_offset_std_mm")
-    if math.hypot(*laser_offset) > 200.0:
-        raise DataError(f"a laser {math.hypot(*laser_offset):.4g} mm from the camera's axis is not on the same tool; "
-                        f"the offset is in mm, in the tool frame", path=path, column="laser_offset_mm")
+    check_laser_offset(laser_offset, path=path, column="laser_offset_mm")
     camera = None
     if data.get("camera") is not None:
         from kinid.vision import camera_from_dict, load_camera

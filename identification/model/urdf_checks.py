@@ -80,13 +80,21 @@ def check_urdf_limits(text: str, path):
 
     if len(text) > MAX_URDF_BYTES:
         raise MachineError(f"URDF is larger than {MAX_URDF_BYTES:,} characters", path=path)
-    head = text[:4096].upper()
-    if "<!DOCTYPE" in head or "<!ENTITY" in text.upper():
+    upper = text.upper()
+    if "<!DOCTYPE" in upper or "<!ENTITY" in upper:
         raise MachineError("URDF declares a DOCTYPE or entities; kinid reads plain URDF only", path=path)
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
-        raise MachineError(f"not valid XML ({exc})", path=path) from None
+        line, column = getattr(exc, "position", (None, None))
+        hint = "; a xacro file: run xacro first (xacro robot.urdf.xacro > robot.urdf)" if "xacro:" in text else ""
+        raise MachineError(f"not valid XML ({str(exc).split(':')[0]} at column {column + 1}){hint}", path=path,
+                           line=line) from None
+    xacro = next((el.tag for el in root.iter() if isinstance(el.tag, str) and "xacro" in el.tag.partition("}")[0]),
+                 None)
+    if xacro is not None:
+        raise MachineError(f"holds xacro macros (<xacro:{xacro.rsplit('}', 1)[-1]}>), which kinid does not expand; "
+                           f"run xacro first (xacro robot.urdf.xacro > robot.urdf)", path=path)
     if root.tag != "robot":
         raise MachineError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", path=path)
     joints = root.findall("joint")

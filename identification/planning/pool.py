@@ -7,6 +7,7 @@ the nominal tool point as the mark.
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -53,16 +54,18 @@ def candidate_poses(machine: Machine, marks_mm, presets: dict, *, solve=None, sa
     if missing:
         raise DataError(f"the candidates need values of axis {', '.join(missing)} (--range {missing[0]}=START:STOP:STEP)")
     marks = np.atleast_2d(np.asarray(marks_mm, float))
+    # counted before anything is built: a grid of 10 000 values on each of five axes is 1e20 rows
+    n_combos = samples if samples and not solve else math.prod(np.asarray(presets[a]).size for a in need)
+    total = n_combos * (len(marks) if solve else 1)
+    if total > MAX_CANDIDATES:
+        raise DataError(f"{total:,} candidate alignments; at most {MAX_CANDIDATES:,}: use coarser --range steps or "
+                        f"fewer marks", parameter="range")
     if samples and not solve:
         rng = np.random.default_rng(0) if rng is None else rng
         combos = np.column_stack([rng.uniform(np.min(presets[a]), np.max(presets[a]), samples) for a in need])
     else:
         combos = np.array(list(itertools.product(*[np.asarray(presets[a], float) for a in need])), float)
         combos = combos.reshape(max(len(combos), 1), len(need))
-    total = len(combos) * (len(marks) if solve else 1)
-    if total > MAX_CANDIDATES:
-        raise DataError(f"{total} candidate alignments; at most {MAX_CANDIDATES}: use coarser --range steps or fewer "
-                        f"marks", parameter="range")
     axes = np.full((total, len(names)), np.nan)
     if solve:
         rows = [(c, k) for c in range(len(combos)) for k in range(len(marks))]
