@@ -173,7 +173,7 @@ def test_markers_json(tmp_path, monkeypatch, capsys):
 # --- JSON files: a non-finite number is a clear error (sensor) or null where null means "not known" ---
 
 def test_sensor_file_with_a_non_finite_offset_is_an_error(tmp_path, monkeypatch, capsys):
-    sensor_cli = importlib.import_module("kinid.identification.commands.sensor")
+    sensor_cli = importlib.import_module("kinid.identification.data.laser_offset")  # the module the verb calls
 
     (tmp_path / "hole.csv").write_text("role,x_mm,y_mm,z_mm,b_deg,c_deg\ncamera,0,0,0,0,0\nlaser,18,0,0,0,0\n")
     monkeypatch.setattr(sensor_cli, "laser_offset", lambda *a, **k: (

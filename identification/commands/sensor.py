@@ -16,7 +16,7 @@ into the sensor file ``kinid observe`` reads, with its standard deviations. The 
 """
 from __future__ import annotations
 
-__all__ = ["register", "laser_offset"]
+__all__ = ["register"]
 
 
 def register(sub) -> None:
@@ -45,50 +45,6 @@ def register(sub) -> None:
     p.set_defaults(run=_sensor, outputs={"out": "file"})
 
 
-def laser_offset(machine, table, *, method: str, standoff_mm=None, radius_mm=None, sigma_mm=None):
-    """(offset (x, y), std (x, y), the locator's result) of the laser in the tool frame, mm.
-
-    ``table`` is an :class:`~kinid.identification.data.axis_columns.AxisTable` with a ``role`` column.
-    """
-    import numpy as np
-
-    from kinid.errors import DataError
-    from kinid.vision import radial_offset_from_hole, radial_offset_from_sphere
-    from ..model import evaluate, tool_rotation_in_workpiece
-
-    roles = [r.lower() for r in table.texts("role", "role")]
-    bad = sorted(set(roles) - {"camera", "laser"})
-    if bad:
-        raise DataError(f"role must be camera or laser, found {bad[0]!r}", path=table.path, column="role")
-    zero = np.zeros(len(machine.error_joints))
-    points = evaluate(machine, table.axes, zero, jacobian=False)  # tool point in the workpiece frame, mm
-    R = tool_rotation_in_workpiece(machine, table.axes, zero)
-    tilt = np.abs(R[:, 2, 2])
-    if np.any(tilt < 0.999):
-        i = int(np.argmin(tilt))
-        raise DataError("the tool axis is not the workpiece's z axis at this reading; take the set-up readings with "
-                        "the rotary axes at zero", path=table.path, line=table.lines[i])
-    cam, las = np.array(roles) == "camera", np.array(roles) == "laser"
-    if not cam.any() or not las.any():
-        raise DataError("needs camera rows and laser rows", path=table.path, column="role")
-    if method == "hole":
-        result = radial_offset_from_hole(points[las, :2], points[cam, :2], sigma_mm=sigma_mm)
-    else:
-        if standoff_mm is None:
-            raise DataError("the sphere method needs the laser's stand-off: --standoff-mm or a --base sensor file with "
-                            "laser_standoff_mm")
-        # the tool point with the laser at its stand-off: the surface lies standoff below the laser along −z,
-        # i.e. at the spot's tool-frame depth; radial_offset_from_sphere takes the reading's position
-        result = radial_offset_from_sphere(points[las] + np.array([0.0, 0.0, standoff_mm]), standoff_mm,
-                                           points[cam, :2], radius_mm=radius_mm, sigma_mm=sigma_mm)
-    d = np.array([result.dx_mm, result.dy_mm])
-    Rm = R[las].mean(axis=0)[:2, :2]
-    offset = Rm.T @ (-d)  # the tool moved by d to bring the laser onto the feature: the spot sits at −d
-    cov = Rm.T @ np.asarray(result.covariance_mm2, float)[:2, :2] @ Rm
-    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    return offset, std, result
-
-
 def _sensor(args) -> int:
     import math
     from pathlib import Path
@@ -97,9 +53,8 @@ def _sensor(args) -> int:
     from kinid.errors import DataError
     from kinid.files import read_json, write_json
     from kinid.schema import validate
-    from ..data import read_axis_table
     from ..model import load_machine
-    from ..data import SENSOR_SCHEMA, check_laser_offset
+    from ..data import SENSOR_SCHEMA, check_laser_offset, laser_offset, read_axis_table
 
     for option, value, kind in (("--standoff-mm", args.standoff_mm, "size_mm"), ("--radius-mm", args.radius_mm, "size_mm"),
                                 ("--sigma-mm", args.sigma_mm, "sigma_mm")):

@@ -7,9 +7,9 @@ from kinid.lazy import front_door as _front_door
 
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
-    "read_axis_table": "axis_columns", "MIN_ROWS": "observations", "Observations": "observations",
-    "SetAside": "observations", "check_observations": "observations", "check_row_count": "observations",
-    "exact_duplicates": "observations", "observations_text": "observations",
+    "read_axis_table": "axis_columns", "laser_offset": "laser_offset", "MIN_ROWS": "observations",
+    "Observations": "observations", "SetAside": "observations", "check_observations": "observations",
+    "check_row_count": "observations", "exact_duplicates": "observations", "observations_text": "observations",
     "read_observations": "observations", "row_groups": "observations", "write_observations": "observations",
     "SENSOR_SCHEMA": "observe", "board_mark_mm": "observe", "check_laser_offset": "observe",
     "default_board_origin_mm": "observe", "load_sensor": "observe", "observe": "observe",
@@ -19,8 +19,8 @@ _SOURCES = {
 
 __all__ = ["MIN_ROWS", "Observations", "SENSOR_SCHEMA", "SetAside", "board_mark_mm", "check_laser_offset",
            "check_observations", "check_row_count", "default_board_origin_mm", "distinct_positions",
-           "exact_duplicates", "load_sensor", "observations_text", "observe", "position_starts", "positions_of",
-           "positions_per_axis", "read_axis_table", "read_observations", "read_run_log", "row_groups",
-           "write_observations"]
+           "exact_duplicates", "laser_offset", "load_sensor", "observations_text", "observe", "position_starts",
+           "positions_of", "positions_per_axis", "read_axis_table", "read_observations", "read_run_log",
+           "row_groups", "write_observations"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)
