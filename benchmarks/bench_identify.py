@@ -51,7 +51,7 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from kinid.identification.model.effects import default_model  # noqa: E402
 from kinid.identification.fitting.fit import fit  # noqa: E402
-from kinid.identification import machine as machine_module  # noqa: E402
+from kinid.identification.model import machine as machine_module  # noqa: E402
 from kinid.identification.model.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
 from kinid.identification.data.observations import write_observations  # noqa: E402
 from kinid.identification.fitting.residuals import design, residuals  # noqa: E402

@@ -197,7 +197,7 @@ def test_what_the_diagnosis_computes_once_is_what_it_would_compute_each_time(bc,
     and notes to the last digit. Effect names are parsed once per machine: the same effect, and a bad name still
     raises each time."""
     from kinid.errors import DataError
-    from kinid.identification import score_sums
+    from kinid.identification.diagnosis import score_sums
 
     obs = _data(bc, ("EXX:periodic:10", [2.0, 1.0]), seed=5)
     kept = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
@@ -223,7 +223,7 @@ def test_the_leverages_are_the_hat_matrix_in_one_pass_or_in_chunks(bc, monkeypat
     """The hat matrix's diagonal from the Jacobian held in one pass, from two passes in chunks (data too large to
     hold it), and the diagnosis's (what the set-aside of gross errors reuses when the selection stops) agree, and
     are the diagonal of J (JᵀJ)⁻¹ Jᵀ formed directly."""
-    from kinid.identification import leverage
+    from kinid.identification.fitting import leverage
     from kinid.identification.fitting.residuals import design, residuals
 
     obs = _data(bc, None, seed=8)

@@ -253,7 +253,8 @@ def test_a_bump_on_an_axis_read_at_few_positions_is_its_error_at_each_of_them():
 def test_the_final_words_say_a_table_is_not_measured_between_its_positions(monkeypatch, tmp_path):
     """The error at each of Y's 6 positions (a bump of Y, the B/C table's small plan) is known there only: the final
     words say so and name the axis to measure at more positions, and its figure marks the positions measured."""
-    from kinid.identification import default_model, forward_select, report_figures
+    from kinid.identification import default_model, forward_select
+    from kinid.identification.reporting import figures as report_figures
     from kinid.identification.data.positions import distinct_positions
     from kinid.identification.diagnosis.selection import what_is_left
 
@@ -371,7 +372,7 @@ def test_a_period_that_only_the_held_out_blocks_noise_chose_is_not_added(monkeyp
     period, 5 mm of the Z straightness along X, gains 2.1 standard errors on the held-out blocks chosen on all the
     data and 0.1 chosen again on each turn's training blocks. Added, it predicted held-out poses 2.3× worse than
     the default model; the turns' own choices must bring one standard error."""
-    from kinid.identification import crossval
+    from kinid.identification.fitting import crossval
 
     sc = pg.run(23 * 100003 + 428)
     print(_line(sc))
