@@ -13,12 +13,13 @@ _SOURCES = {
     "write_observations": "observations", "SENSOR_SCHEMA": "observe", "_board_mark_mm": "observe",
     "default_board_origin_mm": "observe", "load_sensor": "observe", "observe": "observe",
     "read_run_log": "observe", "distinct_positions": "positions", "position_starts": "positions",
-    "positions_of": "positions", "positions_per_axis": "positions",
+    "positions_of": "positions", "positions_per_axis": "positions", "UnitHint": "units", "unit_hints": "units",
+    "warn_units": "units",
 }
 
-__all__ = ["Observations", "SENSOR_SCHEMA", "SetAside", "check_observations", "default_board_origin_mm",
-           "distinct_positions", "exact_duplicates", "load_sensor", "observations_text", "observe",
-           "position_starts", "positions_of", "positions_per_axis", "read_axis_table", "read_observations",
-           "read_run_log", "row_groups", "write_observations"]
+__all__ = ["Observations", "SENSOR_SCHEMA", "SetAside", "UnitHint", "check_observations",
+           "default_board_origin_mm", "distinct_positions", "exact_duplicates", "load_sensor", "observations_text",
+           "observe", "position_starts", "positions_of", "positions_per_axis", "read_axis_table",
+           "read_observations", "read_run_log", "row_groups", "unit_hints", "warn_units", "write_observations"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)
