@@ -138,13 +138,15 @@ def _without_duplicates(obs):
 
 
 def _refuse_untrusted(machine, obs, result, source) -> None:
-    """DataError naming why ``result`` cannot be trusted (not converged, residual far above the σ given) and the
-    unit mistake the data ``obs`` (as read) point to, if any: such a fit is not written (docs/identification.md)."""
+    """DataError naming why ``result`` cannot be trusted (not converged, a residual far above the σ given, data
+    with a unit mistake: :func:`~kinid.identification.fitting.untrusted`) and the unit mistake the data ``obs``
+    (as read) point to: such a fit is not written (docs/identification.md)."""
     from ..data import unit_hints
     from ..fitting import untrusted
 
-    if untrusted(result):
-        raise DataError(f"{untrusted(result, unit_hints(machine, obs))}; no fit written", path=source)
+    why = untrusted(result, unit_hints(machine, obs))
+    if why:
+        raise DataError(f"{why}; no fit written", path=source)
 
 
 def _identify(args) -> int:

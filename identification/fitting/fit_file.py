@@ -171,20 +171,27 @@ _SIGMA_MM_RATIO = 1000.0
 _SIGMA_MM_SPREAD = 5.0
 
 
+def _um(x: float) -> str:
+    return f"{x:.4g}" if abs(x) < 1e4 else f"{x:.0f}"
+
+
 def untrusted(result: FitResult, hints=()) -> str:
     """Why ``result`` cannot be trusted, as one clause with the likely mistake; "" if it can.
 
     A fit that did not converge, or whose residual RMS is more than :data:`~.noise.NOISE_RATIO_LIMIT` times
-    the σ given (:func:`~.noise.noise_ratio`), is not a machine's errors. ``hints`` are the unit mistakes the
-    data point to (:func:`kinid.identification.data.unit_hints`), named first; without one, a residual about
-    1000× σ names σ typed in mm.
+    the σ given (:func:`~.noise.noise_ratio`), is not a machine's errors; nor is one of data with a unit
+    mistake, ``hints`` (:func:`kinid.identification.data.unit_hints`), however well it fits them (an effect
+    such as a scale error can take an axis read in inches). The hints are named as the likely mistake;
+    without one, a residual about 1000× σ names σ typed in mm.
     """
     ratio = noise_ratio(result.rms_um, result.noise)
     if not result.success:
-        why = f"the fit did not converge in {result.iterations} iterations (residual RMS {result.rms_um:.5g} µm)"
+        why = f"the fit did not converge in {result.iterations} iterations (residual RMS {_um(result.rms_um)} µm)"
     elif ratio > NOISE_RATIO_LIMIT:
-        why = (f"the residual RMS {result.rms_um:.5g} µm is {ratio:.0f}× the σ given ({result.noise_um:g} µm; "
+        why = (f"the residual RMS {_um(result.rms_um)} µm is {ratio:.0f}× the σ given ({result.noise_um:g} µm; "
                f"refused beyond {NOISE_RATIO_LIMIT:g}×)")
+    elif hints:
+        why = f"the data hold a unit mistake (the fit leaves a residual RMS of {_um(result.rms_um)} µm)"
     else:
         return ""
     if hints:
