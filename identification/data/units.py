@@ -19,7 +19,6 @@ import numpy as np
 
 from ..model import Machine, evaluate
 from .axis_columns import warn_if_metres
-from .observations import Observations
 
 __all__ = ["UnitHint", "unit_hints", "warn_units", "HINT_GAIN", "HINT_MIN_MM"]
 
@@ -81,7 +80,7 @@ def _tool_points(machine: Machine, axes: np.ndarray, offsets_mm) -> np.ndarray:
     return evaluate(machine, axes, np.zeros(len(machine.error_joints)), jacobian=False, offsets_mm=offsets_mm)
 
 
-def _candidates(machine: Machine, obs: Observations):
+def _candidates(machine: Machine, obs):
     """(columns, unit, factor, axes, w_mm) for every unit mistake tried."""
     mark_cols = ("wx_mm", "wy_mm", "wz_mm")
     for unit, k in _LENGTHS:
@@ -96,8 +95,10 @@ def _candidates(machine: Machine, obs: Observations):
                 yield tuple(sorted(machine.axes[j].column for j in g)), unit, k, axes, obs.w_mm
 
 
-def unit_hints(machine: Machine, obs: Observations) -> tuple:
+def unit_hints(machine: Machine, obs) -> tuple:
     """The unit mistake the data point to, if any: a tuple of one :class:`UnitHint` or empty.
+
+    ``obs`` is :class:`~.observations.Observations` (this module sits below the reader, which calls it).
 
     Rows with an axis not given (NaN, poses for ``predict``) are not judged.
     """
@@ -114,7 +115,7 @@ def unit_hints(machine: Machine, obs: Observations) -> tuple:
     return () if best is None else (best,)
 
 
-def warn_units(machine: Machine, obs: Observations) -> tuple:
+def warn_units(machine: Machine, obs) -> tuple:
     """A warning for each reading column that looks like metres (:func:`~.axis_columns.warn_if_metres`) and for
     the mistake of :func:`unit_hints` (unless it is the same), each naming the file; returns the hints."""
     import warnings
