@@ -188,3 +188,17 @@ def test_compensate_and_verify_refuse_a_fit_that_cannot_be_trusted(run, good_fit
     assert f"{bad}: " in line and named in line, line
     assert not report.exists()
     assert bad.read_bytes() == before
+
+
+def test_a_long_file_is_judged_on_a_spread_of_its_rows(run):
+    """Past HINT_ROWS rows the clouds are compared on an even spread of them: the same mistake is named."""
+    from dataclasses import replace
+
+    from kinid.identification.data.units import HINT_ROWS
+
+    machine = load_machine(BC)
+    obs = read_observations(run / "obs.csv", machine)
+    long = obs.subset(np.tile(np.arange(len(obs)), HINT_ROWS // len(obs) + 2))
+    assert len(long) > HINT_ROWS and unit_hints(machine, long) == ()
+    (hint,) = unit_hints(machine, replace(long, w_mm=long.w_mm / 1000))
+    assert hint.columns == ("wx_mm", "wy_mm", "wz_mm") and hint.unit == "metres" and hint.factor == 1000

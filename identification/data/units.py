@@ -20,13 +20,16 @@ import numpy as np
 from ..model import Machine, evaluate
 from .axis_columns import warn_if_metres
 
-__all__ = ["UnitHint", "unit_hints", "warn_units", "HINT_GAIN", "HINT_MIN_MM"]
+__all__ = ["UnitHint", "unit_hints", "warn_units", "HINT_GAIN", "HINT_MIN_MM", "HINT_ROWS"]
 
 #: A unit mistake is named when undoing it leaves at most this share of the misfit (measured: the shipped
 #: examples' misfit is not lowered by any; a mistake made and undone lowers it 100- to 10 000-fold).
 HINT_GAIN = 0.05
 #: ... and the misfit is at least this, mm (below it the data are right to the machine's errors).
 HINT_MIN_MM = 0.5
+#: The clouds are compared on at most this many rows, evenly spread over the file (a unit mistake bends every
+#: row alike; a million rows are judged in the time of 2000).
+HINT_ROWS = 2000
 
 # (what was written, factor to mm or deg): the mistakes a newcomer makes
 _LENGTHS = (("metres", 1000.0), ("inches", 25.4))
@@ -57,7 +60,8 @@ class UnitHint:
     undone_mm: float
 
     def describe(self) -> str:
-        """One clause: ``x_mm looks like inches (×25.4 brings ... from ... to ... mm)``."""
+        """One clause: ``x_mm looks like inches, not mm: multiplied by 25.4 the nominal machine meets the marks
+        within 0.0121 mm instead of 35.8 mm``."""
         cols = ", ".join(self.columns)
         verb = "looks" if len(self.columns) == 1 else "look"
         target = "degrees" if self.unit == "radians" else "mm"
@@ -104,6 +108,8 @@ def unit_hints(machine: Machine, obs) -> tuple:
     """
     if len(obs) < 3 or not np.all(np.isfinite(obs.axes)):
         return ()
+    if len(obs) > HINT_ROWS:
+        obs = obs.subset(np.unique(np.linspace(0, len(obs) - 1, HINT_ROWS).round().astype(int)))
     base = _rigid_misfit_mm(_tool_points(machine, obs.axes, obs.offsets_mm), obs.w_mm)
     if base < HINT_MIN_MM:
         return ()
