@@ -212,8 +212,10 @@ def test_predict_warns_for_poses_the_machine_cannot_reach(workdir, tmp_path, cap
 
 
 def test_metres_in_millimetre_columns_are_warned_of(workdir, tmp_path, capsys):
-    """Readings of X, Y, Z divided by 1000 (metres under x_mm): within the travel, so accepted, but every reading
-    lies within 0.2 % of a ±600 mm travel: a warning per column says what looks wrong; the readings in mm give none."""
+    """Readings of X, Y, Z divided by 1000 (metres under x_mm): within the travel, so read, but every reading
+    lies within 0.2 % of a ±600 mm travel: a warning per column says what looks wrong when the file is read; the
+    readings in mm give none. ``identify`` fits them first: the fit does not converge, and its one line of refusal
+    names the three columns as metres instead."""
     rows = (workdir / "obs.csv").read_text().splitlines()
     header = rows[0].split(",")
     cols = [header.index(c) for c in ("x_mm", "y_mm", "z_mm")]
@@ -224,8 +226,14 @@ def test_metres_in_millimetre_columns_are_warned_of(workdir, tmp_path, capsys):
             cells[j] = f"{float(cells[j]) / 1000:.9f}"
         out.append(",".join(cells))
     (tmp_path / "metres.csv").write_text("\n".join(out) + "\n")
-    main(["identify", "--machine", BC, "--data", str(tmp_path / "metres.csv"), "--out", str(tmp_path / "f.json")])
-    err = capsys.readouterr().err
+    assert main(["identify", "--machine", BC, "--data", str(tmp_path / "metres.csv"), "--out",
+                 str(tmp_path / "f.json")]) == 2
+    line = _err_line(capsys)
+    assert "x_mm, y_mm, z_mm look like metres" in line and "multiplied by 1000" in line, line
+    assert not (tmp_path / "f.json").exists()
+    with pytest.warns(UserWarning) as record:
+        read_observations(tmp_path / "metres.csv", load_machine(BC))
+    err = "\n".join(str(w.message) for w in record)
     for c in ("x_mm", "y_mm", "z_mm"):
         assert f"every reading of {c} is within" in err and "if they are metres, multiply by 1000" in err, err
     assert main(["identify", "--machine", BC, "--data", str(workdir / "obs.csv"), "--out", str(tmp_path / "g.json")]) == 0

@@ -72,14 +72,14 @@ def _compensate(args) -> int:
 
     from kinid.checks import check_plausible, check_positive
     from ..compensation import write_compensation
-    from ..fitting import load_fit
+    from ..fitting import load_trusted_fit
 
     for option, value, kind in (("--step-mm", args.step_mm, "step_mm"), ("--step-deg", args.step_deg, "step_deg")):
         if value is not None:
             check_positive(option, value)
             check_plausible(option, value, kind)
     numbers = _axis_numbers(args.axis_numbers)
-    result = load_fit(args.fit)
+    result = load_trusted_fit(args.fit)  # a fit that did not converge never reaches a controller
     out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,
                              formats=tuple(args.formats), fit_path=args.fit, range_policy=args.range_policy,
                              beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers)

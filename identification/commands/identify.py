@@ -141,15 +141,30 @@ def _without_duplicates(obs):
     return obs.subset(np.array([i for i in range(len(obs)) if i not in copies]))
 
 
+def _refuse_untrusted(machine, obs, result, source) -> None:
+    """DataError naming why ``result`` cannot be trusted (not converged, a residual far above the σ given, data
+    with a unit mistake: :func:`~kinid.identification.fitting.untrusted`) and the unit mistake the data ``obs``
+    (as read) point to: such a fit is not written (docs/identification.md)."""
+    from ..data import unit_hints
+    from ..fitting import untrusted
+
+    why = untrusted(result, unit_hints(machine, obs))
+    if why:
+        raise DataError(f"{why}; no fit written", path=source)
+
+
 def _identify(args) -> int:
     from ..fitting import fit, model_effects
     from ..fitting import save_fit
     from ..model import load_machine
-    from ..data import check_row_count, read_observations
+    from ..data import check_row_count, read_observations, warn_units
 
     _positive(args.noise_um, "--noise-um")
     machine = load_machine(args.machine)
-    obs = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits))
+    # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
+    read = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits,
+                                                 check_units=False))
+    obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
     effects = model_effects(machine, args.add)
     if args.prior_um is not None or args.prior_urad is not None:
@@ -169,6 +184,7 @@ def _identify(args) -> int:
         choice = choose_prior(machine, obs, effects, noise_um=args.noise_um, **sizes)
         result = fit(machine, obs, effects, noise_um=choice.noise_um,
                      prior_std=prior_std(machine, effects, choice.scale, **sizes))
+        _refuse_untrusted(machine, read, result, args.data)
         described = choice.describe()
         if not args.no_check:
             print(f"held-out check of the prior on {len(obs)} alignments …", file=sys.stderr, flush=True)
@@ -181,6 +197,7 @@ def _identify(args) -> int:
                                robust=not args.no_robust)
         result = steps[-1].fit
         obs = steps[-1].data
+        _refuse_untrusted(machine, read, result, args.data)
         if args.report:
             from ..reporting import selection_report
 
@@ -194,11 +211,13 @@ def _identify(args) -> int:
 
             obs, aside = set_aside_outliers(machine, obs, effects, noise_um=args.noise_um)
         result = replace(fit(machine, obs, effects, noise_um=args.noise_um), set_aside=aside)
+        _refuse_untrusted(machine, read, result, args.data)
         if args.report:
             from ..diagnosis import diagnose
             from ..reporting import diagnosis_report
 
             diagnosis_report(diagnose(machine, obs, effects, noise_um=args.noise_um, result=result), obs, args.report)
+    warn_units(machine, read)
     save_fit(result, args.out)
     print(result.table())
     if result.aliases:

@@ -64,7 +64,7 @@ def _verify(args) -> int:
 
     from kinid.checks import check_plausible, check_positive
     from kinid.files import strict_json
-    from ..fitting import load_fit
+    from ..fitting import load_trusted_fit
     from ..data import check_row_count, read_observations
     from ..compensation import verify
 
@@ -76,7 +76,7 @@ def _verify(args) -> int:
 
         check_report_folder(args.report)
     fit_path = args.fit or _fit_of_compensation(args.compensation)
-    result = load_fit(fit_path)
+    result = load_trusted_fit(fit_path)
     after = read_observations(args.data, result.machine, check_limits=not args.allow_outside_limits)
     check_row_count(after, "a verification")
     before = None if args.before is None else read_observations(args.before, result.machine,

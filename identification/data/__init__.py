@@ -14,13 +14,14 @@ _SOURCES = {
     "SENSOR_SCHEMA": "observe", "board_mark_mm": "observe", "check_laser_offset": "observe",
     "default_board_origin_mm": "observe", "load_sensor": "observe", "observe": "observe",
     "read_run_log": "observe", "distinct_positions": "positions", "position_starts": "positions",
-    "positions_of": "positions", "positions_per_axis": "positions",
+    "positions_of": "positions", "positions_per_axis": "positions", "UnitHint": "units", "unit_hints": "units",
+    "warn_units": "units",
 }
 
-__all__ = ["MIN_ROWS", "Observations", "SENSOR_SCHEMA", "SetAside", "board_mark_mm", "check_laser_offset",
-           "check_observations", "check_row_count", "default_board_origin_mm", "distinct_positions",
-           "exact_duplicates", "laser_offset", "load_sensor", "observations_text", "observe", "position_starts",
-           "positions_of", "positions_per_axis", "read_axis_table", "read_observations", "read_run_log",
-           "row_groups", "write_observations"]
+__all__ = ["MIN_ROWS", "Observations", "SENSOR_SCHEMA", "SetAside", "UnitHint", "board_mark_mm",
+           "check_laser_offset", "check_observations", "check_row_count", "default_board_origin_mm",
+           "distinct_positions", "exact_duplicates", "laser_offset", "load_sensor", "observations_text",
+           "observe", "position_starts", "positions_of", "positions_per_axis", "read_axis_table",
+           "read_observations", "read_run_log", "row_groups", "unit_hints", "warn_units", "write_observations"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -18,7 +18,8 @@ from kinid.errors import DataError
 from kinid.csv_columns import CsvColumns, read_csv_columns
 from ..model import Machine, axis_limits
 
-__all__ = ["AxisTable", "read_axis_table", "check_travel", "warn_if_metres", "TRAVEL_MARGIN", "TRAVEL_TOLERANCE"]
+__all__ = ["AxisTable", "read_axis_table", "check_travel", "warn_if_metres", "metres_columns", "TRAVEL_MARGIN",
+           "TRAVEL_TOLERANCE"]
 
 #: Readings beyond the URDF travel by less than this share of the limit (or 1e-9 mm / deg) are on it.
 TRAVEL_MARGIN = 1e-9
@@ -76,7 +77,7 @@ def _axis_of(machine: Machine, header: str):
 
 
 def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_axes=(),
-                    check_limits: bool = True, texts=()) -> AxisTable:
+                    check_limits: bool = True, texts=(), warn_metres: bool = True) -> AxisTable:
     """Read a CSV table with axis columns.
 
     Parameters
@@ -91,6 +92,9 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         Refuse a reading outside its axis's URDF travel (:func:`check_travel`).
     texts : sequence of str
         Columns read as text (marks, image names); every other is read as numbers.
+    warn_metres : bool
+        Warn of readings that look like metres (:func:`warn_if_metres`); a reader that checks the units
+        of its rows as a whole (the observation CSV) warns itself.
 
     Raises
     ------
@@ -145,7 +149,8 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         dirs[name] = v.copy()
     if check_limits:
         check_travel(machine, axes, lines, path)
-    warn_if_metres(machine, axes, path)
+    if warn_metres:
+        warn_if_metres(machine, axes, path)
     return AxisTable(path, header_line, header, table, axes, dirs, t_s, lines)
 
 
@@ -153,12 +158,11 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
 METRES_SHARE = 0.002
 
 
-def warn_if_metres(machine: Machine, axes: np.ndarray, path) -> None:
-    """A warning when every reading of a linear axis with a travel of 100 mm or more lies within ±0.2 % of it
-    (±1.2 mm of ±600 mm) and yet they vary: metres written in a ``_mm`` column."""
-    import warnings
-
+def metres_columns(machine: Machine, axes: np.ndarray) -> list:
+    """(column, largest |reading| mm, low, high) of each linear axis with a travel of 100 mm or more whose every
+    reading lies within ±0.2 % of it (±1.2 mm of ±600 mm) and yet they vary: metres written in a ``_mm`` column."""
     limits = axis_limits(machine)
+    out = []
     for j, a in enumerate(machine.axes):
         lo, hi = limits[j]
         v = axes[:, j][np.isfinite(axes[:, j])]
@@ -166,8 +170,19 @@ def warn_if_metres(machine: Machine, axes: np.ndarray, path) -> None:
         if a.kind != "prismatic" or v.size < 3 or not np.isfinite(reach) or hi - lo < 100.0:
             continue
         if np.abs(v).max() <= METRES_SHARE * reach and np.ptp(v) > 0:
-            warnings.warn(f"{path}: every reading of {a.column} is within ±{np.abs(v).max():.3g} mm of a travel of "
-                          f"{lo:g} .. {hi:g} mm; if they are metres, multiply by 1000", stacklevel=3)
+            out.append((a.column, float(np.abs(v).max()), lo, hi))
+    return out
+
+
+def warn_if_metres(machine: Machine, axes: np.ndarray, path) -> list:
+    """A warning for each column of :func:`metres_columns`; returns their names."""
+    import warnings
+
+    found = metres_columns(machine, axes)
+    for column, largest, lo, hi in found:
+        warnings.warn(f"{path}: every reading of {column} is within ±{largest:.3g} mm of a travel of "
+                      f"{lo:g} .. {hi:g} mm; if they are metres, multiply by 1000", stacklevel=3)
+    return [c for c, *_ in found]
 
 
 def check_travel(machine: Machine, axes: np.ndarray, lines, path) -> None:

@@ -90,7 +90,8 @@ class Observations:
         )
 
 
-def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True) -> Observations:
+def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True,
+                      check_units: bool = True) -> Observations:
     """Read an observation CSV.
 
     Parameters
@@ -102,6 +103,10 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     check_limits : bool
         Refuse a reading outside its axis's travel in the URDF (the joint
         limits), which is almost always a unit or column mistake.
+    check_units : bool
+        Warn of columns in a likely wrong unit (:func:`~kinid.identification.data.units.warn_units`: marks
+        or readings in metres or inches, angles in radians). ``kinid identify`` checks them itself, after
+        the fit, to name them in its refusal of a fit that failed instead.
 
     Raises
     ------
@@ -111,7 +116,7 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
     from .axis_columns import read_axis_table
 
     t = read_axis_table(path, machine, what="CSV file", required=("mark",) + _MARK_COLUMNS, texts=("mark",),
-                        optional_axes=optional_axes, check_limits=check_limits)
+                        optional_axes=optional_axes, check_limits=check_limits, warn_metres=False)
     marks = t.texts("mark", "mark label")
     w = np.column_stack([t.numbers(c) for c in _MARK_COLUMNS])
     offsets = None
@@ -125,7 +130,12 @@ def read_observations(path, machine: Machine, *, optional_axes=(), check_limits:
                 raise DataError("a shift column needs the offset columns (mark_dx_mm, mark_dy_mm, mark_dz_mm)",
                                 path=t.path, line=t.header_line, column=h)
             shifts.setdefault(m[1], np.zeros((len(marks), 3)))[:, "xyz".index(m[2][1])] = t.numbers(h)
-    return Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets, shifts)
+    obs = Observations(tuple(marks), w, t.axes, t.t_s, t.directions, t.lines, str(t.path), offsets, shifts)
+    if check_units:
+        from .units import warn_units
+
+        warn_units(machine, obs)
+    return obs
 
 
 #: The fewest observation rows each computation is made from (below them a fit's SVD, the replicate noise and the

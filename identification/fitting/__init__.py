@@ -9,9 +9,10 @@ from kinid.lazy import front_door as _front_door
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
     "solve_axes": "alignment", "MIN_GAIN_SE": "crossval", "cross_validate": "crossval", "FitResult": "fit",
-    "fit": "fit", "model_effects": "fit", "load_fit": "fit_file", "save_fit": "fit_file",
-    "analyse": "identifiability", "axis_residuals": "leverage", "hat_diagonal": "leverage",
-    "model_pass": "leverage", "noise_from_replicates": "leverage", "studentized": "leverage", "Noise": "noise",
+    "fit": "fit", "model_effects": "fit", "load_fit": "fit_file", "load_trusted_fit": "fit_file",
+    "save_fit": "fit_file", "untrusted": "fit_file", "analyse": "identifiability", "axis_residuals": "leverage",
+    "hat_diagonal": "leverage", "model_pass": "leverage", "noise_from_replicates": "leverage",
+    "studentized": "leverage", "NOISE_RATIO_LIMIT": "noise", "Noise": "noise", "noise_ratio": "noise",
     "resolve_noise": "noise", "set_aside_outliers": "outliers", "set_aside_with_fit": "outliers",
     "PRIOR_UM": "prior", "PRIOR_URAD": "prior", "choose_prior": "prior", "held_out_check": "prior",
     "prior_std": "prior", "design": "residuals", "effect_columns": "residuals", "joint_values": "residuals",
@@ -19,11 +20,12 @@ _SOURCES = {
     "load_errors": "simulate", "load_plan": "simulate", "patent_plan": "simulate", "simulate": "simulate",
 }
 
-__all__ = ["FitResult", "MIN_GAIN_SE", "Noise", "PATENT_MARKS_MM", "PRIOR_UM", "PRIOR_URAD", "analyse",
-           "axis_residuals", "choose_prior", "cross_validate", "design", "effect_columns",
-           "errors_from_mapping", "fit", "hat_diagonal", "held_out_check", "joint_values", "load_errors",
-           "load_fit", "load_plan", "model_effects", "model_pass", "noise_from_replicates", "patent_plan",
-           "prior_std", "residuals", "resolve_noise", "save_fit", "set_aside_outliers", "set_aside_with_fit",
-           "simulate", "solve_axes", "studentized"]
+__all__ = ["FitResult", "MIN_GAIN_SE", "NOISE_RATIO_LIMIT", "Noise", "PATENT_MARKS_MM", "PRIOR_UM",
+           "PRIOR_URAD", "analyse", "axis_residuals", "choose_prior", "cross_validate", "design",
+           "effect_columns", "errors_from_mapping", "fit", "hat_diagonal", "held_out_check", "joint_values",
+           "load_errors", "load_fit", "load_plan", "load_trusted_fit", "model_effects", "model_pass",
+           "noise_from_replicates", "noise_ratio", "patent_plan", "prior_std", "residuals", "resolve_noise",
+           "save_fit", "set_aside_outliers", "set_aside_with_fit", "simulate", "solve_axes", "studentized",
+           "untrusted"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

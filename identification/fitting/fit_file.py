@@ -20,9 +20,9 @@ from ..model import machine_from_urdf, parse_effect
 from ..data import SetAside
 from .fit import FIT_FORMAT, FitResult
 from .identifiability import Alias
-from .noise import Noise
+from .noise import NOISE_RATIO_LIMIT, Noise, noise_ratio
 
-__all__ = ["fit_to_dict", "save_fit", "load_fit", "FIT_SCHEMA"]
+__all__ = ["fit_to_dict", "save_fit", "load_fit", "load_trusted_fit", "untrusted", "FIT_SCHEMA"]
 
 #: The largest size of a parameter, a standard deviation or a residual in its own unit (µm, µrad, ...).
 LARGEST = 1e7
@@ -162,4 +162,59 @@ def load_fit(path) -> FitResult:
         raise DataError(f"malformed kinid fit: {exc}", path=path) from None
     if sum(e.n_params for e in effects) != len(names):
         raise DataError("malformed kinid fit: the parameters do not match the effects", path=path)
+    return result
+
+
+#: σ typed in mm instead of µm leaves a residual this many times σ, give or take the factor SIGMA_MM_SPREAD.
+_SIGMA_MM_RATIO = 1000.0
+_SIGMA_MM_SPREAD = 5.0
+
+
+def _um(x: float) -> str:
+    return f"{x:.4g}" if abs(x) < 1e4 else f"{x:.0f}"
+
+
+def untrusted(result: FitResult, hints=()) -> str:
+    """Why ``result`` cannot be trusted, as one clause with the likely mistake; "" if it can.
+
+    A fit that did not converge, or whose residual RMS is more than :data:`~.noise.NOISE_RATIO_LIMIT` times
+    the σ given (:func:`~.noise.noise_ratio`), is not a machine's errors; nor is one of data with a unit
+    mistake, ``hints`` (:func:`kinid.identification.data.unit_hints`), however well it fits them (an effect
+    such as a scale error can take an axis read in inches). The hints are named as the likely mistake;
+    without one, a residual about 1000× σ names σ typed in mm.
+    """
+    ratio = noise_ratio(result.rms_um, result.noise)
+    if not result.success:
+        why = f"the fit did not converge in {result.iterations} iterations (residual RMS {_um(result.rms_um)} µm)"
+    elif ratio > NOISE_RATIO_LIMIT:
+        why = (f"the residual RMS {_um(result.rms_um)} µm is {ratio:.0f}× the σ given ({result.noise_um:g} µm; "
+               f"refused beyond {NOISE_RATIO_LIMIT:g}×)")
+    elif hints:
+        why = f"the data hold a unit mistake (the fit leaves a residual RMS of {_um(result.rms_um)} µm)"
+    else:
+        return ""
+    if hints:
+        return f"{why}; likely {'; '.join(h.describe() for h in hints)}"
+    if ratio > 0 and abs(np.log(ratio / _SIGMA_MM_RATIO)) <= np.log(_SIGMA_MM_SPREAD):
+        return (f"{why}; likely σ typed in mm: --noise-um is in µm ({result.noise_um:g} mm is "
+                f"{result.noise_um * 1000:g} µm)")
+    if not result.success:
+        return f"{why}; check the units of the marks and the readings and that the URDF is the machine measured"
+    return (f"{why}; if σ is right, the model lacks an error far above the noise or the data hold gross errors: "
+            f"fit without --noise-um (σ from the residuals) and run kinid diagnose")
+
+
+def load_trusted_fit(path) -> FitResult:
+    """:func:`load_fit`, refusing a fit that cannot be trusted (:func:`untrusted`: not converged, or a residual
+    far above the σ given), such as an older file or one edited by hand: it must not reach a controller.
+
+    Raises
+    ------
+    DataError
+        Naming the file and why.
+    """
+    result = load_fit(path)
+    why = untrusted(result)
+    if why:
+        raise DataError(f"{why}; a fit that cannot be trusted is not used: identify again", path=path)
     return result
