@@ -27,6 +27,7 @@ from .noise import Noise
 from ..data import Observations, check_observations
 from .fit_pass import model_pass_qr
 from .residuals import design, residuals
+from .start import TURN_RAD, closed_form_start
 
 __all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "FIT_FORMAT"]
 
@@ -272,17 +273,29 @@ def fit(
         r = ps.r
         ident = analyse(_with_prior(ps.R, w_prior) / sigma0, names, tol=rank_tol, rows=rows)
         free = ident.identifiable
-    D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
     lo = np.full(P, -np.inf)
     hi = np.full(P, np.inf)
     for name, (a, b) in (bounds or {}).items():
         if name not in names:
             raise DataError(f"bound on unknown parameter {name!r}")
         lo[names.index(name)], hi[names.index(name)] = a, b
-
-    wf = w_prior[free]
     prior_cost = lambda th: 0.5 * float(np.sum((w_prior * th) ** 2))  # noqa: E731
     cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
+    # the measurement frame in closed form first, where it turns far (start.py); kept only if it costs less
+    # (the parameters held are those held here: at the start, a marker off the last joint's axis would trade
+    # the joint's zero for the marker's place about it, and the start's values are on the parameters held here)
+    start = closed_form_start(machine, d, obs, theta, free=free, aliases=ident.aliases)
+    if start is not None and start.turn_rad > TURN_RAD and np.all((start.theta >= lo) & (start.theta <= hi)):
+        ps_start = model_pass_qr(machine, d, obs, start.theta)
+        cost_start = 0.5 * float(np.sum(ps_start.r**2)) + prior_cost(start.theta)
+        if cost_start < cost:
+            theta, ps, r, cost = start.theta, ps_start, ps_start.r, cost_start
+        else:
+            start = None
+    else:
+        start = None
+    D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
+    wf = w_prior[free]
     lam = 1e-9
     success, message, it = False, "", 0
     for it in range(1, max_iter + 1):
