@@ -89,6 +89,9 @@ class FitResult:
     correlation : array (P, P) or None
         The correlation of the parameters' estimates from the noise (NaN where held); None for a
         loaded fit (the file holds the standard deviations only).
+    start : str
+        How the iterations started where not from the values given: the measurement frame fitted in closed form
+        (:mod:`~kinid.identification.fitting.start`), in words; empty otherwise.
     """
 
     machine: Machine
@@ -118,6 +121,7 @@ class FitResult:
     prior: str = ""
     prior_std: np.ndarray | None = None
     correlation: np.ndarray | None = None
+    start: str = ""
 
     @property
     def noise_um(self) -> float:
@@ -168,6 +172,8 @@ class FitResult:
             f"condition {self.condition_number:.3g}; observability O1 {self.o1:.3g} (mean), O3 {self.o3:.3g} (weakest "
             f"direction; larger is better, Sun & Hollerbach 2008)"
         )
+        if self.start:
+            lines.append(self.start)
         if self.prior:
             lines.append(f"maximum a posteriori estimate, std from the posterior — {self.prior}")
         if self.shared_std:
@@ -208,6 +214,7 @@ def fit(
     xtol: float = 1e-12,
     theta0=None,
     prior_std=None,
+    frame_start: bool = True,
 ) -> FitResult:
     """Fit ``effects`` (default: the default model) to the observations.
 
@@ -233,6 +240,10 @@ def fit(
         A prior on each parameter's size: zero mean, this standard deviation in the parameter's unit
         (inf: none). The fit is then the maximum a posteriori estimate with the noise σ (``noise_um``,
         required) and its standard deviations the posterior's (:mod:`~kinid.identification.fitting.prior`).
+    frame_start : bool
+        Fit the measurement frame (the six ``E?0W`` joints) and the point on the tool in closed form first, where
+        the frame turns by more than :data:`~kinid.identification.fitting.start.TURN_RAD` from ``theta0`` and the
+        start costs less (:mod:`~kinid.identification.fitting.start`). False: iterate from ``theta0`` as given.
 
     Returns
     -------
@@ -284,7 +295,7 @@ def fit(
     # the measurement frame in closed form first, where it turns far (start.py); kept only if it costs less
     # (the parameters held are those held here: at the start, a marker off the last joint's axis would trade
     # the joint's zero for the marker's place about it, and the start's values are on the parameters held here)
-    start = closed_form_start(machine, d, obs, theta, free=free, aliases=ident.aliases)
+    start = closed_form_start(machine, d, obs, theta, free=free, aliases=ident.aliases) if frame_start else None
     if start is not None and start.turn_rad > TURN_RAD and np.all((start.theta >= lo) & (start.theta <= hi)):
         ps_start = model_pass_qr(machine, d, obs, start.theta)
         cost_start = 0.5 * float(np.sum(ps_start.r**2)) + prior_cost(start.theta)
@@ -371,6 +382,7 @@ def fit(
         iterations=it, success=success, message=message, singular_values=singular_values,
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
         prior_std=None if prior_std is None else np.asarray(prior_std, float), correlation=correlation,
+        start="" if start is None else start.describe(),
     )
 
 

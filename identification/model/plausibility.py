@@ -4,7 +4,9 @@ A machine tool's geometric errors are micrometres to a few tens of micrometres a
 few hundred; a fit that needs a millimetre or ten milliradians is explaining something else — a
 sensor offset not in the sensor file, a camera model that does not fit the lens, a unit mistake —
 and the effect it names is not there. The set-up of the board and the sensor may be off by more
-(a board placed by hand), so it has wider limits.
+(a board placed by hand), so it has wider limits: the measurement frame (``?0W``) none at all (a laser
+tracker stands metres from a robot, turned any way), the point on the tool (``?0T``) half a metre (a
+marker on a long tool) and its turn half a radian (a sensor mounted askew).
 
 The size of an effect is its largest value over the data: the value of a constant, the largest
 |value| of a position-dependent effect over the fitted range of its axis, a drift over an hour.
@@ -37,8 +39,12 @@ from .effects import basis_values, parse_effect
 __all__ = ["Implausible", "implausible_effects", "implausible_candidate", "warning_lines", "machine_limit",
            "share_of_limit", "LIMITS", "PRIOR_MULTIPLE"]
 
-#: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
-LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
+#: Largest plausible size: a machine's own errors, µm and µrad; the set-up of the point on the tool (``?0T``),
+#: µm and µrad; the measurement frame (``?0W``) is placed anywhere (no limit).
+LIMITS = {"um": 1000.0, "urad": 10000.0, "tool_um": 500000.0, "tool_urad": 500000.0,
+          "frame_um": math.inf, "frame_urad": math.inf}
+#: The limits' prefix for the set-up pseudo-axes.
+_SETUP_PREFIX = {"W": "frame_", "T": "tool_"}
 #: A constant beyond this many of its prior's standard deviations is flagged.
 PRIOR_MULTIPLE = 5.0
 #: Drift sizes are judged over this time, s.
@@ -105,10 +111,10 @@ def warning_lines(odd, prefix: str = "WARNING: ") -> list:
 
 
 def machine_limit(machine, code: str, unit: str) -> float:
-    """The largest size a machine has for error joint ``code`` (a set-up, for the board's and the sensor's joints
-    W and T), in ``unit`` (µm or µrad, written "um"/"urad" or "µm"/"µrad")."""
-    setup = machine.error_joint(code).axis in ("W", "T")
-    return LIMITS[("setup_" if setup else "") + ("urad" if "rad" in unit else "um")]
+    """The largest size a machine has for error joint ``code`` (a set-up, for the measurement frame's and the
+    tool point's joints W and T: inf for W), in ``unit`` (µm or µrad, written "um"/"urad" or "µm"/"µrad")."""
+    prefix = _SETUP_PREFIX.get(machine.error_joint(code).axis, "")
+    return LIMITS[prefix + ("urad" if "rad" in unit else "um")]
 
 
 def share_of_limit(machine, code: str, size: float, unit: str) -> float:
