@@ -1,6 +1,7 @@
 """The fit: the model pass and its residuals, the measurement frame's start in closed form, the
-Levenberg-Marquardt step, identifiability, σ, leverages, gross errors, the prior, the held-out check, and what the fitted machine predicts (the axis readings
-that align it with a mark, simulated runs); FIT.json.
+Levenberg-Marquardt step, identifiability, σ, leverages, gross errors, the prior, the held-out check,
+and what the fitted machine predicts (the axis readings that align it with a mark, simulated runs);
+FIT.json.
 
 Imports :mod:`~kinid.identification.model` and :mod:`~kinid.identification.data`.
 """

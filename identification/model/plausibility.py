@@ -6,7 +6,9 @@ sensor offset not in the sensor file, a camera model that does not fit the lens,
 and the effect it names is not there. The set-up of the board and the sensor may be off by more
 (a board placed by hand), so it has wider limits: the measurement frame (``?0W``) none at all (a laser
 tracker stands metres from a robot, turned any way), the point on the tool (``?0T``) half a metre (a
-marker on a long tool) and its turn half a radian (a sensor mounted askew).
+marker on a long tool) and its turn half a radian (a sensor mounted askew). An error that alone carries a
+held set-up parameter (``EZ0J6 and EZ0T: only their sum is identified``: the marker's distance along the
+last joint's axis is in EZ0J6) is judged by that set-up's limit.
 
 The size of an effect is its largest value over the data: the value of a constant, the largest
 |value| of a position-dependent effect over the fitted range of its axis, a drift over an hour.
@@ -143,11 +145,13 @@ def implausible_effects(result, names=None) -> tuple:
     """The effects of a fit (or only those in ``names``) whose size is beyond :data:`LIMITS`."""
     machine = result.machine
     theta = np.where(result.identifiable, np.nan_to_num(result.values), 0.0)
+    carried = _carried_set_ups(machine, getattr(result, "aliases", ()))
     out, index, k = [], [], 0
     for e in result.effects:
         th = theta[k:k + e.n_params]
         k += e.n_params
-        limit = machine_limit(machine, e.code, e.unit)
+        limit = max([machine_limit(machine, e.code, e.unit)] +
+                    [machine_limit(machine, code, e.unit) for code in carried.get(e.name, ())])
         prior = getattr(result, "prior_std", None)
         if prior is not None and e.n_params == 1 and np.isfinite(prior[k - 1]):
             limit = min(limit, PRIOR_MULTIPLE * float(prior[k - 1]))
@@ -158,6 +162,17 @@ def implausible_effects(result, names=None) -> tuple:
             index.append(k - 1)
     out = _weak_partners(out, index, theta, getattr(result, "correlation", None))
     return tuple(a for a in out if names is None or a.effect in names)
+
+
+def _carried_set_ups(machine, aliases) -> dict:
+    """Effect name -> the held set-up joints (W, T) it alone carries: aliases with one partner."""
+    out = {}
+    for a in aliases:
+        code = a.name.split(":")[0]
+        if a.kind == "aliased" and len(a.partners) == 1 and code in machine.error_codes and \
+                machine.error_joint(code).axis in _SETUP_PREFIX:
+            out.setdefault(a.partners[0][0], []).append(code)
+    return out
 
 
 def implausible_candidate(machine, candidate, axis_ranges) -> Implausible | None:
