@@ -165,14 +165,27 @@ def implausible_effects(result, names=None) -> tuple:
 
 
 def _carried_set_ups(machine, aliases) -> dict:
-    """Effect name -> the held set-up joints (W, T) it alone carries: aliases with one partner."""
+    """Effect name -> the held set-up joints (W, T) it alone carries: aliases with one partner, an error joint of
+    the set-up's own chain (the tool's for T, the workpiece's for W: EZ0J6 beside EZ0T on an arm; a table's EY0C
+    beside a spindle sensor's EY0T is a machine's error the plan cannot tell from the set-up, and keeps its limit)."""
     out = {}
     for a in aliases:
         code = a.name.split(":")[0]
-        if a.kind == "aliased" and len(a.partners) == 1 and code in machine.error_codes and \
-                machine.error_joint(code).axis in _SETUP_PREFIX:
-            out.setdefault(a.partners[0][0], []).append(code)
+        if a.kind != "aliased" or len(a.partners) != 1 or code not in machine.error_codes or \
+                machine.error_joint(code).axis not in _SETUP_PREFIX:
+            continue
+        partner = a.partners[0][0]
+        if partner.split(":")[0] in machine.error_codes and _same_chain(machine, code, partner.split(":")[0]):
+            out.setdefault(partner, []).append(code)
     return out
+
+
+def _same_chain(machine, setup_code: str, code: str) -> bool:
+    """Error joint ``code`` lies on the chain from the root to the frame set-up joint ``setup_code`` sets up."""
+    frame = machine.tool_frame if machine.error_joint(setup_code).axis == "T" else machine.workpiece_frame
+    model = machine.model
+    joint = next(j for j in range(1, model.njoints) if model.idx_qs[j] == machine.error_joint(code).q_index)
+    return joint in model.supports[model.frames[frame].parentJoint]
 
 
 def implausible_candidate(machine, candidate, axis_ranges) -> Implausible | None:
