@@ -124,3 +124,14 @@ def test_the_set_up_is_not_implausible_but_a_machine_error_still_is(arm):
     result = fit(machine, replace(train, w_mm=p), effects)
     assert [a.effect for a in result.implausible()] == ["EX0J3"]
     assert "sizes no machine has" in result.table()
+
+
+def test_the_start_is_kept_in_the_fit_file(arm, tmp_path):
+    from kinid.identification.fitting.fit_file import load_fit, save_fit
+
+    machine, tm, effects, free = arm
+    train, _, _, _ = far.draw(machine, tm, free, 2)
+    result = fit(machine, train, effects)
+    save_fit(result, tmp_path / "fit.json")
+    assert result.start and load_fit(tmp_path / "fit.json").start == result.start
+    assert result.start in result.table()
