@@ -27,7 +27,7 @@ from .noise import Noise
 from ..data import Observations, check_observations
 from .fit_pass import model_pass_qr
 from .residuals import design, residuals
-from .start import TURN_RAD, closed_form_start
+from .start import TURN_RAD, closed_form_start, turn_rad
 
 __all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "FIT_FORMAT"]
 
@@ -293,18 +293,12 @@ def fit(
     prior_cost = lambda th: 0.5 * float(np.sum((w_prior * th) ** 2))  # noqa: E731
     cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
     # the measurement frame in closed form first, where it turns far (start.py); kept only if it costs less
-    # (the parameters held are those held here: at the start, a marker off the last joint's axis would trade
-    # the joint's zero for the marker's place about it, and the start's values are on the parameters held here)
-    start = closed_form_start(machine, d, obs, theta, free=free, aliases=ident.aliases) if frame_start else None
-    if start is not None and start.turn_rad > TURN_RAD and np.all((start.theta >= lo) & (start.theta <= hi)):
-        ps_start = model_pass_qr(machine, d, obs, start.theta)
-        cost_start = 0.5 * float(np.sum(ps_start.r**2)) + prior_cost(start.theta)
-        if cost_start < cost:
-            theta, ps, r, cost = start.theta, ps_start, ps_start.r, cost_start
-        else:
-            start = None
-    else:
-        start = None
+    started = _frame_start(machine, d, obs, theta, ps, ident, lo, hi, prior_cost) if frame_start else None
+    start = None
+    if started is not None:
+        start, ps = started
+        theta, r = start.theta, ps.r
+        cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
     D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
     wf = w_prior[free]
     lam = 1e-9
@@ -407,6 +401,22 @@ def evaluated_fit(machine: Machine, obs: Observations, effects, theta, residuals
         o1=float("nan"), o3=float("nan"), residuals_um=r, n_observations=int(r.shape[0]),
         rms_um=float(np.sqrt(np.mean(r**2))), noise=noise, dof=dof, iterations=0, success=True,
         message="evaluated at the values given", axis_ranges=_axis_ranges(machine, obs))
+
+
+def _frame_start(machine: Machine, d, obs: Observations, theta, ps, ident, lo, hi, prior_cost):
+    """(Start, its pass) where the measurement frame turns by more than TURN_RAD from ``theta`` (judged from the
+    residuals at hand first: a set-up turned less, a machine tool's, costs no pass more), the start lies within
+    the bounds and costs less than ``theta``; None otherwise. The parameters held are those ``ident`` holds at
+    ``theta``: at the start a marker off the last joint's axis would trade the joint's zero for the marker's place
+    about it, and the start puts its values on the parameters free here."""
+    if not turn_rad(obs.w_mm + ps.r * 1e-3, obs.w_mm) > TURN_RAD:
+        return None
+    start = closed_form_start(machine, d, obs, theta, free=ident.identifiable, aliases=ident.aliases)
+    if start is None or not start.turn_rad > TURN_RAD or not np.all((start.theta >= lo) & (start.theta <= hi)):
+        return None
+    ps_start = model_pass_qr(machine, d, obs, start.theta)
+    cost = 0.5 * float(np.sum(ps.r**2)) + prior_cost(theta)
+    return (start, ps_start) if 0.5 * float(np.sum(ps_start.r**2)) + prior_cost(start.theta) < cost else None
 
 
 def _with_prior(J, w_prior):

@@ -35,8 +35,8 @@ from ..model import Machine, evaluate
 from ..data import Observations
 from .residuals import Design, joint_values
 
-__all__ = ["Start", "closed_form_start", "rigid_transform", "robust_rigid_transform", "TRIM_MADS", "ROUNDS",
-           "TURN_RAD", "AGREE_MM"]
+__all__ = ["Start", "closed_form_start", "rigid_transform", "robust_rigid_transform", "turn_rad", "TRIM_MADS",
+           "ROUNDS", "TURN_RAD", "AGREE_MM"]
 
 #: Rows farther from the rigid transform than the median distance plus this many scaled median absolute
 #: deviations (1.4826 × MAD: σ for normal data) are left out of the refit: gross errors, not noise (for 3-D
@@ -141,6 +141,16 @@ def robust_rigid_transform(p_mm, w_mm, *, trim_mads: float = TRIM_MADS) -> tuple
         return R, t, np.ones(len(p), bool)
     R, t = rigid_transform(p[keep], w[keep])
     return R, t, keep
+
+
+def turn_rad(p_mm, w_mm) -> float:
+    """The angle of :func:`robust_rigid_transform`'s rotation from ``p_mm`` to ``w_mm``, rad (0 where the points
+    do not fix a turn): how far the measured points' frame is turned from the model's."""
+    p = np.asarray(p_mm, float)
+    if _flat(p) or not np.all(np.isfinite(p)):
+        return 0.0
+    R = robust_rigid_transform(p, w_mm)[0]
+    return float(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
 
 
 def _flat(p) -> bool:
