@@ -135,3 +135,19 @@ def test_the_start_is_kept_in_the_fit_file(arm, tmp_path):
     save_fit(result, tmp_path / "fit.json")
     assert result.start and load_fit(tmp_path / "fit.json").start == result.start
     assert result.start in result.table()
+
+
+def test_gross_rows_do_not_turn_the_start(arm):
+    """Two rows 40 mm off (a tracker's lost beam): left out of the rigid fit, and the fit still recovers the
+    frame as from the clean rows."""
+    machine, tm, effects, free = arm
+    train, _, errors, _ = far.draw(machine, tm, free, 9)
+    frame = [e for e in effects if e.code.endswith("0W") or e.code in ("EX0T", "EY0T", "EZ0T")]  # and the marker
+    d = design(machine, frame, train)
+    clean = closed_form_start(machine, d, train, np.zeros(d.n_params))
+    w = train.w_mm.copy()
+    w[[3, 30]] += [[40.0, 0, 0], [0, 0, -40.0]]
+    gross = closed_form_start(machine, d, replace(train, w_mm=w), np.zeros(d.n_params))
+    assert clean.trimmed == 0 and gross.trimmed == 2 and clean.tool_moved_mm > 10.0
+    angle = np.arccos(np.clip((np.trace(gross.rotation.T @ clean.rotation) - 1) / 2, -1, 1))
+    assert angle < 1e-4 and np.linalg.norm(gross.translation_mm - clean.translation_mm) < 0.5
