@@ -134,4 +134,4 @@ def main(draws: int = 60, n_train: int = 60, span_deg: float = 120.0):
 
 if __name__ == "__main__":
     args = sys.argv[1:]
-    main(int(args[0]) if args else 60, int(args[1]) if len(args) > 1 else 60, float(args[2]) if len(args) > 2 else 120.0)
+    main(*(kind(a) for kind, a in zip((int, int, float), args)))
