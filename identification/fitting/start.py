@@ -14,9 +14,13 @@ and may end on a non-physical solution. Here the frame is estimated first, in cl
 2. the transform is put into the six set-up joints: with ``S`` the set-up's placement (translations, then
    rotations, in the chain's order), the model's point is ``S⁻¹ p₀``, so ``S ← S · [R, t]⁻¹``, its rotation
    split into the set-up's three angles in their chain order;
-3. where the tool point's set-up translations ``E[XYZ]0T`` are in the model, the point on the tool is
-   estimated in the new frame by linear least squares (the point is affine in them), and 1.–2. repeated:
-   :data:`ROUNDS` rounds at most, ending with the frame.
+3. where the tool point's set-up translations ``E[XYZ]0T`` are in the model, the frame and the point on the
+   tool are first solved at once (:func:`frame_and_tool`: ``Rᵀ (w − t) = p + G s`` is linear in ``Rᵀ`` taken as
+   any matrix, ``Rᵀ t`` and the point's move ``s``; the matrix then turned into the nearest rotation), and then
+   alternately: the point on the tool by linear least squares in the frame of 1.–2. (the point is affine in
+   them), and 1.–2. again, :data:`ROUNDS` rounds at most, ending with the frame (alternating alone converges
+   slowly where the poses span little: 11 mm left after 4 rounds on 25 poses within ±30°, 0.25 mm with the
+   joint solve first).
 
 The model's own forward kinematics then checks the start: the points it predicts at the start must be the
 rigid transform's (within :data:`AGREE_MM`), or there is no start (a URDF whose set-up joints are in
@@ -35,8 +39,8 @@ from ..model import Machine, evaluate
 from ..data import Observations
 from .residuals import Design, joint_values
 
-__all__ = ["Start", "closed_form_start", "rigid_transform", "robust_rigid_transform", "turn_rad", "TRIM_MADS",
-           "ROUNDS", "TURN_RAD", "AGREE_MM"]
+__all__ = ["Start", "closed_form_start", "frame_and_tool", "rigid_transform", "robust_rigid_transform", "turn_rad",
+           "TRIM_MADS", "ROUNDS", "TURN_RAD", "AGREE_MM"]
 
 #: Rows farther from the rigid transform than the median distance plus this many scaled median absolute
 #: deviations (1.4826 × MAD: σ for normal data) are left out of the refit: gross errors, not noise (for 3-D
@@ -151,6 +155,48 @@ def turn_rad(p_mm, w_mm) -> float:
         return 0.0
     R = robust_rigid_transform(p, w_mm)[0]
     return float(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
+
+
+def frame_and_tool(p_mm, G, w_mm) -> tuple | None:
+    """The rigid transform ``w ≈ R p' + t`` and the move ``s`` of the point on the tool that make the model's
+    points ``p' = p + G s`` the measured ones, at once: ``Rᵀ (w − t) = p + G s`` is linear in ``Q = Rᵀ`` (taken as
+    any 3 × 3 matrix), ``q = −Rᵀ t`` and ``s`` (``Q w + q − G s = p``); ``Q`` is then turned into the nearest
+    rotation and ``t`` and ``s`` solved again with it.
+
+    Parameters
+    ----------
+    p_mm : array (N, 3)
+        The model's points, mm.
+    G : array (N, 3, k)
+        Their derivatives with respect to the point on the tool's translations (mm per mm).
+    w_mm : array (N, 3)
+        The measured points, mm.
+
+    Returns
+    -------
+    (R, t_mm, s_mm) or None
+        None where the measured points lie in a plane (Q is then not determined).
+    """
+    p, w = np.asarray(p_mm, float), np.asarray(w_mm, float)
+    n, k = len(p), G.shape[2]
+    wc = w - w.mean(axis=0)
+    sv = np.linalg.svd(wc, compute_uv=False)
+    if n < 5 or not sv[2] > FLAT_SHARE * sv[0]:
+        return None
+    A = np.zeros((n, 3, 12 + k))
+    for r in range(3):
+        A[:, r, 3 * r:3 * r + 3] = wc
+        A[:, r, 9 + r] = 1.0
+    A[:, :, 12:] = -G
+    x = np.linalg.lstsq(A.reshape(3 * n, -1), p.ravel(), rcond=None)[0]
+    U, _, Vt = np.linalg.svd(x[:9].reshape(3, 3))
+    R = (U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0]) @ Vt).T
+    # with R: w − R G s − t = R p, linear in t and s
+    B = np.zeros((n, 3, 3 + k))
+    B[:, :, :3] = np.eye(3)
+    B[:, :, 3:] = np.einsum("ij,njk->nik", R, G)
+    y = np.linalg.lstsq(B.reshape(3 * n, -1), (w - p @ R.T).ravel(), rcond=None)[0]
+    return R, y[:3], y[3:]
 
 
 def _flat(p) -> bool:
@@ -303,6 +349,24 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
     R0, e0 = _placement(setup, theta)
     tool_moved_mm = np.zeros(len(tool))
     settled = not tool
+
+    def move_tool(step_mm):
+        for (k, b, _), s in zip(tool, step_mm):
+            theta[k] += s * 1e3 / b
+        for k, (partner, c) in moves.items():  # a held one's value onto the free parameter that carries it
+            theta[partner] += c * theta[k]
+            theta[k] = 0.0
+        tool_moved_mm[:] += step_mm
+
+    if tool:  # frame and point on the tool at once, linear: the rounds then start near both
+        p, G, _ = evaluate(machine, obs.axes, joint_values(machine, d, theta), offsets_mm=obs.offsets_mm,
+                           error_columns=tool_columns, axes_jacobian=False)
+        joint = frame_and_tool(p, G, w)
+        if joint is not None:
+            R, t, step_mm = joint
+            R_s, e_s = _placement(setup, theta)
+            theta = _with_placement(setup, theta, R_s @ R.T, e_s - R_s @ R.T @ t)
+            move_tool(step_mm)
     for rounds in range(1, ROUNDS + 1):
         with_tool = not settled and rounds < ROUNDS
         step = _frame_round(machine, d, obs, setup, theta, tool_columns if with_tool else None)
@@ -315,12 +379,7 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
         r = p @ R.T + t - w
         J = np.einsum("ij,njk->nik", R, G)[keep].reshape(-1, len(tool))
         step_mm = np.linalg.lstsq(J, -r[keep].ravel(), rcond=None)[0]
-        tool_moved_mm += step_mm
-        for (k, b, _), s in zip(tool, step_mm):
-            theta[k] += s * 1e3 / b
-        for k, (partner, c) in moves.items():  # a held one's value onto the free parameter that carries it
-            theta[partner] += c * theta[k]
-            theta[k] = 0.0
+        move_tool(step_mm)
         settled = bool(np.max(np.abs(step_mm)) < TOOL_STEP_MM)
     at_start = evaluate(machine, obs.axes, joint_values(machine, d, theta), jacobian=False, offsets_mm=obs.offsets_mm)
     if not np.all(np.abs(at_start - (p @ R.T + t)) <= AGREE_MM):
