@@ -26,6 +26,7 @@ from .identifiability import RANK_TOL, analyse, identifiable_columns, observabil
 from .lm_step import lm_step as _lm_step
 from .noise import Noise
 from .residuals import design, residuals
+from .start import TURN_RAD, closed_form_start, turn_rad
 
 __all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "FIT_FORMAT"]
 
@@ -87,6 +88,9 @@ class FitResult:
     correlation : array (P, P) or None
         The correlation of the parameters' estimates from the noise (NaN where held); None for a
         loaded fit (the file holds the standard deviations only).
+    start : str
+        How the iterations started where not from the values given: the measurement frame fitted in closed form
+        (:mod:`~kinid.identification.fitting.start`), in words; empty otherwise.
     """
 
     machine: Machine
@@ -116,6 +120,7 @@ class FitResult:
     prior: str = ""
     prior_std: np.ndarray | None = None
     correlation: np.ndarray | None = None
+    start: str = ""
 
     @property
     def noise_um(self) -> float:
@@ -166,6 +171,8 @@ class FitResult:
             f"condition {self.condition_number:.3g}; observability O1 {self.o1:.3g} (mean), O3 {self.o3:.3g} (weakest "
             f"direction; larger is better, Sun & Hollerbach 2008)"
         )
+        if self.start:
+            lines.append(self.start)
         if self.prior:
             lines.append(f"maximum a posteriori estimate, std from the posterior — {self.prior}")
         if self.shared_std:
@@ -206,6 +213,7 @@ def fit(
     xtol: float = 1e-12,
     theta0=None,
     prior_std=None,
+    frame_start: bool = True,
 ) -> FitResult:
     """Fit ``effects`` (default: the default model) to the observations.
 
@@ -231,6 +239,10 @@ def fit(
         A prior on each parameter's size: zero mean, this standard deviation in the parameter's unit
         (inf: none). The fit is then the maximum a posteriori estimate with the noise σ (``noise_um``,
         required) and its standard deviations the posterior's (:mod:`~kinid.identification.fitting.prior`).
+    frame_start : bool
+        Fit the measurement frame (the six ``E?0W`` joints) and the point on the tool in closed form first, where
+        the frame turns by more than :data:`~kinid.identification.fitting.start.TURN_RAD` from ``theta0`` and the
+        start costs less (:mod:`~kinid.identification.fitting.start`). False: iterate from ``theta0`` as given.
 
     Returns
     -------
@@ -271,17 +283,23 @@ def fit(
         r = ps.r
         ident = analyse(_with_prior(ps.R, w_prior) / sigma0, names, tol=rank_tol, rows=rows)
         free = ident.identifiable
-    D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
     lo = np.full(P, -np.inf)
     hi = np.full(P, np.inf)
     for name, (a, b) in (bounds or {}).items():
         if name not in names:
             raise DataError(f"bound on unknown parameter {name!r}")
         lo[names.index(name)], hi[names.index(name)] = a, b
-
-    wf = w_prior[free]
     prior_cost = lambda th: 0.5 * float(np.sum((w_prior * th) ** 2))  # noqa: E731
     cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
+    # the measurement frame in closed form first, where it turns far (start.py); kept only if it costs less
+    started = _frame_start(machine, d, obs, theta, ps, ident, lo, hi, prior_cost) if frame_start else None
+    start = None
+    if started is not None:
+        start, ps = started
+        theta, r = start.theta, ps.r
+        cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
+    D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
+    wf = w_prior[free]
     lam = 1e-9
     success, message, it = False, "", 0
     for it in range(1, max_iter + 1):
@@ -357,6 +375,7 @@ def fit(
         iterations=it, success=success, message=message, singular_values=singular_values,
         axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
         prior_std=None if prior_std is None else np.asarray(prior_std, float), correlation=correlation,
+        start="" if start is None else start.describe(),
     )
 
 
@@ -381,6 +400,22 @@ def evaluated_fit(machine: Machine, obs: Observations, effects, theta, residuals
         o1=float("nan"), o3=float("nan"), residuals_um=r, n_observations=int(r.shape[0]),
         rms_um=float(np.sqrt(np.mean(r**2))), noise=noise, dof=dof, iterations=0, success=True,
         message="evaluated at the values given", axis_ranges=_axis_ranges(machine, obs))
+
+
+def _frame_start(machine: Machine, d, obs: Observations, theta, ps, ident, lo, hi, prior_cost):
+    """(Start, its pass) where the measurement frame turns by more than TURN_RAD from ``theta`` (judged from the
+    residuals at hand first: a set-up turned less, a machine tool's, costs no pass more), the start lies within
+    the bounds and costs less than ``theta``; None otherwise. The parameters held are those ``ident`` holds at
+    ``theta``: at the start a marker off the last joint's axis would trade the joint's zero for the marker's place
+    about it, and the start puts its values on the parameters free here."""
+    if not turn_rad(obs.w_mm + ps.r * 1e-3, obs.w_mm) > TURN_RAD:
+        return None
+    start = closed_form_start(machine, d, obs, theta, free=ident.identifiable, aliases=ident.aliases)
+    if start is None or not start.turn_rad > TURN_RAD or not np.all((start.theta >= lo) & (start.theta <= hi)):
+        return None
+    ps_start = model_pass_qr(machine, d, obs, start.theta)
+    cost = 0.5 * float(np.sum(ps.r**2)) + prior_cost(theta)
+    return (start, ps_start) if 0.5 * float(np.sum(ps_start.r**2)) + prior_cost(start.theta) < cost else None
 
 
 def _with_prior(J, w_prior):

@@ -52,7 +52,7 @@ FIT_SCHEMA = Fields(
                                                 "residual_um": _SIZE, "sigmas": Number(null=True)})),
         "axis_ranges": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True), length=2, ordered=True)),
         "shared_std": Table(Items(_STD)),
-        "prior": Text(), "prior_std": Items(_STD, null=True),
+        "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(),
         "implausible": Items(Fields({}, other=True)),
     },
     other=True)
@@ -96,6 +96,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
+        "start": result.start,
         "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit,
                          "undetermined": a.undetermined}
                         for a in result.implausible()],
@@ -155,7 +156,8 @@ def load_fit(path) -> FitResult:
                         for k, v in data.get("shared_std", {}).items()},
             prior=str(data.get("prior", "")),
             prior_std=None if data.get("prior_std") is None else np.array(
-                [np.inf if v is None else float(v) for v in data["prior_std"]]))
+                [np.inf if v is None else float(v) for v in data["prior_std"]]),
+            start=str(data.get("start", "")))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

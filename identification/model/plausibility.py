@@ -4,7 +4,11 @@ A machine tool's geometric errors are micrometres to a few tens of micrometres a
 few hundred; a fit that needs a millimetre or ten milliradians is explaining something else — a
 sensor offset not in the sensor file, a camera model that does not fit the lens, a unit mistake —
 and the effect it names is not there. The set-up of the board and the sensor may be off by more
-(a board placed by hand), so it has wider limits.
+(a board placed by hand), so it has wider limits: the measurement frame (``?0W``) none at all (a laser
+tracker stands metres from a robot, turned any way), the point on the tool (``?0T``) half a metre (a
+marker on a long tool) and its turn half a radian (a sensor mounted askew). An error that alone carries a
+held set-up parameter (``EZ0J6 and EZ0T: only their sum is identified``: the marker's distance along the
+last joint's axis is in EZ0J6) is judged by that set-up's limit.
 
 The size of an effect is its largest value over the data: the value of a constant, the largest
 |value| of a position-dependent effect over the fitted range of its axis, a drift over an hour.
@@ -37,8 +41,12 @@ from .effects import basis_values, parse_effect
 __all__ = ["Implausible", "implausible_effects", "implausible_candidate", "warning_lines", "machine_limit",
            "share_of_limit", "LIMITS", "PRIOR_MULTIPLE"]
 
-#: Largest plausible size: (machine µm, machine µrad, set-up µm, set-up µrad).
-LIMITS = {"um": 1000.0, "urad": 10000.0, "setup_um": 100000.0, "setup_urad": 500000.0}
+#: Largest plausible size: a machine's own errors, µm and µrad; the set-up of the point on the tool (``?0T``),
+#: µm and µrad; the measurement frame (``?0W``) is placed anywhere (no limit).
+LIMITS = {"um": 1000.0, "urad": 10000.0, "tool_um": 500000.0, "tool_urad": 500000.0,
+          "frame_um": math.inf, "frame_urad": math.inf}
+#: The limits' prefix for the set-up pseudo-axes.
+_SETUP_PREFIX = {"W": "frame_", "T": "tool_"}
 #: A constant beyond this many of its prior's standard deviations is flagged.
 PRIOR_MULTIPLE = 5.0
 
@@ -103,10 +111,10 @@ def warning_lines(odd, prefix: str = "WARNING: ") -> list:
 
 
 def machine_limit(machine, code: str, unit: str) -> float:
-    """The largest size a machine has for error joint ``code`` (a set-up, for the board's and the sensor's joints
-    W and T), in ``unit`` (µm or µrad, written "um"/"urad" or "µm"/"µrad")."""
-    setup = machine.error_joint(code).axis in ("W", "T")
-    return LIMITS[("setup_" if setup else "") + ("urad" if "rad" in unit else "um")]
+    """The largest size a machine has for error joint ``code`` (a set-up, for the measurement frame's and the
+    tool point's joints W and T: inf for W), in ``unit`` (µm or µrad, written "um"/"urad" or "µm"/"µrad")."""
+    prefix = _SETUP_PREFIX.get(machine.error_joint(code).axis, "")
+    return LIMITS[prefix + ("urad" if "rad" in unit else "um")]
 
 
 def share_of_limit(machine, code: str, size: float, unit: str) -> float:
@@ -133,11 +141,13 @@ def implausible_effects(result, names=None) -> tuple:
     """The effects of a fit (or only those in ``names``) whose size is beyond :data:`LIMITS`."""
     machine = result.machine
     theta = np.where(result.identifiable, np.nan_to_num(result.values), 0.0)
+    carried = _carried_set_ups(machine, getattr(result, "aliases", ()))
     out, index, k = [], [], 0
     for e in result.effects:
         th = theta[k:k + e.n_params]
         k += e.n_params
-        limit = machine_limit(machine, e.code, e.unit)
+        limit = max([machine_limit(machine, e.code, e.unit)] +
+                    [machine_limit(machine, code, e.unit) for code in carried.get(e.name, ())])
         prior = getattr(result, "prior_std", None)
         if prior is not None and e.n_params == 1 and np.isfinite(prior[k - 1]):
             limit = min(limit, PRIOR_MULTIPLE * float(prior[k - 1]))
@@ -148,6 +158,30 @@ def implausible_effects(result, names=None) -> tuple:
             index.append(k - 1)
     out = _weak_partners(out, index, theta, getattr(result, "correlation", None))
     return tuple(a for a in out if names is None or a.effect in names)
+
+
+def _carried_set_ups(machine, aliases) -> dict:
+    """Effect name -> the held set-up joints (W, T) it alone carries: aliases with one partner, an error joint of
+    the set-up's own chain (the tool's for T, the workpiece's for W: EZ0J6 beside EZ0T on an arm; a table's EY0C
+    beside a spindle sensor's EY0T is a machine's error the plan cannot tell from the set-up, and keeps its limit)."""
+    out = {}
+    for a in aliases:
+        code = a.name.split(":")[0]
+        if a.kind != "aliased" or len(a.partners) != 1 or code not in machine.error_codes or \
+                machine.error_joint(code).axis not in _SETUP_PREFIX:
+            continue
+        partner = a.partners[0][0]
+        if partner.split(":")[0] in machine.error_codes and _same_chain(machine, code, partner.split(":")[0]):
+            out.setdefault(partner, []).append(code)
+    return out
+
+
+def _same_chain(machine, setup_code: str, code: str) -> bool:
+    """Error joint ``code`` lies on the chain from the root to the frame set-up joint ``setup_code`` sets up."""
+    frame = machine.tool_frame if machine.error_joint(setup_code).axis == "T" else machine.workpiece_frame
+    model = machine.model
+    joint = next(j for j in range(1, model.njoints) if model.idx_qs[j] == machine.error_joint(code).q_index)
+    return joint in model.supports[model.frames[frame].parentJoint]
 
 
 def implausible_candidate(machine, candidate, axis_ranges) -> Implausible | None:
