@@ -237,3 +237,23 @@ def test_the_leverages_are_the_hat_matrix_in_one_pass_or_in_chunks(bc, monkeypat
     assert np.allclose(held, direct, atol=1e-10) and np.allclose(chunked, direct, atol=1e-10)
     assert np.allclose(diagnose(bc, obs, default_model(bc), noise_um=SIGMA, result=result).hat, direct, atol=1e-10)
     assert abs(held.sum() - result.rank) < 1e-8
+
+
+def test_time_that_follows_an_axis_is_said_only_where_the_effect_found_is_of_time_or_that_axis(bc):
+    """The README's example (patent plan: B is the outer loop, so time follows B) hides a screw error of X: the
+    diagnosis keeps the correlation in its data but does not tell the user that a drift and an error of B look
+    alike, which concerns neither the effect found nor the plan's use here; a drift of the tool on the same
+    plan is told so."""
+    import json
+    from pathlib import Path
+
+    mapping = json.loads((Path(__file__).resolve().parents[1] / "examples" / "errors.json").read_text())
+    effects, theta = errors_from_mapping(mapping, bc)
+    obs = simulate(bc, patent_plan(bc), effects, theta, noise_um=SIGMA, rng=np.random.default_rng(3))
+    dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert [a for a, _ in dg.time_follows] == ["B"] and dg.live[0].effect.startswith("EXX:")
+    assert "time follows" not in dg.text()
+    effects, theta = errors_from_mapping({"EZ0T:drift": 0.004}, bc)  # 4 nm/s: 6.7 µm over the run
+    obs = simulate(bc, patent_plan(bc), effects, theta, noise_um=SIGMA, rng=np.random.default_rng(3))
+    dg = diagnose(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert "time follows B" in dg.text()

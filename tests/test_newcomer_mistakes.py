@@ -202,3 +202,21 @@ def test_a_long_file_is_judged_on_a_spread_of_its_rows(run):
     assert len(long) > HINT_ROWS and unit_hints(machine, long) == ()
     (hint,) = unit_hints(machine, replace(long, w_mm=long.w_mm / 1000))
     assert hint.columns == ("wx_mm", "wy_mm", "wz_mm") and hint.unit == "metres" and hint.factor == 1000
+
+
+def test_the_documented_hole_measurement_is_not_taken_for_metres_and_one_in_metres_is(tmp_path, capsys):
+    """`kinid sensor --hole examples/sensor_hole.csv` (docs/observe.md) warned "if they are metres" of its z column,
+    which is near zero on every set-up measurement; the readings' reach tells metres instead."""
+    from pathlib import Path
+
+    hole = Path(__file__).resolve().parents[1] / "examples" / "sensor_hole.csv"
+    assert main(["sensor", "--machine", str(path("five_axis_bc")), "--hole", str(hole),
+                 "--out", str(tmp_path / "s.json")]) == 0
+    assert "metres" not in capsys.readouterr().err
+    rows = [line.split(",") for line in hole.read_text().splitlines()]
+    in_metres = [rows[0]] + [[r[0]] + [f"{float(v) / 1000:.7f}" for v in r[1:4]] + r[4:] for r in rows[1:]]
+    (tmp_path / "hole_m.csv").write_text("\n".join(",".join(r) for r in in_metres) + "\n")
+    assert main(["sensor", "--machine", str(path("five_axis_bc")), "--hole", str(tmp_path / "hole_m.csv"),
+                 "--out", str(tmp_path / "s2.json")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "hole_m.csv" in err and "multiply by 1000" in err

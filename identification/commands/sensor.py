@@ -70,8 +70,10 @@ def _sensor(args) -> int:
         validate(base, SENSOR_SCHEMA, path=args.base)
     source = args.hole or args.sphere
     method = "hole" if args.hole else "sphere"
+    # a set-up measurement is local (one hole, one ball): z near zero says nothing of metres; laser_offset
+    # judges the readings' reach instead
     table = read_axis_table(source, machine, what=f"{method} measurement", required=("role",),
-                            texts=("role",))
+                            texts=("role",), warn_metres=False)
     standoff = args.standoff_mm if args.standoff_mm is not None else base.get("laser_standoff_mm")
     offset, std, result = laser_offset(machine, table, method=method, standoff_mm=standoff,
                                        radius_mm=args.radius_mm, sigma_mm=args.sigma_mm)

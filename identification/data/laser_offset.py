@@ -13,6 +13,10 @@ from ..model import evaluate, tool_rotation_in_workpiece
 
 __all__ = ["laser_offset"]
 
+#: Linear readings of a set-up measurement all within this of zero (mm) look like metres: the camera and the laser
+#: on the same feature are millimetres apart, and the feature is rarely within a millimetre of the machine's zero.
+METRES_REACH_MM = 1.0
+
 
 def laser_offset(machine, table, *, method: str, standoff_mm=None, radius_mm=None, sigma_mm=None):
     """(offset (x, y), std (x, y), the locator's result) of the laser in the tool frame, mm.
@@ -20,6 +24,13 @@ def laser_offset(machine, table, *, method: str, standoff_mm=None, radius_mm=Non
     ``table`` is an :class:`~kinid.identification.data.axis_columns.AxisTable` with a ``role`` column.
     """
     roles = [r.lower() for r in table.texts("role", "role")]
+    linear = [i for i, a in enumerate(machine.axes) if a.kind == "prismatic"]
+    reach = float(np.abs(table.axes[:, linear]).max()) if linear and len(table.axes) else 0.0
+    if 0.0 < reach < METRES_REACH_MM:
+        import warnings
+
+        warnings.warn(f"{table.path}: every linear reading is within ±{reach:.3g} mm of zero, the camera and the laser "
+                      f"on one feature included; if the readings are metres, multiply by 1000", stacklevel=2)
     bad = sorted(set(roles) - {"camera", "laser"})
     if bad:
         raise DataError(f"role must be camera or laser, found {bad[0]!r}", path=table.path, column="role")

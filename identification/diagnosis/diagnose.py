@@ -111,6 +111,9 @@ class Diagnosis:
     inseparable : str
         When time follows an axis and the best candidate is a drift or warm-up while an error of that axis
         explains the data about as well (or the reverse): the two, and the plan's order as the cause.
+    time_matters : bool
+        The candidate advised is driven by time or by an axis time follows: the text says that the two look
+        alike here (when it is an error of another axis, the order of the plan does not concern it).
     advised : (Candidate or None, tuple of (Candidate, Implausible))
         The best live candidate a machine could have, and the better-ranked ones passed over with the size they
         would need (:func:`advise`); ``undetermined`` and ``inseparable`` are about the one advised.
@@ -134,6 +137,7 @@ class Diagnosis:
     undetermined: str = ""
     twins: tuple = ()
     inseparable: str = ""
+    time_matters: bool = False
 
     @property
     def noise_um(self) -> float:
@@ -271,7 +275,7 @@ class Diagnosis:
         if self.inseparable:
             lines.append("")
             lines.append(f"inseparable: {self.inseparable}")
-        if self.time_follows:
+        if self.time_follows and self.time_matters:
             lines.append("")
             axes = ", ".join(f"{a} (correlation {rho:+.2f})" for a, rho in self.time_follows)
             lines.append(f"time follows {axes} in the order of these alignments: a drift or warm-up and an error "
@@ -400,6 +404,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     follows = time_follows(obs, machine)
     # from the candidate advised on: those passed over are the ones ranked before it
     inseparable = _inseparable(machine, live[len(passed):], follows) if chosen else ""
+    matters = chosen and bool(_time_or_axis(machine, best, {a for a, _ in follows}))
     hat = hat_diagonal(q0)
     stud, lev = studentized(result, None, sigma, h=hat)
     bound = chi2_isf(alpha / len(obs), 3)
@@ -410,7 +415,7 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
                      candidates=tuple(live + rest), studentized=stud, leverage=lev, outliers=outliers,
                      axis_residuals_um=axis_r, axis_names=axis_names, marks=tuple(obs.marks), hat=hat,
                      structure=structure, time_follows=follows, undetermined=undetermined, twins=twins,
-                     inseparable=inseparable, advised=advised)
+                     inseparable=inseparable, advised=advised, time_matters=matters)
 
 
 def advise(machine: Machine, live, axis_ranges) -> tuple:
@@ -439,24 +444,29 @@ def passed_over(c, odd) -> str:
 ALIKE_CHI2 = 9.21
 
 
+def _time_or_axis(machine, candidate, axes) -> str:
+    """``time`` for a candidate driven by time, ``axis`` for one driven by the position of one of ``axes``, else
+    ``""``."""
+    from ..model import basis_of, parse_effect
+
+    e = parse_effect(candidate.effect, machine)
+    driver = basis_of(e).driver
+    if driver == "time":
+        return "time"
+    if driver in ("position", "positions") and (e.axis in axes or set(e.args) & axes):
+        return "axis"
+    return ""
+
+
 def _inseparable(machine, live, follows) -> str:
     """When time follows an axis: the best candidate and the best of the other kind (an error driven by time against
     one driven by that axis's position) if they explain the data alike; "" otherwise."""
-    from ..model import basis_of
-    from ..model import parse_effect
-
     if not follows or not live:
         return ""
     axes = {a for a, _ in follows}
 
     def kind(c):
-        e = parse_effect(c.effect, machine)
-        driver = basis_of(e).driver
-        if driver == "time":
-            return "time"
-        if driver in ("position", "positions") and (e.axis in axes or set(e.args) & axes):
-            return "axis"
-        return ""
+        return _time_or_axis(machine, c, axes)
 
     best = live[0]
     mine = kind(best)

@@ -200,7 +200,10 @@ def machine_from_urdf(text: str, path="<urdf>") -> Machine:
     frames = {}
     for name in ("workpiece", "tool"):
         if not model.existFrame(name):
-            raise MachineError(f"no link named {name!r}; the {name} chain must end at a link named {name!r}", path=path)
+            raise MachineError(f"no link named {name!r}; the {name} chain must end at a link named {name!r} (a URDF "
+                               f"without kinid's error joints, a ROS robot or a machine drawn elsewhere, becomes one "
+                               f"with kinid model --urdf FILE --tool LINK --out MACHINE.urdf: docs/machines.md)",
+                               path=path)
         frames[name] = model.getFrameId(name)
     chains = {c: set(_ancestors(model, model.frames[frames[c]].parentJoint)) for c in frames}
 
