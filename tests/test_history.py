@@ -167,6 +167,10 @@ def test_bad_input_is_one_line_and_exit_2(quarters, tmp_path, capsys):
     kept = other.read_bytes()
     assert main(["history", "add", "--db", str(other), "--machine-id", "mill-7", "--fit", str(fits[1])]) == 2
     assert "not a kinid history" in _one_line(capsys) and other.read_bytes() == kept
+    # the figure may not overwrite the history it is drawn from
+    kept = db.read_bytes()
+    assert main(["history", "plot", "--db", str(db), "--machine-id", "mill-7", "--out", str(db)]) == 2
+    assert "--out names the input file given as --db" in _one_line(capsys) and db.read_bytes() == kept
     # a missing fit
     assert main(["history", "add", "--db", str(db), "--machine-id", "mill-7", "--fit", str(tmp_path / "no.json")]) == 2
     assert "no such fit file" in _one_line(capsys)

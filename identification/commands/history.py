@@ -28,7 +28,7 @@ def register(sub) -> None:
         q.add_argument("--machine-id", required=True, metavar="ID", help="the machine's own name or serial number")
         # the library's argument names as this verb's options (the roof looks only one parser deep)
         q.set_defaults(parameter_options={"db": "--db", "machine_id": "--machine-id", "tolerances": "--tolerance",
-                                          "date": "--date"})
+                                          "date": "--date", "out": "--out", "fit": "--fit", "verify": "--verify"})
 
     a = verbs.add_parser("add", help="store a calibration (FIT.json) of a machine",
                          description="Store every term of FIT.json (name, value, std, unit) as the calibration of "
