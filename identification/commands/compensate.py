@@ -32,7 +32,7 @@ def register(sub) -> None:
                    help="compensate every identified term, also those within their expanded uncertainty")
     p.add_argument("--axis-number", dest="axis_numbers", nargs="+", metavar="AXIS=N", default=(),
                    help="the controller's axis numbers (TwinCAT kopf.achs_nr, SINUMERIK AX<n>), e.g. X=1 Y=2 C=5; "
-                        "default: the axis's place in the URDF")
+                        "default: the axis's place in the URDF's chain, printed and written to compensation.json")
     p.add_argument("--step-mm", type=float, default=None,
                    help="fixed grid step of linear axes, mm (default: chosen so the controller's interpolation "
                         "follows the model within 10%% of the error's RMS)")
@@ -84,6 +84,8 @@ def _compensate(args) -> int:
                              formats=tuple(args.formats), fit_path=args.fit, range_policy=args.range_policy,
                              beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers)
     print(f"compensation of {Path(args.fit).name} written to {args.out}: {', '.join(out.files)}")
+    if out.controller:
+        print(out.axis_numbers.line())
     for c in out.controller:
         ends = f" (+{c['ends_added']} beyond)" if c["ends_added"] else ""
         print(f"  {c['file']}: {c['points'] - c['ends_added']} points from {c['from']:.6g} to {c['to']:.6g}{ends}; "

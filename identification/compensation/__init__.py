@@ -8,8 +8,12 @@ from kinid.lazy import front_door as _front_door
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
     "write_compensation": "compensate", "verify": "verify", "verification_report": "verify_report",
+    "add_calibration": "history", "machine_history": "history", "database_path": "history",
+    "SCHEMES": "history", "K_MOVED": "history",
+    "history_text": "history_report", "plot_history": "history_report",
 }
 
-__all__ = ["verification_report", "verify", "write_compensation"]
+__all__ = ["K_MOVED", "SCHEMES", "add_calibration", "database_path", "history_text", "machine_history",
+           "plot_history", "verification_report", "verify", "write_compensation"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

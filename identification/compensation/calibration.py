@@ -89,7 +89,7 @@ def _constant_values(result: FitResult) -> dict:
     return {c["name"]: c["value"] for c in constant_errors(result) if c["identified"] and c["value"]}
 
 
-def setup_offsets(result: FitResult) -> dict:
+def setup_offsets(result: FitResult, written_as_zero=None) -> dict:
     """The set-up of the workpiece (W) and the sensor (T) as a work offset and a tool offset.
 
     For each end: the transform ``S`` that takes the nominal end frame to the identified one,
@@ -97,6 +97,9 @@ def setup_offsets(result: FitResult) -> dict:
     ``oMw_actual = oMw_nominal · S_W``, ``oMt_actual = oMt_nominal · S_T``), as a translation in mm,
     fixed-axis roll/pitch/yaw in degrees and the 4×4 matrix (mm); and each set-up joint's value with
     its expanded uncertainty (k = 2).
+
+    ``written_as_zero`` (set-up joint -> reason) names joints that count as 0 in the transforms (a term
+    within its expanded uncertainty); their entry keeps the fitted value as ``fitted_value`` and the reason.
     """
     import pinocchio as pin
 
@@ -104,6 +107,7 @@ def setup_offsets(result: FitResult) -> dict:
     root = ET.fromstring(machine.urdf)
     parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
     constants = {c["name"]: c for c in constant_errors(result)}
+    zero = dict(written_as_zero or {})
     out = {}
     for pseudo, end in (("W", "workpiece"), ("T", "tool")):
         codes = {e.code for e in machine.error_joints if e.axis == pseudo}
@@ -122,7 +126,7 @@ def setup_offsets(result: FitResult) -> dict:
         S, nominal = np.eye(4), np.eye(4)
         for j in chain:  # root -> end: the set-up joints at their values, the fixed origins after them
             c = constants.get(j.get("name"))
-            value = c["value"] if c and c["identified"] and c["value"] else 0.0
+            value = c["value"] if c and c["identified"] and c["value"] and j.get("name") not in zero else 0.0
             S = S @ _origin(j) @ _motion(j, value * 1e-6) if j.get("name") in codes else S @ _origin(j)
             nominal = nominal @ _origin(j)
         S_end = np.linalg.inv(nominal) @ S
@@ -132,8 +136,11 @@ def setup_offsets(result: FitResult) -> dict:
             c = constants.get(code)
             if c is None:
                 continue
-            joints[code] = {"value": c["value"], "expanded_uncertainty_k2": c["expanded_uncertainty_k2"],
+            joints[code] = {"value": 0.0 if code in zero else c["value"],
+                            "expanded_uncertainty_k2": c["expanded_uncertainty_k2"],
                             "unit": c["unit"], "identified": c["identified"]}
+            if code in zero:
+                joints[code].update(fitted_value=c["value"], written_as_zero=zero[code])
         T_mm = S_end.copy()
         T_mm[:3, 3] *= 1e3
         out["workpiece" if pseudo == "W" else "tool"] = {

@@ -33,6 +33,7 @@ from kinid.axis_tables import AxisErrorTable, TableOptions, controller_format, d
 from kinid.errors import DataError
 from ..model import axis_limits, basis_of, basis_values
 from ..fitting import FitResult
+from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
@@ -61,12 +62,16 @@ class Compensation:
     left_out : tuple of (effect name, reason)
     setup_effects : tuple of str
         The set-up effects (workpiece W, sensor/tool T): in ``setup.json``, not in the machine.
+    setup_left_out : tuple of (effect name, reason)
+        The set-up effects written as 0 in ``setup.json``: within their expanded uncertainty (k = 2),
+        unless ``all_terms``.
     """
 
     result: FitResult
     fit: FitResult
     left_out: tuple
     setup_effects: tuple
+    setup_left_out: tuple = ()
 
 
 def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compensation:
@@ -79,7 +84,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     """
     machine = result.machine
     values = np.array(result.values, float)
-    left, setup, k = [], [], 0
+    left, setup, setup_left, k = [], [], [], 0
     for e in result.effects:
         sl = slice(k, k + e.n_params)
         k += e.n_params
@@ -90,6 +95,9 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
             setup.append(e.name)
             reason = "set-up of the " + ("workpiece (board)" if joint.axis == "W" else "sensor (tool)") + \
                      ": in setup.json, for the work or tool offset"
+            small = None if all_terms or not ok.any() else _not_significant(values[sl][ok], result.std[sl][ok])
+            if small is not None:
+                setup_left.append((e.name, small))
         elif not ok.any():
             reason = "not identifiable from these data"
         elif basis_of(e).driver == "time":
@@ -98,17 +106,25 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
             reason = (f"varies with {e.args[0]} as well as {e.axis}: a cross compensation (the controller's table of "
                       f"{e.code} over {e.args[0]}), not written")
         elif not all_terms:
-            std = np.asarray(result.std[sl], float)[ok]
-            v = np.abs(values[sl][ok])
-            if np.all(np.isfinite(std)) and np.all(std > 0):
-                ratio = float(np.max(v / std))
-                if ratio <= K_EXPANDED:
-                    reason = (f"not significant: |value| ≤ its expanded uncertainty (k = {K_EXPANDED:g}); "
-                              f"largest |value|/σ {ratio:.2g}")
+            reason = _not_significant(values[sl][ok], result.std[sl][ok])
         if reason is not None:
             left.append((e.name, reason))
             values[sl] = np.where(ok, 0.0, values[sl])
-    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup))
+    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left))
+
+
+def _not_significant(values, std) -> str | None:
+    """Why an effect of these identified parameter values and standard deviations is not significant (every
+    |value| ≤ k·σ, k = 2), or None (significant, or σ unknown)."""
+    std = np.asarray(std, float)
+    v = np.abs(np.asarray(values, float))
+    if v.size == 0 or not (np.all(np.isfinite(std)) and np.all(std > 0)):
+        return None
+    ratio = float(np.max(v / std))
+    if ratio > K_EXPANDED:
+        return None
+    return (f"not significant: |value| ≤ its expanded uncertainty (k = {K_EXPANDED:g}); "
+            f"largest |value|/σ {ratio:.2g}")
 
 
 # --- where tables go ----------------------------------------------------------------------------
@@ -213,11 +229,14 @@ class CompensationFiles:
     controller : tuple of dict
         Per controller file: format, axis, points, range, the error's RMS and what the controller's
         interpolation leaves of it (RMS and largest), in µm or µrad.
+    axis_numbers : AxisNumbers
+        The controller's number of each axis and where it came from.
     """
 
     files: tuple
     notes: tuple
     controller: tuple = ()
+    axis_numbers: AxisNumbers | None = None
 
 
 def write_compensation(result: FitResult, folder, *, step_mm: float | None = None, step_deg: float | None = None,
@@ -245,7 +264,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     all_terms : bool
         Compensate every identified term, significant or not.
     axis_numbers : dict axis -> int, optional
-        The controller's axis numbers (default: the axis's place in the URDF).
+        The controller's axis numbers; an axis not given gets its place in the URDF's chain
+        (:func:`controller_axis_numbers`).
     """
     from kinid import __version__
     from kinid.files import check_outputs, json_text, write_text
@@ -257,11 +277,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     comp = compensation_model(result, all_terms=all_terms)
     model = comp.result
     machine = model.machine
-    numbers = dict(axis_numbers or {})
-    unknown = sorted(set(numbers) - set(machine.axis_names))
-    if unknown:
-        raise DataError(f"names no axis of the machine: {', '.join(unknown)}; axes: {', '.join(machine.axis_names)}",
-                        parameter="axis_numbers")
+    numbers = controller_axis_numbers(machine, axis_numbers)
     # every file is made first, then written into a new folder that replaces ``folder`` whole (staged_folder);
     # no input may lie in that folder (the fit, the machine's URDF it names)
     check_outputs([("output", folder, "replaced folder")],
@@ -269,7 +285,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     check_output_folder(folder, foreign=_not_earlier_compensation)
     files = {}  # name -> text, in the order written
     written, tables, skipped, controller, notes = [], {}, [], [], []
-    for place, a in enumerate(machine.axes, start=1):
+    for a in machine.axes:
         rotary = a.kind == "revolute"
         unit_q, unit = ("deg", "µrad") if rotary else ("mm", "µm")
         rng = axis_range(model, a.name, range_policy)
@@ -318,7 +334,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             base = positioning_table(model, a.name, fq)
             fq_ext, ends = with_ends(fq, {"f": base.forward, "b": base.backward}, rng, beyond, fmt.equidistant)
             table = AxisErrorTable(a.name, rotary, fq_ext, ends["f"], None if base.reverse is None else ends["b"])
-            options = TableOptions(axis_number=numbers.get(a.name, place), modulo=rng.modulo,
+            options = TableOptions(axis_number=numbers.numbers[a.name], modulo=rng.modulo,
                                    comment=f"kinid {__version__}: {code} of {Path(machine.path).name}, "
                                            f"error = actual - commanded")
             name = fmt.file_name(a.name)
@@ -344,7 +360,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                 notes.append(f"{name}: the controller's interpolation leaves {left['rms']:.3g} {unit} RMS of the "
                              f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
                              f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
-    setup = setup_offsets(result)
+    setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out))
     files["constants.json"] = json_text({"errors": constant_errors(result, comp)},
                                         path=Path(folder) / "constants.json")
     written.append("constants.json")
@@ -358,6 +374,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     files["calibrated.urdf"] = calibrated_urdf(model)
     written.append("calibrated.urdf")
     notes += [f"{n}: left out ({why})" for n, why in comp.left_out if not why.startswith("set-up")]
+    notes += [f"{n}: written as 0 in setup.json ({why})" for n, why in comp.setup_left_out]
     info = {
         "kinid_version": __version__,
         "fit": None if fit_path is None else {"file": str(fit_path), "sha256": _sha256(fit_path)},
@@ -374,6 +391,11 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         "controller_files": controller,
         "axes_without_tables": skipped,
         "left_out": [{"effect": n, "reason": why} for n, why in comp.left_out],
+        "axis_numbers": numbers.as_dict(),
+        "setup_significance": ("every identified set-up term" if all_terms else
+                               f"set-up terms beyond their expanded uncertainty (k = {K_EXPANDED:g}); the others "
+                               f"written as 0"),
+        "setup_written_as_zero": [{"effect": n, "reason": why} for n, why in comp.setup_left_out],
         "setup_file": "setup.json" if setup else None,
     }
     files["compensation.json"] = json_text(info, path=Path(folder) / "compensation.json")
@@ -381,7 +403,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     with staged_folder(folder, foreign=_not_earlier_compensation) as stage:
         for name, text in files.items():
             write_text(stage / name, text)
-    return CompensationFiles(tuple(written), tuple(notes), tuple(controller))
+    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers)
 
 
 def _sha256(path) -> str:
