@@ -7,10 +7,10 @@ from kinid.lazy import front_door as _front_door
 
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
-    "write_compensation": "compensate", "verify": "verify", "verification_report": "verify_report",
-    "add_calibration": "history", "machine_history": "history", "database_path": "history",
-    "SCHEMES": "history", "K_MOVED": "history",
-    "history_text": "history_report", "plot_history": "history_report",
+    "write_compensation": "compensate", "K_MOVED": "history", "SCHEMES": "history",
+    "add_calibration": "history", "database_path": "history", "machine_history": "history",
+    "history_text": "history_report", "plot_history": "history_report", "verify": "verify",
+    "verification_report": "verify_report",
 }
 
 __all__ = ["K_MOVED", "SCHEMES", "add_calibration", "database_path", "history_text", "machine_history",

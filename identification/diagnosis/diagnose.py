@@ -37,31 +37,14 @@ from .local_errors import proposed_maps
 from .scoring import Candidate, _f_log10_p, fit_side
 from .searched import score_all
 from .structure import structure_left
+from .time_order import TIME_CONFOUND, inseparable_by_time, time_follows, time_or_axis  # noqa: F401 (re-exported)
 
-__all__ = ["Candidate", "Diagnosis", "diagnose", "time_follows", "TIME_CONFOUND", "noise_from_replicates", "axis_residuals", "joints_the_urdf_lacks",
-           "ALPHA"]
+__all__ = ["Candidate", "Diagnosis", "diagnose", "time_follows", "TIME_CONFOUND", "noise_from_replicates",
+           "axis_residuals", "joints_the_urdf_lacks", "ALPHA"]
 
 
 #: Family-wise significance level of the verdict.
 ALPHA = 0.01
-#: |correlation| of time with an axis's readings beyond which the plan's order confounds them.
-TIME_CONFOUND = 0.8
-
-
-def time_follows(obs: Observations, machine: Machine) -> tuple:
-    """(axis, correlation) for every axis whose readings follow time in ``obs`` (|r| ≥ TIME_CONFOUND)."""
-    if obs.t_s is None or len(obs) < 3 or np.ptp(obs.t_s) <= 0:
-        return ()
-    out = []
-    for k, a in enumerate(machine.axes):
-        q = obs.axes[:, k]
-        if np.all(np.isfinite(q)) and np.ptp(q) > 0:
-            rho = float(np.corrcoef(obs.t_s, q)[0, 1])
-            if abs(rho) >= TIME_CONFOUND:
-                out.append((a.name, rho))
-    return tuple(out)
-
-
 @dataclass(frozen=True)
 class Diagnosis:
     """Result of :func:`diagnose`.
@@ -403,8 +386,8 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
     undetermined, twins = _undetermined(machine, obs, result, best, sigma, d_errors, q0, side) if chosen else ("", ())
     follows = time_follows(obs, machine)
     # from the candidate advised on: those passed over are the ones ranked before it
-    inseparable = _inseparable(machine, live[len(passed):], follows) if chosen else ""
-    matters = chosen and bool(_time_or_axis(machine, best, {a for a, _ in follows}))
+    inseparable = inseparable_by_time(machine, live[len(passed):], follows) if chosen else ""
+    matters = chosen and bool(time_or_axis(machine, best, {a for a, _ in follows}))
     hat = hat_diagonal(q0)
     stud, lev = studentized(result, None, sigma, h=hat)
     bound = chi2_isf(alpha / len(obs), 3)
@@ -438,49 +421,6 @@ def advise(machine: Machine, live, axis_ranges) -> tuple:
 def passed_over(c, odd) -> str:
     """A candidate passed over (:func:`advise`) and the size it would need, in words."""
     return f"{c.effect} (p = {c.p_value:.2g}), would need {odd.describe()}"
-
-
-#: Two candidates whose χ² drops differ by less than this explain the data alike (χ²₂ at 1 %).
-ALIKE_CHI2 = 9.21
-
-
-def _time_or_axis(machine, candidate, axes) -> str:
-    """``time`` for a candidate driven by time, ``axis`` for one driven by the position of one of ``axes``, else
-    ``""``."""
-    from ..model import basis_of, parse_effect
-
-    e = parse_effect(candidate.effect, machine)
-    driver = basis_of(e).driver
-    if driver == "time":
-        return "time"
-    if driver in ("position", "positions") and (e.axis in axes or set(e.args) & axes):
-        return "axis"
-    return ""
-
-
-def _inseparable(machine, live, follows) -> str:
-    """When time follows an axis: the best candidate and the best of the other kind (an error driven by time against
-    one driven by that axis's position) if they explain the data alike; "" otherwise."""
-    if not follows or not live:
-        return ""
-    axes = {a for a, _ in follows}
-
-    def kind(c):
-        return _time_or_axis(machine, c, axes)
-
-    best = live[0]
-    mine = kind(best)
-    if not mine:
-        return ""
-    other = next((c for c in live[1:] if kind(c) not in ("", mine)), None)
-    if other is None or best.statistic - other.statistic >= ALIKE_CHI2:
-        return ""
-    axis = ", ".join(sorted(axes))
-    return (f"{best.effect} and {other.effect} explain these data alike (χ² drops {best.statistic:.1f} and "
-            f"{other.statistic:.1f}): time follows {axis} in the order of these alignments, so an error that grows with "
-            f"time and one of {axis}'s position cannot be told apart (--auto adds neither) — measure "
-            f"in another order (serpentine or random over {axis}, or a reference pose repeated through the run) to "
-            f"tell them apart")
 
 
 def _undetermined(machine, obs, result, best, sigma, d_errors, q0, side=None):
