@@ -173,3 +173,12 @@ def test_bad_input_is_one_line_naming_file_line_and_column(arm, capsys, case):
     assert len(lines) == 1 and str(bad) in lines[0], lines
     assert re.search(expected, lines[0]), lines[0]
     assert bad.read_bytes() == before and not (d / "bad.json").exists()
+
+
+def test_kinid_own_csv_with_a_misspelt_column_is_named_by_its_own_reader(arm, capsys):
+    d, urdf, *_ = arm
+    path = d / "typo.csv"
+    path.write_text("mark,wx_m,wy_mm,wz_mm,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg\n"
+                    "P1,1,2,3,0,0,0,0,0,0\nP2,1,2,3,1,0,0,0,0,0\n")
+    assert main(["identify", "--machine", str(urdf), "--data", str(path), "--out", str(d / "typo.json")]) == 2
+    assert "typo.csv:1: missing column 'wx_mm'" in capsys.readouterr().err

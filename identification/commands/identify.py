@@ -124,7 +124,7 @@ def _read_data(args, machine, *, check_units: bool = True):
     if is_observation_csv(args.data):
         if given:
             raise DataError(f"--{given[0].replace('_', '-')} is for an instrument export; {args.data} is an "
-                            f"observation CSV (it has wx_mm)")
+                            f"observation CSV (its header has mark or wx_mm)")
         return read_observations(args.data, machine, check_limits=check_limits, check_units=check_units)
     point = parse_point_columns(args.point) if args.point is not None else None
     export = read_export(args.data, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,

@@ -37,6 +37,8 @@ __all__ = ["Export", "POINT_PATTERNS", "is_observation_csv", "read_export", "par
 _TO_KINID = {"mm": 1.0, "m": 1e3, "deg": 1.0, "rad": 180.0 / np.pi}
 _AXIS_UNITS = {"prismatic": ("m", "mm"), "revolute": ("rad", "deg")}
 _SI = {"prismatic": "m", "revolute": "rad"}
+#: A header with one of these is kinid's own observation CSV.
+_OWN_COLUMNS = {"mark", "wx_mm", "wy_mm", "wz_mm"}
 
 #: The measured point's columns recognised without ``point``: (pattern with {c} for x/y/z and {k} for the
 #: target number, its unit, the pattern of its standard deviation's column or None), the first that matches wins.
@@ -90,15 +92,16 @@ class Export:
 
 
 def is_observation_csv(path) -> bool:
-    """Whether ``path`` is kinid's own observation CSV (its header, the first line neither blank nor a ``#``
-    comment, has a ``wx_mm`` column); an unreadable file counts as kinid's, whose reader names the problem."""
+    """Whether ``path`` is kinid's own observation CSV: its header (the first line neither blank nor a ``#``
+    comment) has one of its columns ``mark``, ``wx_mm``, ``wy_mm``, ``wz_mm`` (one of them misspelt is then named by
+    kinid's reader); an unreadable file counts as kinid's, whose reader names the problem."""
     try:
         text = read_limited_text(path, what="CSV file", max_bytes=MAX_CSV_BYTES)
     except DataError:
         return True
     for line in text.splitlines():
         if line.strip() and not line.lstrip().startswith("#"):
-            return "wx_mm" in [c.strip() for c in next(csv.reader([line]))]
+            return bool(_OWN_COLUMNS & {c.strip() for c in next(csv.reader([line]))})
     return True
 
 
