@@ -121,8 +121,9 @@ def main(argv=None) -> int:
                 continue
             loaded = load_fit(tmp / "fit.json")
             effects, theta = loaded.effects, loaded.theta
-            print(f"  {loaded.iterations} iterations, converged: {loaded.success}; B (training, "
-                  f"{len(series['B'])} poses) 3-D RMS {held_out_mm(machine, effects, theta, series['B']):.3f} mm")
+            trained = f"the first {args.train} trained on" if args.train else "all trained on"
+            print(f"  {loaded.iterations} iterations, converged: {loaded.success}; B ({len(series['B'])} poses, "
+                  f"{trained}) 3-D RMS {held_out_mm(machine, effects, theta, series['B']):.3f} mm")
             for name in ("C", "D"):
                 frame, both = (held_out_setup_mm(machine, effects, theta, series[name], point=p) for p in (False, True))
                 print(f"  {name} held out ({len(series[name])} poses): 3-D RMS {frame:.3f} mm with the tracker's "
