@@ -13,8 +13,8 @@ exact poses held out. Printed, with and without the start: the fits that converg
 identified parameter is within 4 standard deviations of the truth, the held-out 3-D RMS (median, worst) and
 the iterations. Arguments: draws, poses per draw (60), the joints' span about a random centre (±120°).
 
-Reading a real tracker set (the user's copy of a public UR10 laser-tracker data set: semicolon CSV with decimal
-commas, joint readings in rad under the URDF's joint names, measured pose in mm) is not done here yet.
+A real tracker set (the user's copy of a public UR10 laser-tracker data set, read as exported):
+benchmarks/bench_tracker_ur10.py.
 """
 from __future__ import annotations
 

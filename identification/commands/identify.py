@@ -20,7 +20,10 @@ def register(sub) -> None:
                                    "standard deviations and writes the fit (FIT.json) that diagnose, predict and "
                                    "compensate read (docs/identification.md).")
     p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
-    p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
+    p.add_argument("--data", required=True,
+                   help="observation CSV, or an instrument export (a tracker's or motion capture's table; "
+                        "docs/formats.md, 'Instrument exports')")
+    _export_options(p)
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
@@ -98,6 +101,48 @@ def register(sub) -> None:
     p.set_defaults(run=_demo, outputs={"out": "replaced folder"})
 
 
+def _export_options(p) -> None:
+    g = p.add_argument_group("instrument exports (docs/formats.md)")
+    g.add_argument("--point", default=None, metavar="x=COL,y=COL,z=COL",
+                   help="the measured point's columns (default: measurement_x/_y/_z in mm, x1/y1/z1 … in m)")
+    g.add_argument("--point-unit", choices=("mm", "m"), default=None, help="the measured point's unit")
+    g.add_argument("--joint-unit", choices=("rad", "deg"), default=None,
+                   help="the unit of reading columns without a _rad/_deg suffix (default: the URDF's, rad)")
+    g.add_argument("--target", default=None, metavar="LABEL",
+                   help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one fitted, T1, T2 …")
+
+
+def _read_data(args, machine, *, check_units: bool = True):
+    """The observations of ``--data``: kinid's observation CSV, or an instrument export read with the export
+    options (its mapping printed on standard error); one target of several chosen by ``--target``."""
+    import numpy as np
+
+    from ..data import is_observation_csv, parse_point_columns, read_export, read_observations
+
+    check_limits = not args.allow_outside_limits
+    given = [o for o in ("point", "point_unit", "joint_unit", "target") if getattr(args, o) is not None]
+    if is_observation_csv(args.data):
+        if given:
+            raise DataError(f"--{given[0].replace('_', '-')} is for an instrument export; {args.data} is an "
+                            f"observation CSV (its header has mark or wx_mm)")
+        return read_observations(args.data, machine, check_limits=check_limits, check_units=check_units)
+    point = parse_point_columns(args.point) if args.point is not None else None
+    export = read_export(args.data, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
+                         check_limits=check_limits)
+    print("\n".join(export.notes()), file=sys.stderr)
+    obs = export.observations
+    labels = [label for label, *_ in export.targets]
+    if args.target is not None:
+        if args.target not in labels:
+            raise DataError(f"--target {args.target!r}: the file's targets are {', '.join(labels)}")
+        return obs.subset(np.array([m == args.target for m in obs.marks]))
+    if len(labels) > 1:
+        raise DataError(f"{len(labels)} targets per pose ({', '.join(labels)}) and the machine has one tool point: "
+                        f"fit one with --target {labels[0]} (several tool points, each with its own set-up, are "
+                        f"not yet supported)", path=args.data)
+    return obs
+
+
 def _positive(value, name):
     import numpy as np
 
@@ -157,13 +202,12 @@ def _identify(args) -> int:
     from ..fitting import fit, model_effects
     from ..fitting import save_fit
     from ..model import load_machine
-    from ..data import check_row_count, read_observations, warn_units
+    from ..data import check_row_count, warn_units
 
     _positive(args.noise_um, "--noise-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
-    read = _without_duplicates(read_observations(args.data, machine, check_limits=not args.allow_outside_limits,
-                                                 check_units=False))
+    read = _without_duplicates(_read_data(args, machine, check_units=False))
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
     effects = model_effects(machine, args.add)

@@ -1,0 +1,283 @@
+"""Instrument exports: a laser tracker's or a motion-capture system's table read as observations as it arrives
+(docs/formats.md, "Instrument exports").
+
+One rule, in this order:
+
+- **delimiter**: ``;`` if the header has one, else a tab if it has one, else ``,``; in a ``;`` or tab file a
+  number may have a decimal comma (``0,000121973``, ``2,02011E+13``);
+- **axes**: a column named as the URDF joint (``shoulder_pan_joint``), the short name (``J1``) or kinid's column
+  (``j1_deg``), with an optional unit suffix ``_rad``, ``_deg``, ``_m``, ``_mm``; without one, the URDF's own
+  units (rad, m; ``joint_unit`` overrides);
+- **measured point**: the columns given (``point={"x": ..., "y": ..., "z": ...}``), else the first pattern found
+  of :data:`POINT_PATTERNS` — ``measurement_x/_y/_z`` (mm, a tracker's export), ``x1/y1/z1``, ``x2/y2/z2`` … (m,
+  one target each, motion capture); ``point_unit`` overrides the unit;
+- several targets per pose give one row per target, its mark the target's label (``T1``, ``T2`` …);
+- standard deviations of the point (``measurement_std_x``, ``x1_std``) are noted, not used: the fit takes one σ
+  for every coordinate; every other column is ignored, with a note naming it.
+"""
+from __future__ import annotations
+
+import csv
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from kinid.errors import DataError
+from kinid.files import MAX_CSV_BYTES
+from kinid.untrusted import read_limited_text
+from ..model import Machine
+from .axis_columns import check_travel
+from .observations import Observations
+
+__all__ = ["Export", "POINT_PATTERNS", "is_observation_csv", "read_export", "parse_point_columns"]
+
+#: Factor to kinid's units (mm, deg) of each unit a column may be in.
+_TO_KINID = {"mm": 1.0, "m": 1e3, "deg": 1.0, "rad": 180.0 / np.pi}
+_AXIS_UNITS = {"prismatic": ("m", "mm"), "revolute": ("rad", "deg")}
+_SI = {"prismatic": "m", "revolute": "rad"}
+#: A header with one of these is kinid's own observation CSV.
+_OWN_COLUMNS = {"mark", "wx_mm", "wy_mm", "wz_mm"}
+
+#: The measured point's columns recognised without ``point``: (pattern with {c} for x/y/z and {k} for the
+#: target number, its unit, the pattern of its standard deviation's column or None), the first that matches wins.
+POINT_PATTERNS = (
+    ("measurement_{c}", "mm", "measurement_std_{c}"),
+    ("{c}{k}", "m", "{c}{k}_std"),
+)
+
+
+@dataclass(frozen=True)
+class Export:
+    """An instrument export read as observations.
+
+    Attributes
+    ----------
+    observations : Observations
+        One row per pose and target, marks ``T1``, ``T2`` …, points in mm, readings in mm / deg.
+    delimiter : str
+    decimal_comma : bool
+        Whether a number of the file was written with a decimal comma.
+    axes : tuple of (column, axis name, unit)
+    targets : tuple of (label, (x, y, z columns), unit)
+    std_columns : tuple of str
+        The point's standard deviations found (noted, not used).
+    ignored : tuple of str
+        Columns read neither as axes nor as the point.
+    """
+
+    observations: Observations
+    delimiter: str
+    decimal_comma: bool
+    axes: tuple
+    targets: tuple
+    std_columns: tuple
+    ignored: tuple
+
+    def notes(self) -> list:
+        """Lines saying how the file was read: delimiter, the axes' mapping, the point, what was left out."""
+        obs = self.observations
+        sep = {";": "';'", "\t": "tab", ",": "','"}[self.delimiter]
+        out = [f"{obs.source}: instrument export, {sep}-separated{' with decimal commas' if self.decimal_comma else ''}"
+               f", {len(obs)} rows ({len(obs) // max(len(self.targets), 1)} poses × {len(self.targets)} target(s))",
+               "  axes: " + ", ".join(f"{c} [{u}] -> {a}" for c, a, u in self.axes)]
+        out += [f"  point {label}: {', '.join(cols)} [{unit}]" for label, cols, unit in self.targets]
+        if self.std_columns:
+            out.append(f"  not used as weights (the fit takes one σ for every coordinate, --noise-um): "
+                       f"{', '.join(self.std_columns)}")
+        if self.ignored:
+            out.append(f"  ignored: {', '.join(self.ignored)}")
+        return out
+
+
+def is_observation_csv(path) -> bool:
+    """Whether ``path`` is kinid's own observation CSV: its header (the first line neither blank nor a ``#``
+    comment) has one of its columns ``mark``, ``wx_mm``, ``wy_mm``, ``wz_mm`` (one of them misspelt is then named by
+    kinid's reader); an unreadable file counts as kinid's, whose reader names the problem."""
+    try:
+        text = read_limited_text(path, what="CSV file", max_bytes=MAX_CSV_BYTES)
+    except DataError:
+        return True
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            return bool(_OWN_COLUMNS & {c.strip() for c in next(csv.reader([line]))})
+    return True
+
+
+def parse_point_columns(text: str) -> dict:
+    """``x=COL,y=COL,z=COL`` -> {"x": COL, "y": COL, "z": COL}; DataError naming ``--point`` otherwise."""
+    pairs = [p.partition("=") for p in text.split(",") if p.strip()]
+    found = {k.strip().lower(): v.strip() for k, eq, v in pairs if eq and v.strip()}
+    if len(pairs) != 3 or sorted(found) != ["x", "y", "z"]:
+        raise DataError(f"expected x=COLUMN,y=COLUMN,z=COLUMN, got {text!r}", parameter="--point")
+    return found
+
+
+def _delimiter(header: str) -> str:
+    return ";" if ";" in header else "\t" if "\t" in header else ","
+
+
+def _rows(path: Path):
+    """(delimiter, header line, header, [(line, cells)]) of the file; DataError on a short or long row."""
+    text = read_limited_text(path, what="instrument export", max_bytes=MAX_CSV_BYTES)
+    numbered = [(i, ln) for i, ln in enumerate(text.splitlines(), 1) if ln.strip() and not ln.lstrip().startswith("#")]
+    if not numbered:
+        raise DataError("no header row (the file is empty)", path=path)
+    header_line, header_text = numbered[0]
+    delimiter = _delimiter(header_text)
+    reader = csv.reader([ln for _, ln in numbered], delimiter=delimiter)
+    rows = [(line, [c.strip() for c in cells]) for (line, _), cells in zip(numbered, reader)]
+    header = rows[0][1]
+    seen = set()
+    for name in header:
+        if not name or name in seen:
+            raise DataError("an empty column name" if not name else "the column appears twice", path=path,
+                            line=header_line, column=name or None)
+        seen.add(name)
+    for line, cells in rows[1:]:
+        if len(cells) != len(header):
+            raise DataError(f"{len(cells)} cells, the header has {len(header)}: check the delimiter "
+                            f"({delimiter!r}, from the header)", path=path, line=line)
+    if len(rows) < 2:
+        raise DataError("no data rows after the header", path=path, line=header_line)
+    return delimiter, header_line, header, rows[1:]
+
+
+def _numbers(path, rows, k, column, decimal_comma):
+    """The finite numbers of column ``k``; DataError naming the line and column of the first other cell."""
+    out = np.empty(len(rows))
+    for i, (line, cells) in enumerate(rows):
+        cell = cells[k]
+        text = cell.replace(",", ".", 1) if decimal_comma and cell.count(",") == 1 and "." not in cell else cell
+        try:
+            v = float(text)
+        except ValueError:
+            v = None
+        if v is None or not np.isfinite(v):
+            raise DataError(f"{cell!r} is not a finite number" + (" (an empty cell)" if not cell else ""),
+                            path=path, line=line, column=column)
+        out[i] = v
+    return out
+
+
+def _unit_suffix(name: str, units) -> tuple:
+    """(stem, unit) of a column name ending in ``_<unit>`` for a unit in ``units``, else (name, None)."""
+    for u in units:
+        if name.lower().endswith("_" + u):
+            return name[: -len(u) - 1], u
+    return name, None
+
+
+def _axis_columns(machine, header, joint_unit, path, header_line):
+    """[(column index, column, axis index, unit)] for every axis; DataError naming a missing or doubled axis."""
+    found = {}
+    for k, name in enumerate(header):
+        for j, a in enumerate(machine.axes):
+            stem, unit = _unit_suffix(name, _AXIS_UNITS[a.kind] + tuple(u for u in _TO_KINID if u not in
+                                                                         _AXIS_UNITS[a.kind]))
+            if stem.lower() not in (a.joint.lower(), a.name.lower()):
+                continue
+            if unit is not None and unit not in _AXIS_UNITS[a.kind]:
+                raise DataError(f"axis {a.name} ({a.joint}) is {a.kind}: its unit is one of "
+                                f"{', '.join(_AXIS_UNITS[a.kind])}, not {unit}", path=path, line=header_line,
+                                column=name)
+            if j in found:
+                raise DataError(f"a second column for axis {a.name} ({a.joint}), after {header[found[j][0]]!r}",
+                                path=path, line=header_line, column=name)
+            if unit is None:
+                unit = joint_unit if joint_unit in _AXIS_UNITS[a.kind] else _SI[a.kind]
+            found[j] = (k, unit)
+    missing = [a for j, a in enumerate(machine.axes) if j not in found]
+    if missing:
+        names = ", ".join(f"{a.joint}" + (f" or {a.name}" if a.name != a.joint else "") for a in missing)
+        raise DataError(f"no column for {names} (a column is named as the URDF joint or its short name, with an "
+                        f"optional _rad/_deg/_m/_mm)", path=path, line=header_line)
+    return [(k, header[k], j, unit) for j, (k, unit) in sorted(found.items())]
+
+
+def _targets(header, point, point_unit, path, header_line):
+    """[(label, (x, y, z columns), unit, std columns)] of the measured point(s)."""
+    lower = {h.lower(): h for h in header}
+    if point is not None:
+        cols = tuple(point[c] for c in "xyz")
+        for c in cols:
+            if c not in header:
+                raise DataError(f"--point names column {c!r}, which the file does not have", path=path,
+                                line=header_line)
+        units = {_unit_suffix(c, ("mm", "m"))[1] for c in cols}
+        unit = point_unit or (units.pop() if len(units) == 1 and None not in units else None)
+        if unit is None:
+            raise DataError(f"the unit of {', '.join(cols)} is not in their names: add --point-unit mm or m",
+                            path=path, line=header_line)
+        return [("T1", cols, unit, ())]
+    for pattern, unit, std in POINT_PATTERNS:
+        numbered = "{k}" in pattern
+        out = []
+        for k in range(1, 1000 if numbered else 2):
+            cols = [lower.get(pattern.format(c=c, k=k)) for c in "xyz"]
+            if None in cols:
+                break
+            stds = tuple(s for s in (lower.get(std.format(c=c, k=k)) for c in "xyz") if s)
+            out.append((f"T{k}", tuple(cols), point_unit or unit, stds))
+        if out:
+            return out
+    raise DataError("no measured-point columns: name them with --point x=COLUMN,y=COLUMN,z=COLUMN (recognised: "
+                    "measurement_x/_y/_z, x1/y1/z1 …)", path=path, line=header_line)
+
+
+def read_export(path, machine: Machine, *, point: dict | None = None, point_unit: str | None = None,
+                joint_unit: str | None = None, check_limits: bool = True) -> Export:
+    """Read an instrument export as observations (module docstring: the rule).
+
+    Parameters
+    ----------
+    path : str or Path
+    machine : Machine
+        Its axes' URDF joint names and short names name the reading columns.
+    point : dict {"x", "y", "z"} -> column, optional
+        The measured point's columns (:func:`parse_point_columns`); default: :data:`POINT_PATTERNS`.
+    point_unit : {"mm", "m"}, optional
+        The point's unit, over its pattern's or its columns' suffix.
+    joint_unit : {"rad", "deg"}, optional
+        The unit of reading columns without a suffix (default the URDF's: rad, m).
+    check_limits : bool
+        Refuse a reading outside its axis's URDF travel.
+
+    Raises
+    ------
+    DataError
+        One line naming the file, line and column: a row of another length, a cell that is not a number, an axis
+        without a column, no measured point.
+    """
+    for name, value, allowed in (("--point-unit", point_unit, ("mm", "m")), ("--joint-unit", joint_unit, ("rad", "deg"))):
+        if value is not None and value not in allowed:
+            raise DataError(f"expected {' or '.join(allowed)}, got {value!r}", parameter=name)
+    path = Path(path)
+    delimiter, header_line, header, rows = _rows(path)
+    decimal_comma = delimiter != ","
+    axis_cols = _axis_columns(machine, header, joint_unit, path, header_line)
+    targets = _targets(header, point, point_unit, path, header_line)
+    for _, cols, _, _ in targets:
+        for c in cols:
+            if c in {name for _, name, _, _ in axis_cols}:
+                raise DataError("a column cannot be both an axis reading and the measured point", path=path,
+                                line=header_line, column=c)
+    n, m = len(rows), len(targets)
+    axes = np.empty((n, len(machine.axes)))
+    for k, name, j, unit in axis_cols:
+        axes[:, j] = _numbers(path, rows, k, name, decimal_comma) * _TO_KINID[unit]
+    lines = tuple(line for line, _ in rows)
+    if check_limits:
+        check_travel(machine, axes, lines, path)
+    points = np.stack([np.column_stack([_numbers(path, rows, header.index(c), c, decimal_comma) for c in cols])
+                       * _TO_KINID[unit] for _, cols, unit, _ in targets], axis=1)  # (n, m, 3)
+    used = {c for _, c, _, _ in axis_cols} | {c for t in targets for c in t[1]}
+    stds = tuple(s for t in targets for s in t[3])
+    marks = tuple(label for _ in range(n) for label, *_ in targets)
+    obs = Observations(marks, points.reshape(n * m, 3), np.repeat(axes, m, axis=0), None, {},
+                       tuple(np.repeat(lines, m).tolist()), str(path))
+    comma = decimal_comma and any("," in cells[k] for _, cells in rows for k in range(len(header)) if header[k] in used)
+    return Export(obs, delimiter, bool(comma), tuple((c, machine.axes[j].name, u) for _, c, j, u in axis_cols),
+                  tuple((label, cols, unit) for label, cols, unit, _ in targets), stds,
+                  tuple(h for h in header if h not in used and h not in stds))
