@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Machine, evaluate
+from ..model import Machine, evaluate, rigid_transform
 from .axis_columns import warn_if_metres
 
 __all__ = ["UnitHint", "unit_hints", "warn_units", "HINT_GAIN", "HINT_MIN_MM", "HINT_ROWS"]
@@ -71,13 +71,8 @@ class UnitHint:
 
 def _rigid_misfit_mm(p: np.ndarray, w: np.ndarray) -> float:
     """RMS distance of the points ``p`` (N, 3) from ``w`` (N, 3) after the best rotation and translation of ``p``."""
-    pc, wc = p - p.mean(axis=0), w - w.mean(axis=0)
-    u, s, vt = np.linalg.svd(pc.T @ wc)
-    d = np.sign(np.linalg.det(u @ vt)) or 1.0  # a proper rotation, not a reflection
-    s[-1] *= d
-    # Σ|R pc − wc|² = Σ|pc|² + Σ|wc|² − 2 Σ s (Kabsch)
-    ss = float(np.sum(pc**2) + np.sum(wc**2) - 2.0 * np.sum(s))
-    return math.sqrt(max(ss, 0.0) / len(p))
+    R, t = rigid_transform(p, w)
+    return float(np.sqrt(np.mean(np.sum((p @ R.T + t - w) ** 2, axis=1))))
 
 
 def _tool_points(machine: Machine, axes: np.ndarray, offsets_mm) -> np.ndarray:

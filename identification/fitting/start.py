@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Machine, evaluate
+from ..model import Machine, evaluate, rigid_transform
 from ..data import Observations
 from .residuals import Design, joint_values
 
@@ -102,28 +102,6 @@ class Start:
         return (f"started from the measurement frame fitted as a rigid transform (turned "
                 f"{np.degrees(self.turn_rad):.4g}°, moved {self.shift_mm:.4g} mm{tool}{trimmed}; residual RMS "
                 f"{self.rms_um:.4g} µm)")
-
-
-def rigid_transform(p_mm, w_mm) -> tuple:
-    """The proper rigid transform ``w ≈ R p + t`` of least squares (Kabsch; Umeyama without scale).
-
-    Parameters
-    ----------
-    p_mm, w_mm : array (N, 3)
-        Matched points, mm.
-
-    Returns
-    -------
-    R : array (3, 3)
-        A rotation (determinant +1, never a reflection).
-    t_mm : array (3,)
-    """
-    p, w = np.asarray(p_mm, float), np.asarray(w_mm, float)
-    pc, wc = p.mean(axis=0), w.mean(axis=0)
-    U, _, Vt = np.linalg.svd((w - wc).T @ (p - pc))
-    sign = np.sign(np.linalg.det(U @ Vt)) or 1.0  # a reflection fits better: turn the weakest direction
-    R = U @ np.diag([1.0, 1.0, sign]) @ Vt
-    return R, wc - R @ pc
 
 
 def robust_rigid_transform(p_mm, w_mm, *, trim_mads: float = TRIM_MADS) -> tuple:

@@ -16,8 +16,8 @@ _SOURCES = {
     "machine_from_urdf": "machine", "tool_in_workpiece_mm": "machine", "tool_rotation_in_workpiece": "machine",
     "axis_directions": "names", "effect_description": "names", "plain_name": "names",
     "implausible_candidate": "plausibility", "implausible_effects": "plausibility",
-    "share_of_limit": "plausibility", "warning_lines": "plausibility", "MAX_URDF_BYTES": "urdf_checks",
-    "joint_kind": "urdf_checks", "identification_urdf": "urdf_import",
+    "share_of_limit": "plausibility", "warning_lines": "plausibility", "rigid_transform": "rigid",
+    "MAX_URDF_BYTES": "urdf_checks", "joint_kind": "urdf_checks", "identification_urdf": "urdf_import",
 }
 
 __all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG", "axis_dependent_joints",
@@ -25,7 +25,7 @@ __all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG
            "check_machine", "chosen_of", "default_model", "effect_description", "evaluate",
            "identification_urdf", "implausible_candidate", "implausible_effects", "joint_kind", "load_machine",
            "local_column_index", "local_columns", "local_grid", "machine_from_urdf", "model_effects",
-           "parse_effect", "plain_name", "position_tables", "share_of_limit", "tool_in_workpiece_mm",
-           "tool_rotation_in_workpiece", "warning_lines"]
+           "parse_effect", "plain_name", "position_tables", "rigid_transform", "share_of_limit",
+           "tool_in_workpiece_mm", "tool_rotation_in_workpiece", "warning_lines"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)
