@@ -185,3 +185,31 @@ def test_a_file_that_would_make_the_machine_worse_is_refused(full_turn, monkeypa
     # the same in an earlier folder: it stays as it was
     assert main(["compensate", "--fit", str(fit_json), "--out", str(full_turn), "--format", "twincat"]) == 2
     assert (full_turn / "C.comp").exists()
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.parametrize("rotary", [False, True])
+def test_kinids_readers_agree_with_the_independent_consumers(fmt, rotary):
+    """The readers compensate checks its files with (kinid.axis_readers) apply a file as the independent consumers
+    of tests/controller_consumers.py do, in both directions, inside, between and beyond the points."""
+    from kinid.axis_readers import applied
+    from kinid.axis_tables import AxisErrorTable, TableOptions
+
+    rng = np.random.default_rng(3)
+    q = np.linspace(0.0, 360.0, 25) if rotary else np.linspace(-80.0, 120.0, 41)
+    forward = rng.uniform(-30.0, 30.0, q.size)
+    reverse = forward + rng.uniform(-5.0, 5.0, q.size)
+    if rotary:
+        forward[-1], reverse[-1] = forward[0], reverse[0]
+    f = CONTROLLER_FORMATS[fmt]
+    text = f.write(AxisErrorTable("C" if rotary else "X", rotary, q, forward, reverse), TableOptions(modulo=rotary))
+    mine = f.read(text, rotary)
+    theirs = READERS[fmt](text, rotary)
+    x = np.linspace(q[0] - 100.0, q[-1] + 100.0, 3001)
+    to_unit = (lambda v: np.radians(v) * 1e6) if rotary else (lambda v: v * 1e3)
+    for direction in (True, False):
+        got = applied(mine, x, direction) if f.bidirectional else applied(mine, x)
+        want = to_unit(theirs(x, direction)) if f.bidirectional else to_unit(theirs(x))
+        np.testing.assert_allclose(got, want, atol=1e-6)
+    assert abs(np.max(np.abs(applied(mine, q))) - np.max(np.abs(forward if f.bidirectional else
+                                                              0.5 * (forward + reverse)))) <= f.resolution(rotary)
