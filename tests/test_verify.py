@@ -154,7 +154,8 @@ def test_verify_says_made_worse_and_where(tmp_path, capsys):
     assert main(run + ["--errors", "examples/errors.json", "--seed", "1", "--out", str(tmp_path / "run1.csv")]) == 0
     assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "run1.csv"), "--add", "EXX:periodic:10",
                  "--noise-um", "0.5", "--out", str(tmp_path / "fit.json")]) == 0
-    assert main(run + ["--errors", str(tmp_path / "doubled.json"), "--seed", "2", "--out", str(tmp_path / "run2.csv")]) == 0
+    assert main(run + ["--errors", str(tmp_path / "doubled.json"), "--seed", "2",
+                       "--out", str(tmp_path / "run2.csv")]) == 0
     capsys.readouterr()
     assert main(["verify", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "run2.csv"), "--json"]) == 0
     v = json.loads(capsys.readouterr().out)

@@ -301,8 +301,9 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                           "travel": [v if np.isfinite(v) else None for v in rng.travel], "columns": names,
                           "not_modulo": None if not_modulo is None else
                           {k: v for k, v in not_modulo.items() if k != "scale_words"}}
-        if rng.measured is not None and not rng.modulo and not_modulo is None and np.isfinite(rng.travel[1] - rng.travel[0]) and \
-                (rng.high - rng.low) < 0.9 * (rng.travel[1] - rng.travel[0]):
+        travel_span = rng.travel[1] - rng.travel[0]
+        if rng.measured is not None and not rng.modulo and not_modulo is None and np.isfinite(travel_span) and \
+                (rng.high - rng.low) < 0.9 * travel_span:
             notes.append(f"{a.name}: tables over {rng.source} {rng.low:.4g} .. {rng.high:.4g} {unit_q} of the travel "
                          f"{rng.travel[0]:.4g} .. {rng.travel[1]:.4g} {unit_q}; beyond, "
                          + ("the end values are held" if beyond == "hold" else "the compensation returns to zero")
@@ -337,7 +338,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                     if fmt.read is None else fmt.read(files[name], rotary))
             both = (lambda x, t=read: np.vstack([applied(t, x, True), applied(t, x, False)])) if fmt.bidirectional \
                 else (lambda x, t=read: applied(t, x)[None])
-            checks.append((TableCheck(name, a.name, (unit_q, unit), values_at, both, floor=res), checked_at, travel_ends))
+            checks.append((TableCheck(name, a.name, (unit_q, unit), values_at, both, floor=res), checked_at,
+                           travel_ends))
             left = left_after(fmt, table, values_at, inside, res)
             if fq.size >= most and left["rms"] > BOUND_SHARE * error_rms:
                 limited = "points"

@@ -93,7 +93,7 @@ def check_table(check: TableCheck, inside: np.ndarray, ends=()) -> dict:
         if at_ends[k, i] > largest + tol:
             raise DataError(f"{check.file}: applied as the controller applies it, it would compensate "
                             f"{at_ends[k, i]:.3g} {unit} at the travel's end {check.axis} = {ends[i]:g} {q_unit}, more "
-                            f"than the largest error inside the measured range ({largest:.3g} {unit}): beyond the data a "
-                            f"table must hold its end values or return to zero; nothing written")
+                            f"than the largest error inside the measured range ({largest:.3g} {unit}): beyond the "
+                            f"data a table must hold its end values or return to zero; nothing written")
     return {"checked_positions": int(inside.size + ends.size), "error_max": largest,
             "left_max": float(np.max(left)) if left.size else 0.0}

@@ -59,8 +59,8 @@ def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
                    f"({v.noise_level_3d_um:.3g} µm).",
                    "Nothing to do; measure again when the machine has been moved, repaired or after a season."]
     elif v.made_worse:
-        summary = [f"Made worse: the tool point error grew from {v.before_um['3d']:.3g} µm to {v.after_um['3d']:.3g} µm "
-                   f"3-D RMS" + (f"; {v.where_words}." if v.where_words else "."),
+        summary = [f"Made worse: the tool point error grew from {v.before_um['3d']:.3g} µm to "
+                   f"{v.after_um['3d']:.3g} µm 3-D RMS" + (f"; {v.where_words}." if v.where_words else "."),
                    "Unload the compensation and check its ranges and signs (compensation.json) and that it was made "
                    "from this machine's fit."]
     else:

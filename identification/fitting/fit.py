@@ -28,7 +28,8 @@ from ..data import Observations, check_observations
 from .fit_pass import model_pass_qr
 from .residuals import design, residuals
 
-__all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "axis_readings", "FIT_FORMAT", "READING_DIGITS"]
+__all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "axis_readings", "FIT_FORMAT",
+           "READING_DIGITS"]
 
 FIT_FORMAT = "kinid-fit/1"
 
