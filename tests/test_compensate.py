@@ -96,8 +96,9 @@ def compensated(tmp_path_factory):
     model = list(default_model(m)) + [e for e in effects if e.basis != "constant"]
     result = fit(m, obs, model, noise_um=0.5)
     save_fit(result, folder / "fit.json")
+    # LinuxCNC's 256 points cannot follow the 10 mm lead over the 1200 mm travel: refused (below)
     assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(folder / "out"), "--all-terms",
-                 "--range", "travel", "--step-mm", "0.5", "--step-deg", "0.5"]) == 0
+                 "--range", "travel", "--step-mm", "0.5", "--step-deg", "0.5", "--format", "twincat", "sinumerik"]) == 0
     return folder / "out", result
 
 
@@ -162,9 +163,25 @@ def test_compensation_json_and_controller_files(compensated):
     assert info["tables"]["X"]["columns"][:1] == ["EXX_um"] and "EXX_rev_um" in info["tables"]["X"]["columns"]
     assert len(info["fit"]["sha256"]) == 64
     files = {c["file"]: c for c in info["controller_files"]}
-    assert files["X_ssfk.lis"]["points"] <= 1500 and files["X.comp"]["points"] <= 256
-    # LinuxCNC: the 256 points over 1200 mm cannot follow a 10 mm lead; said, with the size of the departure
-    assert files["X.comp"]["left_max"] > 0.5
+    assert files["X_ssfk.lis"]["points"] <= 1500 and files["X_EEC_INI.spf"]["points"] <= 5000
+
+
+def test_linuxcnc_over_the_travel_is_refused_and_over_the_data_holds_the_reversal(compensated, capsys):
+    """LinuxCNC: the 256 points over 1200 mm cannot follow a 10 mm lead — between its points the file would leave
+    more error than none inside the measured range, so nothing is written; over the measured readings it follows."""
+    folder, result = compensated
+    fit_json = folder.parent / "fit.json"
+    capsys.readouterr()
+    assert main(["compensate", "--fit", str(fit_json), "--out", str(folder.parent / "lcnc_travel"), "--all-terms",
+                 "--range", "travel", "--step-mm", "0.5", "--format", "linuxcnc"]) == 2
+    err = capsys.readouterr().err
+    assert "X.comp: applied as the controller applies it, it would leave" in err and " at X = " in err
+    assert len(err.strip().splitlines()) == 1 and not (folder.parent / "lcnc_travel").exists()
+    folder = folder.parent / "lcnc_data"
+    assert main(["compensate", "--fit", str(fit_json), "--out", str(folder), "--all-terms", "--step-mm", "0.5",
+                 "--format", "linuxcnc"]) == 0
+    files = {c["file"]: c for c in json.loads((folder / "compensation.json").read_text())["controller_files"]}
+    assert files["X.comp"]["points"] <= 256
     lines = (folder / "X.comp").read_text().splitlines()
     assert len(lines) == files["X.comp"]["points"]
     nominal, fwd, rev = np.array([l.split() for l in lines], float).T

@@ -192,8 +192,10 @@ def readme_example(tmp_path_factory):
 def test_each_controller_follows_the_model_inside_the_measured_range(readme_example, policy, capsys):
     folder, result = readme_example
     out = folder / f"comp_{policy}"
+    # over the travel LinuxCNC's 256 points cannot follow the lead: refused (tests/test_compensate.py)
+    formats = sorted(CONTROLLER_FORMATS) if policy == "data" else ["sinumerik", "twincat"]
     assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--range", policy,
-                 "--format", *sorted(CONTROLLER_FORMATS)]) == 0
+                 "--format", *formats]) == 0
     said = capsys.readouterr().out
     info = json.loads((out / "compensation.json").read_text())
     checked = 0
@@ -218,7 +220,7 @@ def test_each_controller_follows_the_model_inside_the_measured_range(readme_exam
                              said), said
             assert policy == "travel" or "steps of" in said
         checked += 1
-    assert checked >= 3
+    assert checked >= len(formats)
 
 
 def test_twincat_list_limits_modulo_and_axis_numbers(tmp_path, capsys):

@@ -140,3 +140,35 @@ def test_verify_tests_against_the_fits_own_sigma_when_it_was_estimated(compensat
     assert main(["verify", "--compensation", str(folder / "comp_est"), "--data", str(folder / "run2_est_plain.csv")]) == 0
     out = capsys.readouterr().out
     assert "the fit's estimate from its own residuals" in out and "F test p = " in out
+
+
+def test_verify_says_made_worse_and_where(tmp_path, capsys):
+    """A compensation loaded with the wrong sign doubles the machine's errors: the second run is simulated with
+    twice the errors of examples/errors.json (the set-up as it was). Verify says "made worse", not "check that the
+    compensation is loaded", and names the pose where the error grew most."""
+    errors = json.loads(open("examples/errors.json").read())
+    doubled = {k: v if k.endswith("W") else (2 * v if not isinstance(v, list) else [2 * x for x in v])
+               for k, v in errors.items()}
+    (tmp_path / "doubled.json").write_text(json.dumps(doubled))
+    run = ["simulate", "--machine", MACHINE, "--plan", "patent", "--noise-um", "0.5"]
+    assert main(run + ["--errors", "examples/errors.json", "--seed", "1", "--out", str(tmp_path / "run1.csv")]) == 0
+    assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "run1.csv"), "--add", "EXX:periodic:10",
+                 "--noise-um", "0.5", "--out", str(tmp_path / "fit.json")]) == 0
+    assert main(run + ["--errors", str(tmp_path / "doubled.json"), "--seed", "2",
+                       "--out", str(tmp_path / "run2.csv")]) == 0
+    capsys.readouterr()
+    assert main(["verify", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "run2.csv"), "--json"]) == 0
+    v = json.loads(capsys.readouterr().out)
+    print(f"before {v['before_um']['3d']:.3f} µm, after {v['after_um']['3d']:.3f} µm; grew most {v['grew_most']}")
+    assert v["after_um"]["3d"] == pytest.approx(2 * v["before_um"]["3d"], rel=0.2)  # twice the error
+    assert v["made_worse"] and not v["at_noise_level"]
+    g = v["grew_most"]
+    assert {"B", "C"} <= set(g["readings"]) and g["after_um"] - g["before_um"] >= \
+        v["after_um"]["3d"] - v["before_um"]["3d"]
+    assert main(["verify", "--fit", str(tmp_path / "fit.json"), "--data", str(tmp_path / "run2.csv"),
+                 "--report", str(tmp_path / "report")]) == 0
+    out = capsys.readouterr().out
+    assert "verdict: made worse" in out and "the error grew most at " in out and f"(mark {g['mark']}" in out
+    assert f"B = {g['readings']['B']:.4g}" in out
+    assert "check that the compensation is loaded" not in out
+    assert "Made worse" in (tmp_path / "report" / "index.html").read_text()

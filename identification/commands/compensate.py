@@ -25,7 +25,8 @@ def register(sub) -> None:
                    default=list(default_formats()),
                    help=f"controller formats to write (default: {' '.join(default_formats())})")
     p.add_argument("--range", dest="range_policy", choices=("data", "travel"), default="data",
-                   help="tables over the measured readings of each axis (default) or over the URDF travel")
+                   help="tables over the measured readings of each axis (default) or over the URDF travel (refused "
+                        "where it is unbounded, or more than a turn the readings do not go round)")
     p.add_argument("--beyond", choices=("hold", "zero"), default="hold",
                    help="beyond a table's ends: hold the end values (default) or return to zero")
     p.add_argument("--all-terms", action="store_true",
@@ -91,6 +92,8 @@ def _compensate(args) -> int:
         print(f"  {c['file']}: {c['points'] - c['ends_added']} points from {c['from']:.6g} to {c['to']:.6g}{ends}; "
               f"the controller's interpolation leaves {c['left_rms']:.3g} of the {c['error_rms']:.3g} {c['unit']} "
               f"RMS error")
+    print(f"  checked: each of the {out.checked} tables, applied as its controller applies it, leaves no more error "
+          f"than none anywhere in the measured range")
     for line in out.notes:
         print(f"note: {line}")
     return 0

@@ -5,8 +5,9 @@
   machine's significant errors (|value| above its expanded uncertainty, k = 2), without the set-up
   of the board and the sensor (they go to ``setup.json``) and without drifts; what is left out is
   listed with the reason;
-- :func:`axis_range` — where a table of an axis goes: the measured readings (default), the URDF
-  travel on request, one turn for a rotary axis that turns all the way (a modulo table);
+- :func:`axis_range` (:mod:`.ranges`) — where a table of an axis goes: the measured readings
+  (default), the URDF travel on request where it is finite and at most a turn, one turn as a modulo
+  table only where the readings go all the way round and the model repeats every turn;
 - :func:`axis_error_columns` — the value of every position-dependent error joint of one axis over a
   grid of that axis (direction + and, where the model has a reversal, direction −);
 - :func:`constant_errors` — every constant (location and set-up) error with its standard deviation;
@@ -29,12 +30,15 @@ from pathlib import Path
 
 import numpy as np
 
+from kinid.axis_tables import FileTable, applied, csv_tables
 from kinid.axis_tables import AxisErrorTable, TableOptions, controller_format, default_formats, neutral_csv_text
 from kinid.errors import DataError
-from ..model import axis_limits, basis_of, basis_values
+from ..model import basis_of, basis_values
 from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
+from .ranges import axis_range, turn_change
+from .table_check import TableCheck, check_positions, check_table
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
 __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axis_error_columns",
@@ -43,6 +47,8 @@ __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axi
 
 #: A table's interpolation may depart from the model by at most this share of the error's RMS.
 BOUND_SHARE = 0.10
+#: A rotary axis's model repeats every turn when no column changes by more than this over one (µm / µrad).
+TURN_TOLERANCE = 1e-3
 #: Most points of a plain CSV table when its step is chosen by kinid.
 CSV_MAX_POINTS = 20001
 
@@ -127,30 +133,7 @@ def _not_significant(values, std) -> str | None:
             f"largest |value|/σ {ratio:.2g}")
 
 
-# --- where tables go ----------------------------------------------------------------------------
-
-def axis_range(result: FitResult, axis: str, policy: str = "data") -> AxisRange | None:
-    """The range of ``axis``'s tables under ``policy`` ("data": the measured readings; "travel": the URDF's).
-
-    A rotary axis that turns all the way (continuous, or a travel of a turn or more) gets one turn,
-    0 .. 360°, as a modulo table. None where the fit has no readings of the axis (data policy).
-    """
-    if policy not in ("data", "travel"):
-        raise DataError(f"must be 'data' or 'travel', got {policy!r}", parameter="range_policy")
-    machine = result.machine
-    j = machine.axis_names.index(axis)
-    a = machine.axes[j]
-    lo, hi = (float(v) for v in axis_limits(machine)[j])
-    measured = result.axis_ranges.get(axis)
-    measured = tuple(measured) if measured is not None and measured[1] > measured[0] else None
-    if a.kind == "revolute" and (a.nq == 2 or (np.isfinite(hi - lo) and hi - lo >= 360.0 - 1e-9)):
-        return AxisRange(0.0, 360.0, "one turn (modulo)", True, (lo, hi), measured)
-    if policy == "travel" and np.isfinite(lo) and np.isfinite(hi):
-        return AxisRange(lo, hi, "URDF travel", False, (lo, hi), measured)
-    if measured is None:
-        return None
-    return AxisRange(measured[0], measured[1], "measured readings", False, (lo, hi), measured)
-
+# --- the errors of an axis ---------------------------------------------------------------------
 
 def _effects_by_axis(result: FitResult):
     """Axis -> list of (effect, its parameter values), for bases driven by that axis's position or direction."""
@@ -228,15 +211,20 @@ class CompensationFiles:
         axis whose tables cover less than its travel, and per effect left out of the compensation.
     controller : tuple of dict
         Per controller file: format, axis, points, range, the error's RMS and what the controller's
-        interpolation leaves of it (RMS and largest), in µm or µrad.
+        interpolation leaves of it (RMS and largest), in µm or µrad, and what its check found
+        (``never_worse``).
     axis_numbers : AxisNumbers
         The controller's number of each axis and where it came from.
+    checked : int
+        Tables (controller files and CSV columns) applied as their controllers apply them and found never
+        worse than no compensation inside the measured range.
     """
 
     files: tuple
     notes: tuple
     controller: tuple = ()
     axis_numbers: AxisNumbers | None = None
+    checked: int = 0
 
 
 def write_compensation(result: FitResult, folder, *, step_mm: float | None = None, step_deg: float | None = None,
@@ -284,7 +272,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                   [("fit_path", fit_path), ("the fit's machine", getattr(machine, "path", None))])
     check_output_folder(folder, foreign=_not_earlier_compensation)
     files = {}  # name -> text, in the order written
-    written, tables, skipped, controller, notes = [], {}, [], [], []
+    written, tables, skipped, controller, notes, checks = [], {}, [], [], [], []
     for a in machine.axes:
         rotary = a.kind == "revolute"
         unit_q, unit = ("deg", "µrad") if rotary else ("mm", "µm")
@@ -298,25 +286,44 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             skipped.append({"axis": a.name, "reason": "no compensated error on this axis"})
             continue
         step = step_mm if a.kind == "prismatic" else step_deg
-        span = rng.measured or (rng.low, rng.high)
-        inside = np.linspace(max(span[0], rng.low), min(span[1], rng.high), 2001)
         names = list(probe)
         stack = lambda q, f=cols_at: np.vstack(list(f(q).values()))  # noqa: E731
+        not_modulo = _not_one_turn(a.name, names, cols_at, rng) if rng.modulo else None
+        if not_modulo is not None:
+            if range_policy == "travel":
+                raise DataError(f"travel: {not_modulo['reason']}, and {a.name}'s travel is more than a turn; give "
+                                f"--range data (the measured readings)", parameter="range_policy")
+            rng = replace(rng, low=rng.measured[0], high=rng.measured[1], source="measured readings", modulo=False)
+            notes.append(f"{a.name}: {not_modulo['reason']}; its tables are not modulo, over the measured readings "
+                         f"{rng.low:.4g} .. {rng.high:.4g}°, " + ("end values held" if beyond == "hold" else
+                                                                   "zero") + " beyond" + not_modulo["scale_words"])
+        span = rng.measured or (rng.low, rng.high)
+        inside = np.linspace(max(span[0], rng.low), min(span[1], rng.high), 2001)
+        checked_at = check_positions(model.axis_readings.get(a.name), span)
+        travel_ends = [] if rng.modulo else [t for t in rng.travel if np.isfinite(t) and not rng.low <= t <= rng.high]
         bounds = np.maximum(BOUND_SHARE * np.sqrt(np.mean(stack(inside) ** 2, axis=1)), 1e-3)
         q = table_grid(stack, rng, bounds, CSV_MAX_POINTS - extra_points(rng, beyond, False), step)
         q_ext, cols = with_ends(q, cols_at(q), rng, beyond, False)
         files[f"{a.name}.csv"] = neutral_csv_text(a.column, q_ext, cols)
         written.append(f"{a.name}.csv")
+        for column, read in csv_tables(files[f"{a.name}.csv"], rng.modulo).items():
+            checks.append((TableCheck(f"{a.name}.csv (column {column})", a.name, (unit_q, unit),
+                                      lambda x, f=cols_at, c=column: f(x)[c][None],
+                                      lambda x, t=read: applied(t, x)[None], floor=1e-3), checked_at, travel_ends))
         tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(rng.low), "to": float(rng.high),
                           "points": int(q_ext.size), "range": rng.source, "modulo": rng.modulo,
                           "measured": None if rng.measured is None else list(rng.measured),
-                          "travel": [v if np.isfinite(v) else None for v in rng.travel], "columns": names}
-        if rng.measured is not None and not rng.modulo and np.isfinite(rng.travel[1] - rng.travel[0]) and \
-                (rng.high - rng.low) < 0.9 * (rng.travel[1] - rng.travel[0]):
+                          "travel": [v if np.isfinite(v) else None for v in rng.travel], "columns": names,
+                          "not_modulo": None if not_modulo is None else
+                          {k: v for k, v in not_modulo.items() if k != "scale_words"}}
+        travel_span = rng.travel[1] - rng.travel[0]
+        if rng.measured is not None and not rng.modulo and not_modulo is None and np.isfinite(travel_span) and \
+                (rng.high - rng.low) < 0.9 * travel_span:
             notes.append(f"{a.name}: tables over {rng.source} {rng.low:.4g} .. {rng.high:.4g} {unit_q} of the travel "
                          f"{rng.travel[0]:.4g} .. {rng.travel[1]:.4g} {unit_q}; beyond, "
                          + ("the end values are held" if beyond == "hold" else "the compensation returns to zero")
-                         + (" (--range travel for the whole travel)" if range_policy == "data" else ""))
+                         + (" (--range travel for the whole travel)" if range_policy == "data" and
+                            (not rotary or rng.travel[1] - rng.travel[0] <= 360.0 + 1e-9) else ""))
         code = f"E{a.name}{a.name}"
         key = f"{code}_{'urad' if rotary else 'um'}"
         if code not in machine.error_codes or not np.any(probe.get(key, np.zeros(1)) != 0):
@@ -340,6 +347,14 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             name = fmt.file_name(a.name)
             files[name] = fmt.write(table, options)
             written.append(name)
+            if fmt.read is None:
+                notes.append(f"{name}: {fmt.title} has no reader in kinid; checked as the table given to its writer")
+            read = (FileTable(table.positions, table.forward, table.backward, rng.modulo and fmt.modulo)
+                    if fmt.read is None else fmt.read(files[name], rotary))
+            both = (lambda x, t=read: np.vstack([applied(t, x, True), applied(t, x, False)])) if fmt.bidirectional \
+                else (lambda x, t=read: applied(t, x)[None])
+            checks.append((TableCheck(name, a.name, (unit_q, unit), values_at, both, floor=res), checked_at,
+                           travel_ends))
             left = left_after(fmt, table, values_at, inside, res)
             if fq.size >= most and left["rms"] > BOUND_SHARE * error_rms:
                 limited = "points"
@@ -360,6 +375,10 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                 notes.append(f"{name}: the controller's interpolation leaves {left['rms']:.3g} {unit} RMS of the "
                              f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
                              f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
+    # never worse than none: every table applied as its controller applies it, before anything is written
+    outcome = {check.file: check_table(check, at, ends) for check, at, ends in checks}
+    for entry in controller:
+        entry["never_worse"] = outcome[entry["file"]]
     setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out))
     files["constants.json"] = json_text({"errors": constant_errors(result, comp)},
                                         path=Path(folder) / "constants.json")
@@ -397,13 +416,38 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                                f"written as 0"),
         "setup_written_as_zero": [{"effect": n, "reason": why} for n, why in comp.setup_left_out],
         "setup_file": "setup.json" if setup else None,
+        "never_worse": {"tables_checked": len(outcome), "rule": (
+            "each table, read back and applied as its controller applies it, leaves at no measured position (the "
+            "readings and 2001 points over the measured range) more than the error itself plus 10 % of its RMS (or "
+            "the format's resolution), and beyond the data no more than the largest error inside it")},
     }
     files["compensation.json"] = json_text(info, path=Path(folder) / "compensation.json")
     written.append("compensation.json")
     with staged_folder(folder, foreign=_not_earlier_compensation) as stage:
         for name, text in files.items():
             write_text(stage / name, text)
-    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers)
+    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome))
+
+
+def _not_one_turn(axis: str, names, cols_at, rng: AxisRange) -> dict | None:
+    """Why a one-turn (modulo) table cannot hold the model of rotary ``axis``, or None where it can: the columns
+    whose value after a turn differs from the value before by more than :data:`TURN_TOLERANCE`, and the scale
+    error of the positioning column (its mean change over a turn, ppm) — a modulo table would set it to zero."""
+    stack = lambda q: np.vstack([cols_at(q)[n] for n in names])  # noqa: E731
+    change = turn_change(stack, rng.low)
+    if not np.any(change > TURN_TOLERANCE):
+        return None
+    worst = int(np.argmax(change))
+    own = f"E{axis}{axis}_urad"
+    q = np.linspace(rng.low, rng.high, 361)
+    scale = float(np.mean(cols_at(q + 360.0)[own] - cols_at(q)[own])) / (2 * np.pi) if own in names else None
+    words = (f" (the axis's scale error alone is {scale:+.4g} ppm: a controller that takes the axis's scale in its "
+             f"machine data can hold that part there instead)" if scale is not None and abs(scale) > 0 else "")
+    return {"reason": f"the readings of {axis} go all the way round, but its model does not repeat every turn "
+                      f"({names[worst]} changes by {change[worst]:.3g} over one turn"
+                      + (f": a scale error of {scale:+.4g} ppm" if scale is not None and abs(scale) > 0 else "")
+                      + "), which a one-turn (modulo) table cannot hold",
+            "turn_change": {n: float(c) for n, c in zip(names, change)}, "scale_ppm": scale, "scale_words": words}
 
 
 def _sha256(path) -> str:

@@ -62,6 +62,10 @@ class Verification:
     noise_dof : float
         Degrees of freedom of σ: infinite where it was given or known, the fit's where the fit estimated it
         from its residuals.
+    grew_most : dict or None
+        The alignment of this run where the tool point error grew most against the fit's prediction of the error
+        before at the same pose: ``mark``, ``line`` (of the CSV, where known), ``readings`` (axis -> mm / deg),
+        ``before_um`` and ``after_um`` (3-D); None where it grew nowhere.
     """
 
     n_observations: int
@@ -75,6 +79,22 @@ class Verification:
     setup_fit: FitResult
     diagnosis: Diagnosis
     noise_dof: float = math.inf
+    grew_most: dict | None = None
+
+    @property
+    def made_worse(self) -> bool:
+        """The error after is larger than before (3-D RMS) and more than the noise leaves."""
+        return (not self.at_noise_level) and self.after_um["3d"] > self.before_um["3d"]
+
+    @property
+    def where_words(self) -> str:
+        """Where the error grew most, in words ("" where it grew nowhere)."""
+        g = self.grew_most
+        if g is None:
+            return ""
+        at = ", ".join(f"{k} = {v:.4g}" for k, v in g["readings"].items())
+        return (f"the error grew most at {at} (mark {g['mark']}" + (f", line {g['line']}" if g.get("line") else "")
+                + f"): {g['after_um']:.3g} µm after against {g['before_um']:.3g} µm before")
 
     @property
     def noise_words(self) -> str:
@@ -102,7 +122,8 @@ class Verification:
                 "noise_dof": None if not math.isfinite(self.noise_dof) else float(self.noise_dof),
                 "noise_level_3d_um": self.noise_level_3d_um,
                 "chi2_p": None if not np.isfinite(self.chi2_p) else float(self.chi2_p),
-                "at_noise_level": self.at_noise_level, "remaining_verdict": self.diagnosis.verdict,
+                "at_noise_level": self.at_noise_level, "made_worse": self.made_worse, "grew_most": self.grew_most,
+                "remaining_verdict": self.diagnosis.verdict,
                 "remaining_best_candidate": None if best is None else
                 {"effect": best.effect, "p_value": float(best.p_value), "rms_after_um": float(best.rms_after_um)}}
 
@@ -122,12 +143,19 @@ class Verification:
             lines.append("verdict: the compensation worked — what is left is at the noise level"
                          + (f" ({self.test} p = {self.chi2_p:.3g})" if np.isfinite(self.chi2_p) else "")
                          + (f"; {removed:.0%} of the 3-D error removed" if np.isfinite(removed) else ""))
+        elif self.made_worse:
+            lines.append(f"verdict: made worse — {self.after_um['3d']:.3g} µm 3-D RMS after against "
+                         f"{self.before_um['3d']:.3g} µm before ({self.before_source})"
+                         + (f"; {self.where_words}" if self.where_words else "") + ": check the "
+                         "compensation's ranges and signs (compensation.json) and that it was made from this "
+                         f"machine's fit; unload it until then")
         else:
             lines.append(f"verdict: error remains — {self.after_um['3d']:.3g} µm 3-D RMS against "
                          f"{self.noise_level_3d_um:.3g} µm from noise ({self.test} p = {self.chi2_p:.3g})"
                          + (f"; {removed:.0%} of the 3-D error removed" if np.isfinite(removed) and removed > 0.1
                             else "; the error is as large as before: check that the compensation is loaded and "
                                  "active (the axes referenced)"))
+        if not self.at_noise_level and not self.made_worse:  # made worse: unload first, then look again
             best = self.diagnosis.advised[0]
             if best is not None and best.p_value < self.diagnosis.threshold:
                 lines.append(f"  what remains looks like {best.effect} (p = {best.p_value:.3g}; "
@@ -195,13 +223,15 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     else:
         noise = None
     after_fit = fit(machine, after, effects, noise_um=noise)
+    predicted = _predicted_before(result, after, effects)
     if before is not None:
         before_um = _rms(fit(machine, before, effects, noise_um=noise).residuals_um)
         source = "measured in the first run"
     else:
-        before_um = _rms(_predicted_before(result, after, effects))
+        before_um = _rms(predicted)
         source = "predicted by the fit at these poses"
     after_um = _rms(after_fit.residuals_um)
+    grew = _grew_most(machine, after, predicted, after_fit.residuals_um)
     n = after.axes.shape[0]
     dof = after_fit.dof
     if noise is None:
@@ -218,4 +248,17 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     at_noise = bool(np.isfinite(p) and p >= ALPHA) or (not np.isfinite(p) and remaining.verdict == "noise")
     return Verification(n_observations=n, before_um=before_um, before_source=source, after_um=after_um, noise=noise,
                         noise_level_3d_um=level, chi2_p=p, at_noise_level=at_noise, setup_fit=after_fit,
-                        diagnosis=remaining, noise_dof=noise_dof)
+                        diagnosis=remaining, noise_dof=noise_dof, grew_most=grew)
+
+
+def _grew_most(machine, obs: Observations, before_um: np.ndarray, after_um: np.ndarray) -> dict | None:
+    """The alignment where the 3-D error grew most from ``before_um`` to ``after_um`` (N, 3), or None."""
+    growth = np.linalg.norm(after_um, axis=1) - np.linalg.norm(before_um, axis=1)
+    if growth.size == 0 or not np.max(growth) > 0:
+        return None
+    i = int(np.argmax(growth))
+    lines = getattr(obs, "lines", None)
+    return {"mark": str(obs.marks[i]), "line": None if lines is None or len(lines) <= i else int(lines[i]),
+            "readings": {a.name: float(obs.axes[i, j]) for j, a in enumerate(machine.axes)
+                         if np.isfinite(obs.axes[i, j])},
+            "before_um": float(np.linalg.norm(before_um[i])), "after_um": float(np.linalg.norm(after_um[i]))}

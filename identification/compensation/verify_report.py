@@ -58,6 +58,11 @@ def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
                    f"{v.after_um['3d']:.3g} µm 3-D RMS, the level the measurement noise alone leaves "
                    f"({v.noise_level_3d_um:.3g} µm).",
                    "Nothing to do; measure again when the machine has been moved, repaired or after a season."]
+    elif v.made_worse:
+        summary = [f"Made worse: the tool point error grew from {v.before_um['3d']:.3g} µm to "
+                   f"{v.after_um['3d']:.3g} µm 3-D RMS" + (f"; {v.where_words}." if v.where_words else "."),
+                   "Unload the compensation and check its ranges and signs (compensation.json) and that it was made "
+                   "from this machine's fit."]
     else:
         best = v.diagnosis.advised[0]
         summary = [f"Error remains: {v.after_um['3d']:.3g} µm 3-D RMS against {v.noise_level_3d_um:.3g} µm from "

@@ -28,7 +28,8 @@ from .noise import Noise
 from .residuals import design, residuals
 from .start import TURN_RAD, closed_form_start, turn_rad
 
-__all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "FIT_FORMAT"]
+__all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "axis_readings", "FIT_FORMAT",
+           "READING_DIGITS"]
 
 FIT_FORMAT = "kinid-fit/1"
 
@@ -77,6 +78,10 @@ class FitResult:
     axis_ranges : dict axis name -> (low, high)
         The readings the fitted data span, mm / deg (where a compensation table
         may be trusted when the URDF gives an axis no limits).
+    axis_readings : dict axis name -> array (k,)
+        The distinct readings of each axis in the fitted data, ascending, to :data:`READING_DIGITS` decimals
+        (mm / deg): where a compensation table is measured, and whether a rotary axis's readings go all the
+        way round (empty for fits saved before kinid kept them).
     prior : str
         The prior of a maximum a posteriori fit, in words (empty for least squares).
     prior_std : array (P,) or None
@@ -116,6 +121,7 @@ class FitResult:
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
     set_aside: tuple = ()
     axis_ranges: dict = field(default_factory=dict)
+    axis_readings: dict = field(default_factory=dict)
     shared_std: dict = field(default_factory=dict)
     prior: str = ""
     prior_std: np.ndarray | None = None
@@ -373,7 +379,7 @@ def fit(
         identifiable=free.copy(), aliases=ident.aliases, rank=rank, condition_number=condition_number,
         o1=o1, o3=o3, residuals_um=r, n_observations=int(r.shape[0]), rms_um=rms, noise=noise, dof=dof,
         iterations=it, success=success, message=message, singular_values=singular_values,
-        axis_ranges=_axis_ranges(machine, obs), shared_std=shared,
+        axis_ranges=_axis_ranges(machine, obs), axis_readings=axis_readings(machine, obs), shared_std=shared,
         prior_std=None if prior_std is None else np.asarray(prior_std, float), correlation=correlation,
         start="" if start is None else start.describe(),
     )
@@ -399,7 +405,8 @@ def evaluated_fit(machine: Machine, obs: Observations, effects, theta, residuals
         std=np.full(P, np.nan), identifiable=free.copy(), aliases=(), rank=rank, condition_number=float("nan"),
         o1=float("nan"), o3=float("nan"), residuals_um=r, n_observations=int(r.shape[0]),
         rms_um=float(np.sqrt(np.mean(r**2))), noise=noise, dof=dof, iterations=0, success=True,
-        message="evaluated at the values given", axis_ranges=_axis_ranges(machine, obs))
+        message="evaluated at the values given", axis_ranges=_axis_ranges(machine, obs),
+        axis_readings=axis_readings(machine, obs))
 
 
 def _frame_start(machine: Machine, d, obs: Observations, theta, ps, ident, lo, hi, prior_cost):
@@ -440,6 +447,22 @@ def _shared_std(machine: Machine, d, obs: Observations, theta, free) -> dict:
         change = np.full(len(theta), np.nan)
         change[free] = -np.linalg.lstsq(J_free, ((moved - base) * 1e3).ravel(), rcond=None)[0]
         out[source] = change
+    return out
+
+
+#: Decimals (of mm / deg) to which :func:`axis_readings` tells readings apart: 0.1 µm, 0.0001°.
+READING_DIGITS = 4
+
+
+def axis_readings(machine: Machine, obs: Observations) -> dict:
+    """Axis name -> the distinct readings of that axis in ``obs``, ascending, to :data:`READING_DIGITS` decimals
+    (axes with readings only)."""
+    out = {}
+    for j, a in enumerate(machine.axes):
+        q = obs.axes[:, j]
+        q = q[np.isfinite(q)]
+        if q.size:
+            out[a.name] = np.unique(np.round(q, READING_DIGITS))
     return out
 
 

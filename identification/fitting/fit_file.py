@@ -51,6 +51,7 @@ FIT_SCHEMA = Fields(
         "set_aside": Items(Fields({}, optional={"line": Number(low=0, integer=True, null=True), "mark": Text(),
                                                 "residual_um": _SIZE, "sigmas": Number(null=True)})),
         "axis_ranges": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True), length=2, ordered=True)),
+        "axis_readings": Table(Items(Number(low=-LARGEST, high=LARGEST))),
         "shared_std": Table(Items(_STD)),
         "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(),
         "implausible": Items(Fields({}, other=True)),
@@ -93,6 +94,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "set_aside": [{"line": a.line, "mark": a.mark, "residual_um": _finite(a.residual_um),
                        "sigmas": _finite(a.sigmas)} for a in result.set_aside],
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
+        "axis_readings": {k: [float(x) for x in v] for k, v in result.axis_readings.items()},
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
@@ -152,6 +154,8 @@ def load_fit(path) -> FitResult:
                             for a in data.get("set_aside", ())),
             axis_ranges={str(k): (float(v[0]), float(v[1])) for k, v in data.get("axis_ranges", {}).items()
                          if str(k) in machine.axis_names and None not in v},
+            axis_readings={str(k): np.unique(np.asarray(v, float)) for k, v in data.get("axis_readings", {}).items()
+                           if str(k) in machine.axis_names and len(v)},
             shared_std={str(k): np.array([np.nan if x is None else float(x) for x in v])
                         for k, v in data.get("shared_std", {}).items()},
             prior=str(data.get("prior", "")),

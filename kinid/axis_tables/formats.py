@@ -26,7 +26,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
-from .errors import DataError
+from .readers import linuxcnc_table, sinumerik_table, twincat_table
+from ..errors import DataError
 
 if TYPE_CHECKING:  # numpy is imported by the functions that compute: the format registry loads without it
     import numpy as np
@@ -152,6 +153,10 @@ class ControllerFormat:
     write : callable (AxisErrorTable, TableOptions) -> str
     default : bool
         Written by ``kinid compensate`` when no ``--format`` is given.
+    read : callable (text, rotary) -> kinid.axis_tables.readers.FileTable, or None
+        The file read back as the controller holds it (points, the error compensated in kinid's sign
+        convention, modulo); ``kinid compensate`` checks every file it writes through it. None: the
+        command checks the table it gave ``write`` instead, and says so.
     """
 
     name: str
@@ -167,6 +172,7 @@ class ControllerFormat:
     beyond: str
     write: Callable
     default: bool = True
+    read: Callable | None = None
 
     def file_name(self, axis: str) -> str:
         return self.file_pattern.format(axis=axis)
@@ -261,7 +267,7 @@ LINUXCNC = register_format(ControllerFormat(
     resolution_um=0.001, resolution_urad=math.radians(1e-6) * 1e6,
     sign="forward/reverse columns are the actual positions reached: nominal + error",
     beyond="the first and last points' values are held (the loader's end entries have zero slope)",
-    write=linuxcnc_text))
+    write=linuxcnc_text, read=linuxcnc_table))
 
 
 # --- Beckhoff TwinCAT CNC ----------------------------------------------------------------------
@@ -316,7 +322,7 @@ TWINCAT = register_format(ControllerFormat(
     sign="table[i].pos / .neg = actual - setpoint, 0.1 µm (0.0001° for rotary axes)",
     beyond="not stated by the list's documentation: kinid adds points at the travel's ends when the URDF has "
            "limits, so the held (or zero) value is explicit",
-    write=twincat_text))
+    write=twincat_text, read=twincat_table))
 
 
 # --- Siemens SINUMERIK ---------------------------------------------------------------------------
@@ -366,7 +372,7 @@ SINUMERIK = register_format(ControllerFormat(
     modulo=True, resolution_um=0.001, resolution_urad=math.radians(1e-6) * 1e6,
     sign="$AA_ENC_COMP = actual - commanded (the error), mm or degrees; one table, the mean of both directions",
     beyond="the values at $AA_ENC_COMP_MIN and $AA_ENC_COMP_MAX are held",
-    write=sinumerik_text))
+    write=sinumerik_text, read=sinumerik_table))
 
 
 def format_text(fmt, table: AxisErrorTable, options: TableOptions | None = None, **keywords) -> str:
@@ -396,7 +402,7 @@ def write_tables(folder, tables, formats=None, *, axis_numbers=None, modulo=(), 
     """
     from pathlib import Path
 
-    from .files import write_text
+    from ..files import write_text
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
