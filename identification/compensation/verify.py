@@ -148,7 +148,7 @@ class Verification:
                          f"{self.before_um['3d']:.3g} µm before ({self.before_source})"
                          + (f"; {self.where_words}" if self.where_words else "") + ": check the "
                          "compensation's ranges and signs (compensation.json) and that it was made from this "
-                         f"machine's fit; unload it until then")
+                         "machine's fit; unload it until then")
         else:
             lines.append(f"verdict: error remains — {self.after_um['3d']:.3g} µm 3-D RMS against "
                          f"{self.noise_level_3d_um:.3g} µm from noise ({self.test} p = {self.chi2_p:.3g})"
