@@ -10,17 +10,19 @@ hand-written machine.
 from __future__ import annotations
 
 import csv
+import importlib
 import json
 
 import numpy as np
 import pytest
 
 import bc_camera_sim as sim
-import kinid.identification.data.observe as observe_module
 from kinid.cli import main
 from kinid.urdf import path as urdf_path
 from plain_machine import PlainMachine
 from test_image_to_compensation import _held_out_error_um
+
+observe_module = importlib.import_module("kinid.identification.data.observe")  # the data door's `observe` is the function
 
 MACHINE = str(urdf_path("five_axis_bc"))
 LASER_MM = (18.0, -2.5)
