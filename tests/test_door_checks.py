@@ -179,3 +179,15 @@ def test_kinid_model_output_loads_back_with_every_joint_an_axis(tmp_path, capsys
         assert a.name == a.joint or f"{a.name} ({a.joint if a.joint.isprintable() else repr(a.joint)})" in out
     assert len({a.name for a in machine.axes}) == len(names)
     assert out.isprintable() or all(line.isprintable() for line in out.splitlines())
+
+
+def test_a_plan_too_small_to_determine_the_model_is_refused(tmp_path, capsys):
+    """`plan --count 1` promised U = 0 µm (later 1.65e9 µm): a plan that leaves a parameter undetermined is refused,
+    one line naming the count and the rank, nothing written."""
+    from kinid.cli import main
+    from kinid.urdf import path
+
+    out = tmp_path / "plan.csv"
+    assert main(["plan", "--machine", str(path("five_axis_bc")), "--count", "1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--count" in err and "rank 3 of" in err and not out.exists()

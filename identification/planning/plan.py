@@ -166,6 +166,22 @@ def _terms(J, names, noise_um, target_um, param_targets):
     return terms
 
 
+#: Singular values below this share of the largest leave a direction undetermined (a plan of too few alignments).
+DETERMINED_TOL = 1e-9
+
+
+def _check_determined(X, count: int, names) -> None:
+    """Refuse a plan of ``count`` alignments (rows ``X`` of the scaled Jacobian) that leaves any of the model's
+    parameters ``names`` undetermined: its promise would be a number only the prior could keep."""
+    s = np.linalg.svd(X, compute_uv=False) if X.size else np.zeros(0)
+    rank = int(np.sum(s > DETERMINED_TOL * s.max())) if s.size and s.max() > 0 else 0
+    if rank < len(names):
+        need = -(-len(names) // 3)
+        raise DataError(f"{count} alignment{'s' if count != 1 else ''} cannot determine the model's {len(names)} "
+                        f"parameters (rank {rank} of {len(names)}); a plan needs at least {need} alignments of 3 "
+                        f"readings each, usually more: give a larger --count or a --target-um", parameter="count")
+
+
 def plan_measurement(machine: Machine, candidates: Observations, *, effects=None, noise_um: float = NOISE_UM,
                      target_um: float | None = None, param_targets: dict | None = None, count: int | None = None,
                      detect: dict | None = None, power: float = 0.9, travel: TravelModel = TravelModel(),
@@ -226,6 +242,8 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
             raise DataError(f"the targets are out of reach with {len(index)} of the {len(candidates)} candidates: "
                             f"ask less, give more candidates, or a lower --noise-um", parameter="target_um")
         index = trim(J, W, index, enough)
+    else:
+        _check_determined(J[index].reshape(-1, J.shape[2]), len(index), names)
     t_design = _time.perf_counter() - started
     powers = {}
     if detect:
