@@ -150,8 +150,9 @@ MAX_CSV_CELL = 4096
 def read_csv_rows(path, *, what: str = "CSV file") -> list:
     """(line number, cells) of each row of a CSV file, comments (``#``) and blank lines skipped.
 
-    Rows are split only where the CSV standard ends them (CR, LF, CR LF, and
-    not inside quotes); a form feed or U+2028 inside a cell stays in the cell.
+    Rows are split only where the CSV standard ends them (CR, LF, CR LF); a quoted cell that runs over a line
+    end is refused (a quote left open would otherwise swallow the rows after it); a form feed or U+2028 inside a
+    cell stays in the cell.
 
     Raises
     ------
@@ -183,6 +184,9 @@ def iter_csv_rows(path, *, what: str = "CSV file"):
     try:
         for cells in reader:
             lineno, start = start, reader.line_num + 1
+            if reader.line_num > lineno:
+                raise DataError(f"a quoted cell runs over lines {lineno} to {reader.line_num} (a quote not closed?); "
+                                f"a cell of a measurement file is one line", path=path, line=lineno)
             if not cells or (len(cells) == 1 and not cells[0].strip()) or cells[0].lstrip().startswith("#"):
                 continue
             for c in cells:

@@ -191,3 +191,20 @@ def test_a_plan_too_small_to_determine_the_model_is_refused(tmp_path, capsys):
     assert main(["plan", "--machine", str(path("five_axis_bc")), "--count", "1", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--count" in err and "rank 3 of" in err and not out.exists()
+
+
+def test_a_quoted_cell_over_two_lines_is_refused_naming_its_lines(tmp_path, capsys):
+    """A quote left open swallowed the rows after it into one cell, and the file was read: now one line naming
+    where the cell starts and ends, exit 2, no fit."""
+    from kinid.cli import main
+    from kinid.urdf import path
+
+    obs = tmp_path / "obs.csv"
+    obs.write_text('mark,wx_mm,wy_mm,wz_mm,x_mm,y_mm,z_mm,b_deg,c_deg\n'
+                   '"M1\nM2",40,40,0,54.6,-40.0,54.6,-60,0\n'
+                   'M3,-40,40,0,14.6,-40.0,-14.6,-60,0\n')
+    assert main(["identify", "--machine", str(path("five_axis_bc")), "--data", str(obs), "--noise-um", "1",
+                 "--out", str(tmp_path / "fit.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "obs.csv:2" in err and "lines 2 to 3" in err
+    assert not (tmp_path / "fit.json").exists()
