@@ -343,6 +343,10 @@ def check_outputs(outputs, inputs) -> None:
                 if path.exists() and src.is_file() and os.path.samefile(path, src):
                     raise DataError(f"{opt} names the input file given as {in_opt}; kinid never overwrites an input: "
                                     f"choose another {opt}", path=path)
+                if src.is_dir() and _inside(path, src):
+                    raise DataError(f"{opt} lies inside the input folder given as {in_opt}; kinid never writes into "
+                                    f"an input folder (a frame there would be changed, or read next time): choose "
+                                    f"another {opt}", path=path)
         else:
             if path.exists() and not path.is_dir():
                 raise DataError(f"{opt} must be a folder, and this is a file", path=path)

@@ -408,7 +408,7 @@ def test_read_only_folder_is_refused_and_kept(data):
 def test_a_second_writer_is_refused_while_the_first_writes(data):
     d, refs = data
     out = fresh(d, refs, "a")
-    first = start(d, "b", out, sleep=0.15)
+    first = start(d, "b", out, sleep=1.0)  # 12 files, 1 s each: the second writer starts, reads and computes before the first ends
     deadline = time.monotonic() + 60
     while not any(".kinid-new-" in n for n in leftovers(out)):
         assert first.poll() is None and time.monotonic() < deadline
