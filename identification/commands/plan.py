@@ -37,7 +37,7 @@ def register(sub) -> None:
                    help="expanded uncertainty (k = 2) of a parameter in its unit (µm, µrad), e.g. EX0C=2")
     p.add_argument("--count", type=int, default=None, help="this many alignments (instead of targets), the best ones")
     p.add_argument("--noise-um", type=float, default=None,
-                   help="σ of one reading, µm (default 1; with --augment, the fit's)")
+                   help="σ of one reading, µm (default 1)")
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT",
                    help="effects to identify besides the default model, e.g. EXX:periodic:10")
     p.add_argument("--detect", action="append", default=[], metavar="EFFECT=SIZE",
@@ -57,7 +57,7 @@ def register(sub) -> None:
                    help="no reference alignment repeated at every block's start and at the end")
     p.add_argument("--augment", default=None, metavar="FIT.json",
                    help="plan the alignments to add to those already measured (--data) so that the target holds for "
-                        "the model this fit found (its effects; σ the fit's unless --noise-um): a sequential design "
+                        "the model this fit found (its effects, and --add's): a sequential design "
                         "(docs/plan.md); --out gets the added alignments only")
     p.add_argument("--data", default=None, metavar="OBS.csv", help="with --augment: the alignments already measured")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -338,7 +338,7 @@ def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_t
 
     effects = tuple(loaded.effects) + tuple(e for e in model_effects(machine, args.add) if e not in loaded.effects
                                              and e.name not in loaded.effect_names)
-    noise_um = loaded.noise_um if args.noise_um is None else args.noise_um
+    noise_um = 1.0 if args.noise_um is None else args.noise_um
     aug = augment_plan(machine, measured, pool, effects, noise_um=noise_um, target_um=args.target_um,
                        param_targets=param_targets, count=args.count, travel=travel, blocks=args.blocks,
                        reference=not args.no_reference)
@@ -353,6 +353,9 @@ def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_t
         print(strict_json(summary, indent=1))
         return 0
     print(augment_text(aug, machine, presets, args.data, args.augment, sampled=sampled))
+    if abs(loaded.noise_um - noise_um) > 0.2 * noise_um:
+        print(f"note: the fit's σ is {loaded.noise_um:.3g} µm (from its {loaded.noise_source}); planned for "
+              f"{noise_um:g} µm (--noise-um)")
     print(f"added alignments written to {args.out}" if len(aug.plan.obs) else f"nothing to add; {args.out} not written")
     return 0
 
