@@ -296,7 +296,8 @@ def _target_line(result, obs, args) -> None:
         print(f"{said}: within the target {args.target_um:g} µm")
     else:
         print(f"{said}: above the target {args.target_um:g} µm; plan the alignments to add: kinid plan --augment "
-              f"{shlex.quote(args.out)} --data {shlex.quote(args.data)} --target-um {args.target_um:g} --out more.csv")
+              f"{shlex.quote(args.out)} --data {shlex.quote(args.data)} --target-um {args.target_um:g}"
+              + (f" --noise-um {args.noise_um:g}" if args.noise_um is not None else "") + " --out more.csv")
 
 
 def _predict(args) -> int:
