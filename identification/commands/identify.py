@@ -29,6 +29,10 @@ def register(sub) -> None:
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
     p.add_argument("--report", default=None, metavar="DIR", help="write the report (plots, residuals.csv, HTML) to DIR; with --auto, of every step")
     p.add_argument("--out", required=True, help="fit JSON to write")
+    p.add_argument("--target-um", type=float, default=None, metavar="U",
+                   help="the plan's target: say whether the final model's tool point is within U (k = 2, per "
+                        "coordinate, RMS over the poses the data span) and, if not, the kinid plan --augment command "
+                        "that plans the alignments to add (docs/plan.md)")
     p.add_argument("--no-robust", action="store_true",
                    help="keep gross errors (alignments beyond the Bonferroni χ²₃ bound at 0.001) instead of "
                         "setting them aside")
@@ -205,6 +209,7 @@ def _identify(args) -> int:
     from ..data import check_row_count, warn_units
 
     _positive(args.noise_um, "--noise-um")
+    _positive(args.target_um, "--target-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
     read = _without_duplicates(_read_data(args, machine, check_units=False))
@@ -271,8 +276,28 @@ def _identify(args) -> int:
         if advice:
             print("pose advice (kinid plan):")
             print("\n".join(f"  - {line}" for line in advice))
+    if args.target_um is not None:
+        _target_line(result, obs, args)
     print(f"fit written to {args.out}")
     return 0
+
+
+def _target_line(result, obs, args) -> None:
+    """One line: the tool point's U the final model promises over the poses the data span, against --target-um; if
+    above it, the command that plans the alignments to add (a sequential design)."""
+    import shlex
+
+    from ..planning import fit_volume_u_um
+
+    u, poses = fit_volume_u_um(result, obs)
+    said = (f"tool point: U = {u:.3g} µm (k = 2, per coordinate, RMS over the {poses} poses the data span) for this "
+            f"model")
+    if u <= args.target_um:
+        print(f"{said}: within the target {args.target_um:g} µm")
+    else:
+        print(f"{said}: above the target {args.target_um:g} µm; plan the alignments to add: kinid plan --augment "
+              f"{shlex.quote(args.out)} --data {shlex.quote(args.data)} --target-um {args.target_um:g}"
+              + (f" --noise-um {args.noise_um:g}" if args.noise_um is not None else "") + " --out more.csv")
 
 
 def _predict(args) -> int:

@@ -15,7 +15,7 @@ def register(sub) -> None:
                     "theirs (--param), keeping --detect effects detectable; ordered for machine time in blocks so "
                     "that time follows no axis; with the parameters no pose determines and the poses that would "
                     "(docs/plan.md). identify, simulate and predict read the plan file as they read poses.")
-    p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
+    p.add_argument("--machine", default=None, help="machine URDF (docs/machines.md); with --augment, the fit's")
     p.add_argument("--out", required=True, metavar="PLAN.csv", help="the plan to write (docs/formats.md)")
     p.add_argument("--marks-mm", type=float, nargs=3, action="append", metavar=("X", "Y", "Z"),
                    help="a mark on the workpiece, mm (repeat for each; default: the patent's four at (±40, ±40, 0))")
@@ -36,7 +36,8 @@ def register(sub) -> None:
     p.add_argument("--param", action="append", default=[], metavar="NAME=U",
                    help="expanded uncertainty (k = 2) of a parameter in its unit (µm, µrad), e.g. EX0C=2")
     p.add_argument("--count", type=int, default=None, help="this many alignments (instead of targets), the best ones")
-    p.add_argument("--noise-um", type=float, default=1.0, help="σ of one reading, µm (default 1)")
+    p.add_argument("--noise-um", type=float, default=None,
+                   help="σ of one reading, µm (default 1)")
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT",
                    help="effects to identify besides the default model, e.g. EXX:periodic:10")
     p.add_argument("--detect", action="append", default=[], metavar="EFFECT=SIZE",
@@ -54,6 +55,11 @@ def register(sub) -> None:
                         "shortest tour)")
     p.add_argument("--no-reference", action="store_true",
                    help="no reference alignment repeated at every block's start and at the end")
+    p.add_argument("--augment", default=None, metavar="FIT.json",
+                   help="plan the alignments to add to those already measured (--data) so that the target holds for "
+                        "the model this fit found (its effects, and --add's): a sequential design "
+                        "(docs/plan.md); --out gets the added alignments only")
+    p.add_argument("--data", default=None, metavar="OBS.csv", help="with --augment: the alignments already measured")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(run=_plan, outputs={"out": "file"})
 
@@ -154,7 +160,19 @@ def _plan(args) -> int:
             raise DataError(f"must be 1 to 100000, got {v}", parameter="--" + name)
     if args.count is not None and (args.target_um is not None or args.param):
         raise DataError("--count or targets (--target-um, --param): choose one", parameter="--count")
-    machine = load_machine(args.machine)
+    if args.data is not None and args.augment is None:
+        raise DataError("--data is for --augment FIT.json (the alignments the fit was made from)", parameter="--data")
+    if args.augment is not None:
+        if args.data is None:
+            raise DataError("--augment needs --data OBS.csv: the alignments already measured", parameter="--augment")
+        if args.detect:
+            raise DataError("--detect plans a first measurement; with --augment the fit has chosen its model",
+                            parameter="--detect")
+        machine, loaded, measured = _augment_inputs(args.augment, args.data, args.machine)
+    elif args.machine is None:
+        raise DataError("give the machine (--machine URDF), or --augment FIT.json --data OBS.csv", parameter="--machine")
+    else:
+        machine = load_machine(args.machine)
     solve = solved_axes(machine, None if args.solve is None else [s.strip() for s in args.solve.split(",") if s.strip()])
     if args.board and args.marks_mm:
         raise DataError("--board or --marks-mm: choose one", parameter="--board")
@@ -171,14 +189,18 @@ def _plan(args) -> int:
     if not np.all(np.isfinite(marks)) or np.abs(marks).max() > 100_000:
         raise DataError("marks must be finite and within 100 m", parameter="--marks-mm")
     presets = _ranges(args.range, machine, solve)
-    effects = model_effects(machine, args.add)
     rng = np.random.default_rng(0)
     pool = candidate_poses(machine, marks, presets, solve=solve, samples=args.samples, rng=rng)
-    wide = advice_pool(machine, marks, solve=solve, rng=rng)
     travel = TravelModel(args.speed_mm_s, args.accel_mm_s2, args.speed_deg_s, args.accel_deg_s2, args.settle_s,
                          args.align_s)
+    if args.augment is not None:
+        return _run_augment(args, machine, loaded, measured, pool, presets, travel, _pairs(args.param, "param"),
+                           sampled=not solve)
+    effects = model_effects(machine, args.add)
+    noise_um = 1.0 if args.noise_um is None else args.noise_um
+    wide = advice_pool(machine, marks, solve=solve, rng=rng)
     plan = plan_measurement(
-        machine, pool, effects=effects, noise_um=args.noise_um, target_um=args.target_um,
+        machine, pool, effects=effects, noise_um=noise_um, target_um=args.target_um,
         param_targets=_pairs(args.param, "param"), count=args.count,
         detect=_pairs(args.detect, "detect", machine, effect=True), power=args.power, travel=travel,
         blocks=args.blocks, reference=not args.no_reference, advice_pool=wide)
@@ -263,3 +285,106 @@ def _grid_text(v) -> str:
     if len(v) > 2 and np.allclose(steps, steps[0]):
         return f"{v[0]:g}…{v[-1]:g} step {steps[0]:g}"
     return "{" + ", ".join(f"{x:g}" for x in v[:6]) + (" …}" if len(v) > 6 else "}")
+
+
+def _augment_inputs(fit_path, data_path, machine_path):
+    """(machine, fit, measured observations) of ``--augment``; DataError where they do not belong together: a
+    --machine other than the fit's, data with another machine's axis columns, a fit that does not describe the data."""
+    import csv
+
+    import numpy as np
+
+    from ..data import read_observations
+    from ..fitting import design, load_fit, residuals
+    from ..model import evaluate, load_machine
+
+    loaded = load_fit(fit_path)
+    machine = loaded.machine
+    if machine_path is not None:
+        given = load_machine(machine_path)
+        same = (given.axis_names == machine.axis_names
+                and [e.code for e in given.error_joints] == [e.code for e in machine.error_joints])
+        if same:
+            rng = np.random.default_rng(0)
+            q = np.column_stack([rng.uniform(-30, 30, 20) for _ in machine.axes])
+            zero = np.zeros((20, len(machine.error_joints)))
+            same = np.abs(evaluate(given, q, zero, jacobian=False) - evaluate(machine, q, zero, jacobian=False)).max() < 1e-6
+        if not same:
+            raise DataError(f"{machine_path} is not the machine {fit_path} was fitted on ({machine.path}, its URDF kept "
+                            f"in the fit): leave --machine out, or give the fit of this machine", parameter="--machine")
+    with open(data_path, newline="", encoding="utf-8", errors="replace") as f:
+        header = next(csv.reader(line for line in f if line.strip() and not line.startswith("#")), [])
+    known = {a.column for a in machine.axes} | {"wx_mm", "wy_mm", "wz_mm", "mark_dx_mm", "mark_dy_mm", "mark_dz_mm"}
+    alien = [h for h in header if (h.endswith("_mm") or h.endswith("_deg")) and h not in known
+             and not h.startswith("shift_")]
+    if alien:
+        raise DataError(f"column {alien[0]!r} is an axis the machine of {fit_path} lacks (its axes: "
+                        f"{', '.join(a.column for a in machine.axes)}): data of another machine?", path=data_path)
+    measured = read_observations(data_path, machine)
+    r = residuals(machine, design(machine, loaded.effects, measured), measured, loaded.theta, jacobian=False)
+    typical = float(np.median(np.linalg.norm(r, axis=1))) / np.sqrt(3.0)
+    scale = max(loaded.rms_um if np.isfinite(loaded.rms_um) else 0.0, loaded.noise_um, 1e-3)
+    if typical > 5.0 * scale:
+        raise DataError(f"{fit_path} does not describe these data (median residual {typical:.3g} µm per coordinate "
+                        f"against the fit's RMS {scale:.3g} µm): a fit of another machine or of other data?",
+                        path=data_path)
+    return machine, loaded, measured
+
+
+def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_targets, sampled: bool) -> int:
+    from ..data import write_observations
+    from ..model import model_effects
+    from ..planning import augment_plan
+
+    effects = tuple(loaded.effects) + tuple(e for e in model_effects(machine, args.add) if e not in loaded.effects
+                                             and e.name not in loaded.effect_names)
+    noise_um = 1.0 if args.noise_um is None else args.noise_um
+    aug = augment_plan(machine, measured, pool, effects, noise_um=noise_um, target_um=args.target_um,
+                       param_targets=param_targets, count=args.count, travel=travel, blocks=args.blocks,
+                       reference=not args.no_reference)
+    if len(aug.plan.obs):
+        write_observations(args.out, aug.plan.obs, machine)
+    if args.json:
+        from kinid.files import strict_json
+
+        summary = plan_summary(aug.plan, machine) if len(aug.plan.obs) else {"alignments": 0}
+        summary.update(measured=aug.measured, tool_point_U_k2_measured_um=aug.u_measured_um, effects=list(aug.effects),
+                       settled_by_the_order=list(aug.settled), noise_um=noise_um, target_um=args.target_um)
+        print(strict_json(summary, indent=1))
+        return 0
+    print(augment_text(aug, machine, presets, args.data, args.augment, sampled=sampled))
+    if abs(loaded.noise_um - noise_um) > 0.2 * noise_um:
+        print(f"note: the fit's σ is {loaded.noise_um:.3g} µm (from its {loaded.noise_source}); planned for "
+              f"{noise_um:g} µm (--noise-um)")
+    print(f"added alignments written to {args.out}" if len(aug.plan.obs) else f"nothing to add; {args.out} not written")
+    return 0
+
+
+def augment_text(aug, machine, presets, data_path, fit_path, sampled: bool = False) -> str:
+    """What a user reads of a sequential design: the measured, the model planned for, the added and the promise of both."""
+    from ..model import default_model
+
+    plan = aug.plan
+    base = {e.name for e in default_model(machine)}
+    extra = [n for n in aug.effects if n not in base]
+    model = "the default model" + (" + " + ", ".join(extra) if extra else "")
+    lines = [f"measured: {aug.measured} alignments ({data_path}); the model of {fit_path}: {model}"
+             + (f" ({', '.join(aug.settled)}: settled by the order, not by the poses)" if aug.settled else "")]
+    target = f" — target {plan.target_um:g} µm" if plan.target_um else ""
+    lines.append(f"  measured alone: U = {aug.u_measured_um:.3g} µm (k = 2, per coordinate, RMS over the candidates' "
+                 f"poses) for reading noise σ = {plan.noise_um:.3g} µm{target}")
+    if not len(plan.obs):
+        lines.append("the measured alignments meet the targets for this model: nothing to add")
+        return "\n".join(lines)
+    text = plan_text(plan, machine, presets, sampled=sampled).splitlines()
+    for line in text:
+        if line.startswith("plan: "):
+            line = "added: " + line[len("plan: "):]
+        elif line.startswith("tool point: "):
+            line = "measured and added: " + line[len("tool point: "):]
+        elif line.startswith("no plan from these candidates"):
+            line = (f"no fewer than {plan.bound_count} added alignments from these candidates meet the target with "
+                    f"the measured ones (the convex relaxation's bound, the measured information fixed); this choice "
+                    f"is {plan.efficiency:.0%} efficient")
+        lines.append(line)
+    return "\n".join(lines)

@@ -7,11 +7,14 @@ from kinid.lazy import front_door as _front_door
 
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
-    "advice_lines": "advice", "advice_pool": "advice", "data_advice": "advice", "TravelModel": "order",
-    "plan_measurement": "plan", "axis_motion": "pool", "candidate_poses": "pool", "solved_axes": "pool",
+    "advice_lines": "advice", "advice_pool": "advice", "data_advice": "advice", "Augmented": "augment",
+    "augment_plan": "augment", "fit_volume_u_um": "augment", "TravelModel": "order", "plan_measurement": "plan",
+    "tool_point_u_um": "plan", "axis_motion": "pool", "candidate_jacobian": "pool", "candidate_poses": "pool",
+    "solved_axes": "pool",
 }
 
-__all__ = ["TravelModel", "advice_lines", "advice_pool", "axis_motion", "candidate_poses", "data_advice",
-           "plan_measurement", "solved_axes"]
+__all__ = ["Augmented", "TravelModel", "advice_lines", "advice_pool", "augment_plan", "axis_motion",
+           "candidate_jacobian", "candidate_poses", "data_advice", "fit_volume_u_um", "plan_measurement",
+           "solved_axes", "tool_point_u_um"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

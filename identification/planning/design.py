@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Selection", "select", "trim", "criterion", "relaxation_bound", "EXCHANGE_PASSES", "RELAXATION_ITERATIONS"]
+__all__ = ["Selection", "select", "trim", "criterion", "relaxation_bound", "added_bound", "EXCHANGE_PASSES", "RELAXATION_ITERATIONS"]
 
 #: Exchanges tried after the greedy pass, at most, per selected alignment.
 EXCHANGE_PASSES = 1
@@ -257,3 +257,40 @@ def relaxation_bound(J: np.ndarray, W: np.ndarray, *, iterations: int = RELAXATI
         w = w * np.sqrt(d / f)
         w /= w.sum()
     return best, w
+
+
+def added_bound(J: np.ndarray, W: np.ndarray, fixed, n: int, *, iterations: int = RELAXATION_ITERATIONS,
+                stop_above: float = np.inf) -> float:
+    """A certified lower bound on ``φ`` of the rows ``fixed`` plus any ``n`` candidates of the others (repeats
+    allowed): the sequential design's bound, the measured rows' information a fixed part.
+
+    The relaxation ``f(w) = trace((M₀ + n Σ w_c J_cᵀJ_c)⁻¹ W)`` over the simplex is convex; at any ``w`` its
+    minimum is at least ``f(w) − n (max_c d_c − Σ w_c d_c)``, ``d_c = trace(J_c A⁻¹ W A⁻¹ J_cᵀ)`` (the first-order
+    condition). Iterates by the multiplicative algorithm; stops once the bound passes ``stop_above``.
+    """
+    Js, Ws = _scaled(J, W)
+    fixed = np.asarray(fixed, int)
+    M0 = _information(Js, fixed) if fixed.size else np.zeros((J.shape[2], J.shape[2]))
+    free = np.setdiff1d(np.arange(len(J)), fixed)
+    Jf = Js[free]
+    if n <= 0:
+        return criterion(J, W, fixed) if fixed.size else float("inf")
+    w = np.full(len(free), 1.0 / len(free))
+    Wroot = np.linalg.cholesky(Ws + 1e-15 * np.trace(Ws) * np.eye(len(Ws)))
+    best = 0.0
+    for _ in range(iterations):
+        A = M0 + n * _information(Jf, weights=w)
+        try:
+            L = np.linalg.cholesky(A)
+        except np.linalg.LinAlgError:
+            return 0.0
+        B = np.linalg.solve(L.T, np.linalg.solve(L, Wroot))
+        f = float(np.sum(np.linalg.solve(L, Wroot) ** 2))  # trace(A⁻¹ W)
+        d = ((Jf.reshape(-1, Jf.shape[2]) @ B) ** 2).reshape(len(free), -1).sum(axis=1)
+        wd = float(w @ d)
+        best = max(best, f - n * (float(d.max()) - wd))
+        if best > stop_above or f - best <= RELAXATION_GAP * f:
+            break
+        w = w * np.sqrt(d / wd)
+        w /= w.sum()
+    return best

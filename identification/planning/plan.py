@@ -116,16 +116,17 @@ def volume_weight(J_volume_um: np.ndarray) -> np.ndarray:
     return X.T @ X / len(J_volume_um)
 
 
-def tool_point_u_um(J: np.ndarray, W: np.ndarray, index, noise_um: float) -> tuple[float, float]:
+def tool_point_u_um(J: np.ndarray, W: np.ndarray, index, noise_um: float, volume=None) -> tuple[float, float]:
     """(U k=2 per coordinate RMS over the volume, the same at the worst volume pose), µm, for the plan ``index``
-    (``J`` whitened, ``W`` from :func:`volume_weight` of the unwhitened volume Jacobian ``J·σ``)."""
+    (``J`` whitened, ``W`` from :func:`volume_weight` of the unwhitened volume Jacobian ``J·σ``; the volume's
+    whitened Jacobian is ``volume``, default ``J``)."""
     X = J[index].reshape(-1, J.shape[2])
     try:
         Minv = np.linalg.inv(X.T @ X)
     except np.linalg.LinAlgError:
         return float("inf"), float("inf")
     mean = float(np.trace(Minv @ W))
-    Jv = J * noise_um
+    Jv = (J if volume is None else volume) * noise_um
     per_pose = ((Jv.reshape(-1, Jv.shape[2]) @ Minv) * Jv.reshape(-1, Jv.shape[2])).reshape(len(Jv), -1).sum(axis=1)
     return 2.0 * np.sqrt(max(mean, 0.0) / 3.0), 2.0 * np.sqrt(max(float(per_pose.max()), 0.0) / 3.0)
 
