@@ -23,6 +23,10 @@ def register(sub) -> None:
                         "centred on the workpiece origin)")
     p.add_argument("--marks", choices=("nearest", "all"), default="nearest",
                    help="one row per image (the mark nearest the optical axis, default) or one per decoded mark")
+    p.add_argument("--fit", default=None, metavar="FIT.json",
+                   help="judge the laser's reading with the board's pose as this fit finds it (its board set-up, "
+                        "errors and EC0T) instead of the nominal machine's: the second pass when the laser sits "
+                        "beside the camera (docs/observe.md)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_observe, parameter_options={"board_origin_mm": "--board-origin-mm"})
@@ -49,9 +53,10 @@ def _observe(args) -> int:
         raise DataError("--board-origin-mm must be three finite numbers")
     from kinid.progress import Progress
 
+    pose = None if args.fit is None else _fitted_pose(args.fit, machine, log, sensor)
     with Progress(len(log.images), "images") as progress:
         result = observe(machine, board, sensor, log, board_origin_mm=args.board_origin_mm, marks=args.marks,
-                         progress=progress)
+                         progress=progress, pose=pose)
     text = observations_text(result.observations, machine, extra={"image": list(result.images)})
     write_text(args.out, text)
     n_img = len(log.images)
@@ -61,4 +66,57 @@ def _observe(args) -> int:
         print(f"{len(result.rejected)} image(s) gave no observation (listed, not guessed):")
         for r in result.rejected:
             print(f"  {Path(args.log).name} line {r.line}: {r.image}: {r.reason}")
+    lever = float(np.hypot(*sensor.laser_offset_mm))
+    if args.fit is None and lever > 0 and log.laser_mm is not None:
+        # a board laid by hand is tilted by some 100-500 µrad, which the nominal machine does not know
+        print(f"the laser sits {lever:.1f} mm beside the camera: the board's slope was taken from the nominal "
+              f"machine, and a set-up tilt of 200 µrad moves mark_dz_mm by {0.2 * lever:.1f} µm; after identify, "
+              f"observe again with the fitted board pose: kinid observe ... --fit FIT.json")
     return 0
+
+
+#: Set-up parameters whose σ moves the laser's depth: the board's tilt, and the camera's turn on the tool.
+POSE_SOURCES = ("EA0W", "EB0W", "EC0T")
+
+
+def _fitted_pose(fit_path, machine, log, sensor):
+    """The board's pose at the log's readings as the fit finds it, with its set-up parameters one σ off each; warns
+    when the laser offset's frame matters (EC0T × offset × slope) more than the fit's noise."""
+    import re
+    import warnings
+
+    import numpy as np
+
+    from kinid.errors import DataError
+    from ..data import Observations, board_pose, frame_difference_um
+    from ..fitting import design, joint_values, load_fit
+
+    fit = load_fit(fit_path)
+    if tuple(fit.machine.axis_names) != tuple(machine.axis_names) or fit.machine.error_codes != machine.error_codes:
+        raise DataError(f"the fit is of a machine with axes {', '.join(fit.machine.axis_names)} and "
+                        f"{len(fit.machine.error_codes)} error joints, not --machine's; give the fit of this machine",
+                        path=fit_path)
+    n = len(log.images)
+    poses = Observations(tuple(log.images), np.zeros((n, 3)), log.axes, log.t_s, log.directions, log.lines, log.source)
+    d = design(machine, fit.effects, poses)
+    # a turn the images determine only to milliradians (the camera's tilt on the tool, EA0T, EB0T, often EC0T) would
+    # move the depth by its σ times the laser's lever: such a parameter is left at 0, as in the nominal pass
+    lever_mm = float(np.hypot(*sensor.laser_offset_mm))
+    vague = np.array([u == "µrad" and not (np.isfinite(s) and s * lever_mm * 1e-3 <= fit.noise.value_um)
+                      for u, s in zip(fit.units, fit.std)], dtype=bool)
+    values = np.where(vague, 0.0, fit.theta)  # held parameters at 0 too
+    shifted = {}
+    for k, (name, std) in enumerate(zip(fit.param_names, fit.std)):
+        if name in POSE_SOURCES and not vague[k] and np.isfinite(std) and std > 0:
+            moved = values.copy()
+            moved[k] += std
+            shifted["fit_" + re.sub(r"[^a-z0-9]+", "_", name.lower())] = joint_values(machine, d, moved)
+    pose = board_pose(machine, log.axes, joint_values(machine, d, values), shifted_errors=shifted, source=str(fit_path))
+    differ = frame_difference_um(pose, sensor.laser_offset_mm)
+    if sensor.laser_offset_frame is None and differ > fit.noise.value_um:
+        warnings.warn(f"{fit_path}: the identified EC0T ({pose.ec0t_urad:.0f} µrad) turns the laser's offset "
+                      f"({np.hypot(*sensor.laser_offset_mm):.1f} mm) enough to move mark_dz_mm by {differ:.2f} µm "
+                      f"RMS, more than the fit's noise ({fit.noise.value_um:.2f} µm): say in the sensor file whether "
+                      f"laser_offset_mm is in the machine's axes (\"laser_offset_frame\": \"machine\", as kinid sensor "
+                      f"measures it; assumed) or the camera's (\"tool\", as a drawing gives it)", stacklevel=2)
+    return pose
