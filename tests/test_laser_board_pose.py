@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
 
 import bc_camera_sim as sim
 from kinid.cli import main
-from kinid.identification.data.laser_depth import mark_depth_mm, spot_in_tool_mm
+from kinid.identification.data.laser_depth import BoardPose, mark_depth_mm, spot_in_tool_mm
 from kinid.urdf import path as urdf_path
 from plain_machine import PlainMachine
 from test_image_to_compensation import HELD_OUT
@@ -39,11 +40,17 @@ def test_the_depth_is_that_of_the_plane_through_the_spot():
         assert np.allclose((points - [*spot, z_spot]) @ n, 0.0, atol=1e-12)
 
 
-def test_an_offset_measured_in_the_machine_axes_is_turned_back_by_ec0t():
+def test_the_spot_is_taken_in_the_frame_of_the_normals():
+    """Normals in the camera's axes (the fit's EC0T used): a measured offset is turned back, a drawing's is as drawn;
+    normals in the machine's axes (EC0T left at 0): a measured offset is as measured, a drawing's is turned by EC0T."""
     measured = sim.laser_offset_as_measured(LASER_MM)  # the camera turned by EC0T on the tool
-    assert np.allclose(spot_in_tool_mm(measured, "machine", sim.TRUTH["EC0T"]), LASER_MM, atol=1e-9)
-    assert np.allclose(spot_in_tool_mm(LASER_MM, "tool", sim.TRUTH["EC0T"]), LASER_MM)
-    assert np.allclose(spot_in_tool_mm(measured, None, 0.0), measured)
+    turn = sim.TRUTH["EC0T"]
+    in_camera = BoardPose(np.array([[0.0, 0.0, 1.0]]), turn_urad=turn, camera_turn_urad=turn)
+    in_machine = BoardPose(np.array([[0.0, 0.0, 1.0]]), turn_urad=0.0, camera_turn_urad=turn)
+    assert np.allclose(spot_in_tool_mm(measured, "machine", in_camera), LASER_MM, atol=1e-9)
+    assert np.allclose(spot_in_tool_mm(LASER_MM, "tool", in_camera), LASER_MM, atol=1e-12)
+    assert np.allclose(spot_in_tool_mm(measured, None, in_machine), measured, atol=1e-12)
+    assert np.allclose(spot_in_tool_mm(LASER_MM, "tool", in_machine), measured, atol=1e-9)
 
 
 def _dz_rms_um(path, truth_rows):
@@ -91,6 +98,15 @@ def test_the_fitted_board_pose_brings_the_laser_beside_the_camera_to_the_on_axis
                 dz.append(_dz_rms_um(data, truth_rows))
             header = open(data).readline()
             assert "shift_fit_ea0w_dz_mm" in header and "shift_fit_eb0w_dz_mm" in header  # the board tilt's σ
+            # the offset as a drawing gives it, in the camera's axes: turned by the fitted EC0T, with a warning that
+            # says how far EC0T's σ moves the depth
+            (folder / "drawing.json").write_text(json.dumps({**sensor, "laser_offset_mm": list(LASER_MM),
+                                                             "laser_offset_frame": "tool"}))
+            capsys.readouterr()
+            _run(folder, *observe[:-4], "--sensor", str(folder / "drawing.json"), "--log", str(folder / "log.csv"),
+                 "--out", str(folder / "drawing.csv"), "--fit", str(folder / "fit2.json"))
+            warned = re.search(r"EC0T, identified as .* moves mark_dz_mm by ([0-9.]+) µm", capsys.readouterr().err)
+            drawing = (_dz_rms_um(folder / "drawing.csv", truth_rows), float(warned.group(1)) if warned else 0.0)
         _run(folder, "identify", "--machine", MACHINE, "--data", str(data), "--auto", "--out", str(folder / "fit.json"))
         fit = json.loads((folder / "fit.json").read_text())
         _run(folder, "compensate", "--fit", str(folder / "fit.json"), "--out", str(folder / "comp"), "--step-mm", "0.5")
@@ -102,3 +118,6 @@ def test_the_fitted_board_pose_brings_the_laser_beside_the_camera_to_the_on_axis
     assert dz_beside[-1] <= 1.3 * dz_axis[0]  # the laser's noise, as on the axis
     assert added_beside == added_axis == ["EXX:periodic:10"]  # the machine's one hidden effect, nothing spurious
     assert held_beside <= 1.5 * held_axis
+    print(f"drawing's offset (camera axes) turned by the fitted EC0T: mark_dz_mm error RMS {drawing[0]:.3f} µm; "
+          f"EC0T's σ stated to move it by {drawing[1]:.2f} µm")
+    assert drawing[0] <= 1.3 * np.hypot(dz_axis[0], drawing[1])  # within what the warning states

@@ -81,14 +81,15 @@ POSE_SOURCES = ("EA0W", "EB0W", "EC0T")
 
 def _fitted_pose(fit_path, machine, log, sensor):
     """The board's pose at the log's readings as the fit finds it, with its set-up parameters one σ off each; warns
-    when the laser offset's frame matters (EC0T × offset × slope) more than the fit's noise."""
+    when a drawing's offset (camera axes) is turned into the machine's by an EC0T too loose for the laser's noise."""
+    import math
     import re
     import warnings
 
     import numpy as np
 
     from kinid.errors import DataError
-    from ..data import Observations, board_pose, frame_difference_um
+    from ..data import Observations, board_pose, drawing_turn_um
     from ..fitting import design, joint_values, load_fit
 
     fit = load_fit(fit_path)
@@ -105,18 +106,25 @@ def _fitted_pose(fit_path, machine, log, sensor):
     vague = np.array([u == "µrad" and not (np.isfinite(s) and s * lever_mm * 1e-3 <= fit.noise.value_um)
                       for u, s in zip(fit.units, fit.std)], dtype=bool)
     values = np.where(vague, 0.0, fit.theta)  # held parameters at 0 too
+    codes = list(fit.param_names)
+    k_turn = codes.index("EC0T") if "EC0T" in codes else None
+    turn, turn_std = (0.0, math.nan) if k_turn is None else (float(fit.theta[k_turn]), float(fit.std[k_turn]))
+    drawing = sensor.laser_offset_frame == "tool"
     shifted = {}
-    for k, (name, std) in enumerate(zip(fit.param_names, fit.std)):
-        if name in POSE_SOURCES and not vague[k] and np.isfinite(std) and std > 0:
-            moved = values.copy()
-            moved[k] += std
-            shifted["fit_" + re.sub(r"[^a-z0-9]+", "_", name.lower())] = joint_values(machine, d, moved)
-    pose = board_pose(machine, log.axes, joint_values(machine, d, values), shifted_errors=shifted, source=str(fit_path))
-    differ = frame_difference_um(pose, sensor.laser_offset_mm)
-    if sensor.laser_offset_frame is None and differ > fit.noise.value_um:
-        warnings.warn(f"{fit_path}: the identified EC0T ({pose.ec0t_urad:.0f} µrad) turns the laser's offset "
-                      f"({np.hypot(*sensor.laser_offset_mm):.1f} mm) enough to move mark_dz_mm by {differ:.2f} µm "
-                      f"RMS, more than the fit's noise ({fit.noise.value_um:.2f} µm): say in the sensor file whether "
-                      f"laser_offset_mm is in the machine's axes (\"laser_offset_frame\": \"machine\", as kinid sensor "
-                      f"measures it; assumed) or the camera's (\"tool\", as a drawing gives it)", stacklevel=2)
+    for k, (name, std) in enumerate(zip(codes, fit.std)):
+        if name not in POSE_SOURCES or not (np.isfinite(std) and std > 0) or (vague[k] and not (k == k_turn and drawing)):
+            continue
+        moved = values.copy()
+        moved[k] += 0.0 if vague[k] else std
+        shifted["fit_" + re.sub(r"[^a-z0-9]+", "_", name.lower())] = (
+            joint_values(machine, d, moved), turn + (std if k == k_turn else 0.0))
+    pose = board_pose(machine, log.axes, joint_values(machine, d, values), camera_turn_urad=turn, shifted=shifted,
+                      source=str(fit_path))
+    moves = drawing_turn_um(pose, sensor.laser_offset_mm, turn_std) if drawing and math.isfinite(turn_std) else 0.0
+    if moves > fit.noise.value_um:
+        warnings.warn(f"{fit_path}: laser_offset_mm is a drawing's, in the camera's axes (laser_offset_frame 'tool'); "
+                      f"turning it into the machine's needs the camera's turn EC0T, identified as {turn:.0f} ± "
+                      f"{turn_std:.0f} µrad, whose σ moves mark_dz_mm by {moves:.2f} µm RMS, more than the fit's noise "
+                      f"({fit.noise.value_um:.2f} µm): measure the offset with kinid sensor (the machine's axes)",
+                      stacklevel=2)
     return pose

@@ -16,13 +16,13 @@ _SOURCES = {
     "check_laser_offset": "observe", "default_board_origin_mm": "observe", "load_sensor": "observe",
     "observe": "observe", "read_run_log": "observe", "distinct_positions": "positions",
     "position_starts": "positions", "positions_of": "positions", "positions_per_axis": "positions",
-    "BoardPose": "laser_depth", "board_pose": "laser_depth", "frame_difference_um": "laser_depth",
+    "BoardPose": "laser_depth", "board_pose": "laser_depth", "drawing_turn_um": "laser_depth",
     "UnitHint": "units", "unit_hints": "units", "warn_units": "units",
 }
 
 __all__ = ["BoardPose", "Export", "MIN_ROWS", "Observations", "SENSOR_SCHEMA", "SetAside", "UnitHint", "board_mark_mm",
            "board_pose", "check_laser_offset", "check_observations", "check_row_count", "default_board_origin_mm",
-           "distinct_positions", "exact_duplicates", "frame_difference_um", "is_observation_csv", "laser_offset", "load_sensor",
+           "distinct_positions", "drawing_turn_um", "exact_duplicates", "is_observation_csv", "laser_offset", "load_sensor",
            "observations_text", "observe", "parse_point_columns", "position_starts", "positions_of",
            "positions_per_axis", "read_axis_table", "read_export", "read_observations", "read_run_log",
            "row_groups", "unit_hints", "warn_units", "write_observations"]

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..model import tool_rotation_in_workpiece
 
-__all__ = ["BoardPose", "board_pose", "spot_in_tool_mm", "mark_depth_mm", "frame_difference_um", "LASER_OFFSET_FRAMES"]
+__all__ = ["BoardPose", "board_pose", "spot_in_tool_mm", "mark_depth_mm", "drawing_turn_um", "LASER_OFFSET_FRAMES"]
 
 #: The frames a sensor file's ``laser_offset_mm`` may be given in: ``machine`` — the machine's axes with the rotary
 #: axes at zero, as ``kinid sensor`` measures it (the default); ``tool`` — the camera's own axes (the tool frame turned
@@ -33,17 +33,21 @@ class BoardPose:
     ----------
     normals : array (N, 3)
         The board's normal in the tool frame at each pose of the run log.
-    ec0t_urad : float
-        The camera's turn about the tool axis (``EC0T``), µrad: turns an offset measured in the machine's axes into
-        the camera's.
-    shifted : dict source -> (normals (N, 3), ec0t_urad)
+    turn_urad : float
+        The camera's turn about the tool axis (``EC0T``) the normals were taken with, µrad: 0 when the fit
+        determines it too loosely to use (the normals are then in the machine's axes' frame, where a measured offset
+        lies).
+    camera_turn_urad : float
+        The fit's best value of that turn, µrad (turns a drawing's offset, in the camera's axes, into the normals').
+    shifted : dict source -> BoardPose
         The same with one fitted set-up parameter moved by its standard deviation (``shift_<source>_dz_mm``).
     source : str
         Where the pose comes from (the FIT.json's name), for messages.
     """
 
     normals: np.ndarray
-    ec0t_urad: float = 0.0
+    turn_urad: float = 0.0
+    camera_turn_urad: float = 0.0
     shifted: dict = field(default_factory=dict)
     source: str = "the nominal machine"
 
@@ -60,32 +64,41 @@ def _ec0t(machine, errors) -> float:
     return float(np.mean(np.atleast_2d(errors)[:, codes.index("EC0T")]))
 
 
-def board_pose(machine, axes, errors_user=None, *, shifted_errors=None, source="the nominal machine") -> BoardPose:
+def board_pose(machine, axes, errors_user=None, *, camera_turn_urad=None, shifted=None,
+               source="the nominal machine") -> BoardPose:
     """The board's pose at readings ``axes`` (N, n_axes) with error-joint values ``errors_user`` ((N, n_errors) or
-    (n_errors,), µm / µrad; None: the nominal machine); ``shifted_errors`` dict source -> such values with one
-    parameter moved by its standard deviation."""
+    (n_errors,), µm / µrad; None: the nominal machine); ``camera_turn_urad`` the fit's EC0T (default: the one in
+    ``errors_user``); ``shifted`` dict source -> (errors, camera turn) with one parameter moved by its σ."""
     errors = np.zeros(len(machine.error_joints)) if errors_user is None else np.asarray(errors_user, float)
-    shifted = {k: (_normals(machine, axes, v), _ec0t(machine, v)) for k, v in (shifted_errors or {}).items()}
-    return BoardPose(_normals(machine, axes, errors), _ec0t(machine, errors), shifted, source)
+    turn = _ec0t(machine, errors)
+    camera = turn if camera_turn_urad is None else float(camera_turn_urad)
+    moved = {k: board_pose(machine, axes, v, camera_turn_urad=c) for k, (v, c) in (shifted or {}).items()}
+    return BoardPose(_normals(machine, axes, errors), turn, camera, moved, source)
 
 
-def spot_in_tool_mm(offset_mm, frame: str, ec0t_urad: float) -> np.ndarray:
-    """Where the laser's spot lies in the camera's axes (the tool frame the image offsets are in), mm (2,).
-
-    An offset in the machine's axes (``frame`` "machine", as ``kinid sensor`` measures it) is turned back by the
-    camera's turn on the tool ``EC0T``; one in the camera's axes (``frame`` "tool", a drawing's) is used as given."""
-    offset = np.asarray(offset_mm, float)
-    if frame == "tool" or ec0t_urad == 0.0:  # None: not said, the machine's
-        return offset
-    a = -ec0t_urad * 1e-6
+def _turn(xy, urad: float) -> np.ndarray:
+    a = urad * 1e-6
     c, s = math.cos(a), math.sin(a)
-    return np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
+    return np.array([c * xy[0] - s * xy[1], s * xy[0] + c * xy[1]])
 
 
-def frame_difference_um(pose: BoardPose, offset_mm) -> float:
-    """RMS over the run's poses of how far ``mark_dz_mm`` moves between reading the laser's offset in the machine's
-    axes and in the camera's (they differ by the camera's turn ``pose.ec0t_urad``), µm."""
-    d = spot_in_tool_mm(offset_mm, "machine", pose.ec0t_urad) - np.asarray(offset_mm, float)
+def spot_in_tool_mm(offset_mm, frame, pose: BoardPose) -> np.ndarray:
+    """Where the laser's spot lies in the frame of ``pose.normals``, mm (2,).
+
+    The normals are in the tool frame turned by ``pose.turn_urad``. An offset in the machine's axes (``frame``
+    "machine" or None, as ``kinid sensor`` measures it) is turned back by that turn; one in the camera's axes
+    (``frame`` "tool", a drawing's) is turned by the camera's turn less that turn: on the nominal machine and when the
+    fit leaves EC0T at 0, it is turned by the fit's EC0T (and is as good as that is)."""
+    offset = np.asarray(offset_mm, float)
+    if frame == "tool":
+        return _turn(offset, pose.camera_turn_urad - pose.turn_urad)
+    return _turn(offset, -pose.turn_urad)
+
+
+def drawing_turn_um(pose: BoardPose, offset_mm, turn_std_urad: float) -> float:
+    """RMS over the run's poses of how far ``mark_dz_mm`` moves when a drawing's offset (in the camera's axes) is
+    turned into the machine's by a camera turn ``turn_std_urad`` off, µm."""
+    d = _turn(np.asarray(offset_mm, float), turn_std_urad) - np.asarray(offset_mm, float)
     n = pose.normals
     return float(np.sqrt(np.mean(((n[:, 0] * d[0] + n[:, 1] * d[1]) / n[:, 2]) ** 2)) * 1e3)
 

@@ -369,9 +369,9 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
     R_nominal = tool_rotation_in_workpiece(machine, log.axes, zero)
     p_nominal = evaluate(machine, log.axes, zero, jacobian=False)
     pose = board_pose(machine, log.axes) if pose is None else pose
-    spot = spot_in_tool_mm(sensor.laser_offset_mm, sensor.laser_offset_frame, pose.ec0t_urad)
-    shifted = {k: (n_k, spot_in_tool_mm(sensor.laser_offset_mm, sensor.laser_offset_frame, ec0t))
-               for k, (n_k, ec0t) in pose.shifted.items()}
+    spot = spot_in_tool_mm(sensor.laser_offset_mm, sensor.laser_offset_frame, pose)
+    shifted = {k: (p.normals, spot_in_tool_mm(sensor.laser_offset_mm, sensor.laser_offset_frame, p))
+               for k, p in pose.shifted.items()}
     rows, rejected = [], []
     progress = as_progress(progress, total=n)
     for i, name in enumerate(log.images):
