@@ -93,6 +93,11 @@ def test_the_fitted_board_pose_brings_the_laser_beside_the_camera_to_the_on_axis
             assert "observe again with the fitted board pose" in capsys.readouterr().out
             for k in (1, 2):  # two passes: plain fit, re-observe with its board pose
                 _run(folder, "identify", "--machine", MACHINE, "--data", str(data), "--out", str(folder / f"fit{k}.json"))
+                said = re.search(r"the fitted board pose moves mark_dz_mm by ([0-9.]+) µm RMS", capsys.readouterr().out)
+                if k == 1:  # identify says how far, close to the error the truth shows, and prints the command
+                    assert said and abs(float(said.group(1)) - dz[0]) < 0.2 * dz[0], said
+                else:  # after one pass with the fitted pose the move is within the noise
+                    assert said is None, said.group(0)
                 data = folder / f"obs{k}.csv"
                 _run(folder, *observe, "--out", str(data), "--fit", str(folder / f"fit{k}.json"))
                 dz.append(_dz_rms_um(data, truth_rows))

@@ -57,7 +57,7 @@ def _observe(args) -> int:
     with Progress(len(log.images), "images") as progress:
         result = observe(machine, board, sensor, log, board_origin_mm=args.board_origin_mm, marks=args.marks,
                          progress=progress, pose=pose)
-    text = observations_text(result.observations, machine, extra={"image": list(result.images)})
+    text = observations_text(result.observations, machine, extra={"image": list(result.images), **result.laser_columns})
     write_text(args.out, text)
     n_img = len(log.images)
     print(f"{len(result.observations)} observations from {n_img - len({r.line for r in result.rejected})} of "
@@ -75,6 +75,56 @@ def _observe(args) -> int:
     return 0
 
 
+def _usable(fit, machine, obs, lever_mm):
+    """(design, parameter values, which were left at 0) of the fit at the poses of ``obs``: a turn the images determine
+    only to milliradians (the camera's tilt on the tool, EA0T, EB0T, often EC0T) would move the depth by its σ times the
+    laser's lever, so a turn whose σ × ``lever_mm`` exceeds the fit's noise is left at 0, as in the nominal pass."""
+    import numpy as np
+
+    from ..fitting import design
+
+    vague = np.array([u == "µrad" and not (np.isfinite(s) and s * lever_mm * 1e-3 <= fit.noise.value_um)
+                      for u, s in zip(fit.units, fit.std)], dtype=bool)
+    return design(machine, fit.effects, obs), np.where(vague, 0.0, fit.theta), vague  # held parameters at 0 too
+
+
+LEVER_COLUMNS = ("laser_lever_x_mm", "laser_lever_y_mm", "board_slope_x", "board_slope_y")
+
+
+def board_pose_hint(data_path, machine, fit, obs) -> str | None:
+    """What ``identify`` says when the data were observed with the laser beside the camera (the columns
+    :data:`LEVER_COLUMNS`) and the fitted board pose moves ``mark_dz_mm`` by more than the fit's noise: the figure and
+    the command that observes again with the fit. None when the columns are absent or the move is within the noise."""
+    import csv
+
+    import numpy as np
+
+    from ..data import board_pose
+    from ..fitting import joint_values
+
+    with open(data_path, newline="") as f:
+        reader = csv.DictReader(f)
+        if not set(LEVER_COLUMNS) <= set(reader.fieldnames or ()):
+            return None
+        by_line = {}
+        for row in reader:
+            by_line[reader.line_num] = [float(row[c]) for c in LEVER_COLUMNS]
+    if not all(line in by_line for line in obs.lines):
+        return None
+    table = np.array([by_line[line] for line in obs.lines])
+    lever, used = table[:, :2], table[:, 2:]
+    reach = float(np.sqrt(np.mean(np.sum(lever**2, axis=1))))
+    d, values, _ = _usable(fit, machine, obs, reach)
+    n = board_pose(machine, obs.axes, joint_values(machine, d, values)).normals
+    moves_um = -np.sum((n[:, :2] / n[:, 2:] - used) * lever, axis=1) * 1e3
+    rms = float(np.sqrt(np.mean(moves_um**2)))
+    if not rms > fit.noise.value_um:
+        return None
+    return (f"the fitted board pose moves mark_dz_mm by {rms:.2f} µm RMS (the board's slope, judged before with "
+            f"another pose, times the laser's {reach:.1f} mm beside the camera), more than the noise "
+            f"{fit.noise.value_um:.2f} µm: observe again with this fit, then identify again: kinid observe ... --fit FIT.json")
+
+
 #: Set-up parameters whose σ moves the laser's depth: the board's tilt, and the camera's turn on the tool.
 POSE_SOURCES = ("EA0W", "EB0W", "EC0T")
 
@@ -90,7 +140,7 @@ def _fitted_pose(fit_path, machine, log, sensor):
 
     from kinid.errors import DataError
     from ..data import Observations, board_pose, drawing_turn_um
-    from ..fitting import design, joint_values, load_fit
+    from ..fitting import joint_values, load_fit
 
     fit = load_fit(fit_path)
     if tuple(fit.machine.axis_names) != tuple(machine.axis_names) or fit.machine.error_codes != machine.error_codes:
@@ -99,13 +149,7 @@ def _fitted_pose(fit_path, machine, log, sensor):
                         path=fit_path)
     n = len(log.images)
     poses = Observations(tuple(log.images), np.zeros((n, 3)), log.axes, log.t_s, log.directions, log.lines, log.source)
-    d = design(machine, fit.effects, poses)
-    # a turn the images determine only to milliradians (the camera's tilt on the tool, EA0T, EB0T, often EC0T) would
-    # move the depth by its σ times the laser's lever: such a parameter is left at 0, as in the nominal pass
-    lever_mm = float(np.hypot(*sensor.laser_offset_mm))
-    vague = np.array([u == "µrad" and not (np.isfinite(s) and s * lever_mm * 1e-3 <= fit.noise.value_um)
-                      for u, s in zip(fit.units, fit.std)], dtype=bool)
-    values = np.where(vague, 0.0, fit.theta)  # held parameters at 0 too
+    d, values, vague = _usable(fit, machine, poses, float(np.hypot(*sensor.laser_offset_mm)))
     codes = list(fit.param_names)
     k_turn = codes.index("EC0T") if "EC0T" in codes else None
     turn, turn_std = (0.0, math.nan) if k_turn is None else (float(fit.theta[k_turn]), float(fit.std[k_turn]))

@@ -22,7 +22,7 @@ distortion and scales by the distance from the camera to the mark.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -288,11 +288,16 @@ class ObserveResult:
     images : tuple of str
         The image each row comes from (as named in the log).
     rejected : tuple of Rejected
+    laser_columns : dict column -> array (N,)
+        With the laser beside the camera: each row's ``laser_lever_x_mm``, ``laser_lever_y_mm`` (the mark's tool-frame
+        x, y from the laser's spot) and ``board_slope_x``, ``board_slope_y`` (the normal's x, y over its z it was
+        judged with), so that ``identify`` can say how far a fitted board pose would move ``mark_dz_mm``.
     """
 
     observations: Observations
     images: tuple
     rejected: tuple
+    laser_columns: dict = field(default_factory=dict)
 
 
 def board_mark_mm(board, row, col, origin_mm):
@@ -428,7 +433,7 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
                                                      f"readings put it (a misread code or a wrong board origin)"))
                 continue
             rows.append((i, on_board[k].code, w_mm[k], offsets[k], normal[:2] / normal[2],
-                         {src: v[k] for src, v in pose_shift.items()}))
+                         {src: v[k] for src, v in pose_shift.items()}, d_xy[k] - spot))
     if not rows:
         raise DataError(f"no image of the run gave an observation ({len(rejected)} rejected; the first: line "
                         f"{rejected[0].line}, {rejected[0].image}: {rejected[0].reason})" if rejected else
@@ -445,4 +450,9 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         offsets_mm=np.array([r[3] for r in rows]),
         shifts_mm={**_laser_offset_shifts(sensor, np.array([r[4] for r in rows])), **_pose_shifts(rows, shifted)},
     )
-    return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected))
+    columns = {}
+    if log.laser_mm is not None and np.hypot(*sensor.laser_offset_mm) > 0:
+        lever, slope = np.array([r[6] for r in rows]), np.array([r[4] for r in rows])
+        columns = {"laser_lever_x_mm": lever[:, 0], "laser_lever_y_mm": lever[:, 1], "board_slope_x": slope[:, 0],
+                   "board_slope_y": slope[:, 1]}
+    return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected), columns)
