@@ -9,7 +9,9 @@ ink at the plane points it is given).
 Errors (µm, µrad): a 10 mm-lead screw error of X (EXX, after the X carriage, along x), the C
 axis line offset in x and y (EX0C, EY0C, after the B rotation and the table drop), the tool
 length (EZ0T) and the camera's rotation about the tool axis (EC0T), which moves nothing but
-what the camera sees.
+what the camera sees. ``BOARD_SETUP`` adds the set-up a real run has (the board laid on the table tilted by a
+fraction of a milliradian, turned and placed tens of µm off: EX0W ... EC0W, the URDF's board joints, translations
+then rotations about x, y, z), for runs that pass ``truth={**TRUTH, **BOARD_SETUP}``.
 """
 from __future__ import annotations
 
@@ -20,6 +22,8 @@ from pathlib import Path
 import numpy as np
 
 TRUTH = {"EX0C": 12.0, "EY0C": -8.0, "EZ0T": 15.0, "EC0T": 800.0, "EXX:periodic:10": [1.5, -0.8]}
+#: A board laid on a table by hand: tilted 200 µrad about x and −150 µrad about y, turned 300 µrad, placed 40, −25, 15 µm off.
+BOARD_SETUP = {"EX0W": 40.0, "EY0W": -25.0, "EZ0W": 15.0, "EA0W": 200.0, "EB0W": -150.0, "EC0W": 300.0}
 PITCH_MM = 16.0
 BOARD_ROWS = BOARD_COLS = 8
 PIXEL_MM = 0.045
@@ -56,6 +60,11 @@ def _ry(rad):
     return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
+def _rx(rad):
+    c, s = np.cos(rad), np.sin(rad)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
 def _rz(rad):
     c, s = np.cos(rad), np.sin(rad)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
@@ -72,7 +81,10 @@ def workpiece(y, b_deg, c_deg, truth=TRUTH):
     R = RB @ _rz(np.radians(c_deg))
     loc = np.array([truth.get("EX0C", 0.0), truth.get("EY0C", 0.0), 0.0]) * 1e-3
     p = np.array([0.0, y, 150.0]) + RB @ (np.array([0.0, 0.0, -50.0]) + loc) + R @ np.array([0.0, 0.0, 10.0])
-    return p, R
+    # the board's set-up on the table: translations, then rotations about x, y, z (the URDF's E?0W chain)
+    setup = np.array([truth.get(k, 0.0) for k in ("EX0W", "EY0W", "EZ0W")]) * 1e-3
+    a, b, c = (truth.get(k, 0.0) * 1e-6 for k in ("EA0W", "EB0W", "EC0W"))
+    return p + R @ setup, R @ _rx(a) @ _ry(b) @ _rz(c)
 
 
 def tool(x, z, truth=TRUTH):

@@ -65,21 +65,23 @@ def _held_out_um(fit_path, lay, readings):
     return rms(fitted), rms(nominal)
 
 
-def test_the_generic_simulator_is_bc_camera_sim_on_the_bc_machine():
-    """On five_axis_bc with bc_camera_sim's errors the URDF-driven frames, offsets, images and laser readings are those
-    of the hand-written B/C machine (two implementations that share no code)."""
+@pytest.mark.parametrize("board_setup", [False, True])
+def test_the_generic_simulator_is_bc_camera_sim_on_the_bc_machine(board_setup):
+    """On five_axis_bc with bc_camera_sim's errors (and its board set-up, BOARD_SETUP) the URDF-driven frames, offsets,
+    images and laser readings are those of the hand-written B/C machine (two implementations that share no code)."""
     import bc_camera_sim as bc
     from pathlib import Path
 
+    truth = {**bc.TRUTH, **(bc.BOARD_SETUP if board_setup else {})}
     text = Path(urdf_path("five_axis_bc")).read_text()
-    lay = sim.Layout("five_axis_bc", text, sim.pt.read_urdf(text), "B", "C", ("X", "Y", "Z"), bc.TRUTH)
+    lay = sim.Layout("five_axis_bc", text, sim.pt.read_urdf(text), "B", "C", ("X", "Y", "Z"), truth)
     rng = np.random.default_rng(0)
     for b, c, m in bc.plan()[::17]:
-        true = bc.align(m, b, c) + rng.normal(0.0, 0.1, 3)
+        true = bc.align(m, b, c, truth) + rng.normal(0.0, 0.1, 3)
         r = {"X": true[0], "Y": true[1], "Z": true[2], "B": b, "C": c}
         off = sim.seen_offset(lay, {k: np.atleast_1d(v) for k, v in r.items()}, m)[0]
-        assert np.abs(off - bc.seen_offset(true, b, c, m)).max() < 1e-9
-        img_bc, laser_bc = bc.render(true, b, c, np.random.default_rng(1), laser_offset_mm=LASER_MM)
+        assert np.abs(off - bc.seen_offset(true, b, c, m, truth)).max() < 1e-9
+        img_bc, laser_bc = bc.render(true, b, c, np.random.default_rng(1), truth, laser_offset_mm=LASER_MM)
         img, laser = sim.render(lay, r, np.random.default_rng(1), laser_offset_mm=LASER_MM)
         assert np.array_equal(img, img_bc) and abs(laser - laser_bc) < 1e-9
     assert np.allclose(sim.laser_offset_as_measured(lay, LASER_MM), bc.laser_offset_as_measured(LASER_MM), atol=1e-12)

@@ -116,6 +116,14 @@ def _export_options(p) -> None:
                    help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one fitted, T1, T2 …")
 
 
+def _is_observation_file(path) -> bool:
+    from pathlib import Path
+
+    from ..data import is_observation_csv
+
+    return Path(path).is_file() and is_observation_csv(path)
+
+
 def _read_data(args, machine, *, check_units: bool = True):
     """The observations of ``--data``: kinid's observation CSV, or an instrument export read with the export
     options (its mapping printed on standard error); one target of several chosen by ``--target``."""
@@ -279,6 +287,11 @@ def _identify(args) -> int:
     if args.target_um is not None:
         _target_line(result, obs, args)
     print(f"fit written to {args.out}")
+    from .observe import board_pose_hint
+
+    hint = board_pose_hint(args.data, machine, result, obs) if _is_observation_file(args.data) else None
+    if hint:
+        print(hint.replace("FIT.json", str(args.out)))
     return 0
 
 

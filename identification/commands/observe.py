@@ -23,6 +23,10 @@ def register(sub) -> None:
                         "centred on the workpiece origin)")
     p.add_argument("--marks", choices=("nearest", "all"), default="nearest",
                    help="one row per image (the mark nearest the optical axis, default) or one per decoded mark")
+    p.add_argument("--fit", default=None, metavar="FIT.json",
+                   help="judge the laser's reading with the board's pose as this fit finds it (its board set-up, "
+                        "errors and EC0T) instead of the nominal machine's: the second pass when the laser sits "
+                        "beside the camera (docs/observe.md)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.set_defaults(run=_observe, parameter_options={"board_origin_mm": "--board-origin-mm"})
@@ -49,10 +53,11 @@ def _observe(args) -> int:
         raise DataError("--board-origin-mm must be three finite numbers")
     from kinid.progress import Progress
 
+    pose = None if args.fit is None else _fitted_pose(args.fit, machine, log, sensor)
     with Progress(len(log.images), "images") as progress:
         result = observe(machine, board, sensor, log, board_origin_mm=args.board_origin_mm, marks=args.marks,
-                         progress=progress)
-    text = observations_text(result.observations, machine, extra={"image": list(result.images)})
+                         progress=progress, pose=pose)
+    text = observations_text(result.observations, machine, extra={"image": list(result.images), **result.laser_columns})
     write_text(args.out, text)
     n_img = len(log.images)
     print(f"{len(result.observations)} observations from {n_img - len({r.line for r in result.rejected})} of "
@@ -61,4 +66,109 @@ def _observe(args) -> int:
         print(f"{len(result.rejected)} image(s) gave no observation (listed, not guessed):")
         for r in result.rejected:
             print(f"  {Path(args.log).name} line {r.line}: {r.image}: {r.reason}")
+    lever = float(np.hypot(*sensor.laser_offset_mm))
+    if args.fit is None and lever > 0 and log.laser_mm is not None:
+        # a board laid by hand is tilted by some 100-500 µrad, which the nominal machine does not know
+        print(f"the laser sits {lever:.1f} mm beside the camera: the board's slope was taken from the nominal "
+              f"machine, and a set-up tilt of 200 µrad moves mark_dz_mm by {0.2 * lever:.1f} µm; after identify, "
+              f"observe again with the fitted board pose: kinid observe ... --fit FIT.json")
     return 0
+
+
+def _usable(fit, machine, obs, lever_mm):
+    """(design, parameter values, which were left at 0) of the fit at the poses of ``obs``: a turn the images determine
+    only to milliradians (the camera's tilt on the tool, EA0T, EB0T, often EC0T) would move the depth by its σ times the
+    laser's lever, so a turn whose σ × ``lever_mm`` exceeds the fit's noise is left at 0, as in the nominal pass."""
+    import numpy as np
+
+    from ..fitting import design
+
+    vague = np.array([u == "µrad" and not (np.isfinite(s) and s * lever_mm * 1e-3 <= fit.noise.value_um)
+                      for u, s in zip(fit.units, fit.std)], dtype=bool)
+    return design(machine, fit.effects, obs), np.where(vague, 0.0, fit.theta), vague  # held parameters at 0 too
+
+
+LEVER_COLUMNS = ("laser_lever_x_mm", "laser_lever_y_mm", "board_slope_x", "board_slope_y")
+
+
+def board_pose_hint(data_path, machine, fit, obs) -> str | None:
+    """What ``identify`` says when the data were observed with the laser beside the camera (the columns
+    :data:`LEVER_COLUMNS`) and the fitted board pose moves ``mark_dz_mm`` by more than the fit's noise: the figure and
+    the command that observes again with the fit. None when the columns are absent or the move is within the noise."""
+    import csv
+
+    import numpy as np
+
+    from ..data import board_pose
+    from ..fitting import joint_values
+
+    with open(data_path, newline="") as f:
+        reader = csv.DictReader(f)
+        if not set(LEVER_COLUMNS) <= set(reader.fieldnames or ()):
+            return None
+        by_line = {}
+        for row in reader:
+            by_line[reader.line_num] = [float(row[c]) for c in LEVER_COLUMNS]
+    if not all(line in by_line for line in obs.lines):
+        return None
+    table = np.array([by_line[line] for line in obs.lines])
+    lever, used = table[:, :2], table[:, 2:]
+    reach = float(np.sqrt(np.mean(np.sum(lever**2, axis=1))))
+    d, values, _ = _usable(fit, machine, obs, reach)
+    n = board_pose(machine, obs.axes, joint_values(machine, d, values)).normals
+    moves_um = -np.sum((n[:, :2] / n[:, 2:] - used) * lever, axis=1) * 1e3
+    rms = float(np.sqrt(np.mean(moves_um**2)))
+    if not rms > fit.noise.value_um:
+        return None
+    return (f"the fitted board pose moves mark_dz_mm by {rms:.2f} µm RMS (the board's slope, judged before with "
+            f"another pose, times the laser's {reach:.1f} mm beside the camera), more than the noise "
+            f"{fit.noise.value_um:.2f} µm: observe again with this fit, then identify again: kinid observe ... --fit FIT.json")
+
+
+#: Set-up parameters whose σ moves the laser's depth: the board's tilt, and the camera's turn on the tool.
+POSE_SOURCES = ("EA0W", "EB0W", "EC0T")
+
+
+def _fitted_pose(fit_path, machine, log, sensor):
+    """The board's pose at the log's readings as the fit finds it, with its set-up parameters one σ off each; warns
+    when a drawing's offset (camera axes) is turned into the machine's by an EC0T too loose for the laser's noise."""
+    import math
+    import re
+    import warnings
+
+    import numpy as np
+
+    from kinid.errors import DataError
+    from ..data import Observations, board_pose, drawing_turn_um
+    from ..fitting import joint_values, load_fit
+
+    fit = load_fit(fit_path)
+    if tuple(fit.machine.axis_names) != tuple(machine.axis_names) or fit.machine.error_codes != machine.error_codes:
+        raise DataError(f"the fit is of a machine with axes {', '.join(fit.machine.axis_names)} and "
+                        f"{len(fit.machine.error_codes)} error joints, not --machine's; give the fit of this machine",
+                        path=fit_path)
+    n = len(log.images)
+    poses = Observations(tuple(log.images), np.zeros((n, 3)), log.axes, log.t_s, log.directions, log.lines, log.source)
+    d, values, vague = _usable(fit, machine, poses, float(np.hypot(*sensor.laser_offset_mm)))
+    codes = list(fit.param_names)
+    k_turn = codes.index("EC0T") if "EC0T" in codes else None
+    turn, turn_std = (0.0, math.nan) if k_turn is None else (float(fit.theta[k_turn]), float(fit.std[k_turn]))
+    drawing = sensor.laser_offset_frame == "tool"
+    shifted = {}
+    for k, (name, std) in enumerate(zip(codes, fit.std)):
+        if name not in POSE_SOURCES or not (np.isfinite(std) and std > 0) or (vague[k] and not (k == k_turn and drawing)):
+            continue
+        moved = values.copy()
+        moved[k] += 0.0 if vague[k] else std
+        shifted["fit_" + re.sub(r"[^a-z0-9]+", "_", name.lower())] = (
+            joint_values(machine, d, moved), turn + (std if k == k_turn else 0.0))
+    pose = board_pose(machine, log.axes, joint_values(machine, d, values), camera_turn_urad=turn, shifted=shifted,
+                      source=str(fit_path))
+    moves = drawing_turn_um(pose, sensor.laser_offset_mm, turn_std) if drawing and math.isfinite(turn_std) else 0.0
+    if moves > fit.noise.value_um:
+        warnings.warn(f"{fit_path}: laser_offset_mm is a drawing's, in the camera's axes (laser_offset_frame 'tool'); "
+                      f"turning it into the machine's needs the camera's turn EC0T, identified as {turn:.0f} ± "
+                      f"{turn_std:.0f} µrad, whose σ moves mark_dz_mm by {moves:.2f} µm RMS, more than the fit's noise "
+                      f"({fit.noise.value_um:.2f} µm): measure the offset with kinid sensor (the machine's axes)",
+                      stacklevel=2)
+    return pose

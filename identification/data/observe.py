@@ -22,7 +22,7 @@ distortion and scales by the distance from the camera to the mark.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +32,7 @@ from kinid.files import read_image, read_json
 from kinid.progress import as_progress
 from kinid.schema import Either, Fields, Number, Row, Text, validate
 from ..model import Machine, evaluate, tool_rotation_in_workpiece
+from .laser_depth import LASER_OFFSET_FRAMES, BoardPose, board_pose, mark_depth_mm, spot_in_tool_mm
 from .observations import Observations
 
 #: Passes of the calibrated camera's depth and perspective corrections (the third changes < 1e-6 µm).
@@ -64,6 +65,10 @@ class Sensor:
         frame, mm: (0, 0) for a laser on the camera's axis; ``kinid sensor`` measures it.
     laser_offset_std_mm : (float, float) or None
         Standard deviations of ``laser_offset_mm``, mm.
+    laser_offset_frame : {"machine", "tool"} or None
+        The axes ``laser_offset_mm`` is in: the machine's with the rotary axes at zero (as ``kinid sensor`` measures
+        it) or the camera's own (as a drawing gives it); they differ by the camera's turn on the tool, ``EC0T``.
+        None (not said): the machine's.
     """
 
     pixel_mm: float | None = None
@@ -74,6 +79,7 @@ class Sensor:
     working_distance_mm: float | None = None
     laser_offset_mm: tuple = (0.0, 0.0)
     laser_offset_std_mm: tuple | None = None
+    laser_offset_frame: str | None = None
 
 
 _PIXEL = Number(low=-1e5, high=1e5)
@@ -89,6 +95,7 @@ SENSOR_SCHEMA = Fields({}, optional={
     "working_distance_mm": Number(low=0, high=1000, open_low=True, null=True),
     "laser_offset_mm": Row((Number(low=-200, high=200), Number(low=-200, high=200)), null=True),
     "laser_offset_std_mm": Row((Number(low=0, high=200), Number(low=0, high=200)), null=True),
+    "laser_offset_frame": Text(choices=LASER_OFFSET_FRAMES, null=True),
     "measured_by": Either((Text(null=True), Fields({}, other=True))),
 })
 
@@ -131,6 +138,7 @@ def load_sensor(path) -> Sensor:
     laser_offset = pair("laser_offset_mm") or (0.0, 0.0)
     laser_std = pair("laser_offset_std_mm")
     check_laser_offset(laser_offset, path=path, column="laser_offset_mm")
+    frame = data.get("laser_offset_frame")
     camera = None
     if data.get("camera") is not None:
         from kinid.vision import camera_from_dict, load_camera
@@ -144,7 +152,8 @@ def load_sensor(path) -> Sensor:
             except KinidError as exc:
                 raise DataError(exc.message, path=path, column="camera") from None
     sensor = Sensor(number("pixel_mm"), axis_px, number("image_x_angle_deg", default=0.0),
-                    number("laser_standoff_mm"), camera, number("working_distance_mm"), laser_offset, laser_std)
+                    number("laser_standoff_mm"), camera, number("working_distance_mm"), laser_offset, laser_std,
+                    frame)
     if (sensor.pixel_mm is None) == (sensor.camera is None):
         raise DataError("give either pixel_mm (pixel equivalent on the board) or camera with working_distance_mm",
                         path=path, column="pixel_mm")
@@ -279,11 +288,16 @@ class ObserveResult:
     images : tuple of str
         The image each row comes from (as named in the log).
     rejected : tuple of Rejected
+    laser_columns : dict column -> array (N,)
+        With the laser beside the camera: each row's ``laser_lever_x_mm``, ``laser_lever_y_mm`` (the mark's tool-frame
+        x, y from the laser's spot) and ``board_slope_x``, ``board_slope_y`` (the normal's x, y over its z it was
+        judged with), so that ``identify`` can say how far a fitted board pose would move ``mark_dz_mm``.
     """
 
     observations: Observations
     images: tuple
     rejected: tuple
+    laser_columns: dict = field(default_factory=dict)
 
 
 def board_mark_mm(board, row, col, origin_mm):
@@ -312,8 +326,18 @@ def _laser_offset_shifts(sensor: Sensor, slope) -> dict:
     return shifts
 
 
+def _pose_shifts(rows, shifted) -> dict:
+    """The depth's change per row (as a shift of (0, 0, dz)) for each fitted set-up parameter one σ off."""
+    out = {}
+    for src in shifted:
+        shift = np.zeros((len(rows), 3))
+        shift[:, 2] = [r[5][src] for r in rows]
+        out[src] = shift
+    return out
+
+
 def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origin_mm=None, marks: str = "nearest",
-            progress=None) -> ObserveResult:
+            progress=None, pose: BoardPose | None = None) -> ObserveResult:
     """Locate and decode the board's marks in every image of a run and make observation rows.
 
     Parameters
@@ -329,6 +353,10 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         One row per image (the mark nearest the optical axis) or one per decoded mark.
     progress : Progress, callable (done, total) or None
         Counted once per image, at its start (:func:`kinid.progress.as_progress`).
+    pose : BoardPose, optional
+        The board's pose at every pose of the log (:func:`~kinid.identification.data.laser_depth.board_pose`) as a
+        fit finds it; the laser's reading is judged with it, and each fitted set-up parameter's standard deviation
+        becomes a ``shift_<source>_dz_mm`` column. None: the nominal machine's.
 
     Returns
     -------
@@ -345,6 +373,10 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
     zero = np.zeros(len(machine.error_joints))
     R_nominal = tool_rotation_in_workpiece(machine, log.axes, zero)
     p_nominal = evaluate(machine, log.axes, zero, jacobian=False)
+    pose = board_pose(machine, log.axes) if pose is None else pose
+    spot = spot_in_tool_mm(sensor.laser_offset_mm, sensor.laser_offset_frame, pose)
+    shifted = {k: (p.normals, spot_in_tool_mm(sensor.laser_offset_mm, sensor.laser_offset_frame, p))
+               for k, p in pose.shifted.items()}
     rows, rejected = [], []
     progress = as_progress(progress, total=n)
     for i, name in enumerate(log.images):
@@ -370,15 +402,14 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
             continue
         # the laser spot: the surface on the tool axis at dz_spot; the board plane through it
         dz_spot = 0.0 if log.laser_mm is None or sensor.laser_standoff_mm is None else -(log.laser_mm[i] - sensor.laser_standoff_mm)
-        normal = R_nominal[i].T @ np.array([0.0, 0.0, 1.0])  # board normal in the tool frame (nominal)
+        normal = pose.normals[i]  # board normal in the tool frame (nominal, or as the fit finds it)
         if abs(normal[2]) < 0.2:
             rejected.append(Rejected(line, name, "the board is seen edge-on (tilted more than 78° from the camera axis)"))
             continue
         xy = np.array([[m.x_px, m.y_px] for m in on_board])
         # the spot is where the laser beam meets the board: at the laser's offset from the tool axis
-        spot = np.asarray(sensor.laser_offset_mm, float)
         d_xy = image_offsets_mm(sensor, xy, (w, h), dz_spot)
-        dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
+        dz = mark_depth_mm(dz_spot, normal, d_xy, spot)
         if sensor.camera is not None:
             # depth changes a calibrated camera's scale, and a tilted mark's ellipse centre is not the image of
             # its centre: redo with the marks' depth and the perspective bias at the nominal board pose
@@ -386,8 +417,10 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
                 bias = None if k == 0 else perspective_bias_n(sensor, np.column_stack([d_xy, dz]), normal,
                                                               board.center_d_mm / 2.0)
                 d_xy = image_offsets_mm(sensor, xy, (w, h), dz, bias)
-                dz = dz_spot - (normal[0] * (d_xy[:, 0] - spot[0]) + normal[1] * (d_xy[:, 1] - spot[1])) / normal[2]
+                dz = mark_depth_mm(dz_spot, normal, d_xy, spot)
         offsets = np.column_stack([d_xy, dz])
+        # a fitted set-up parameter one σ off: the depth's change
+        pose_shift = {k: mark_depth_mm(dz_spot, n_k[i], d_xy, s_k) - dz for k, (n_k, s_k) in shifted.items()}
         w_mm = np.array([board_mark_mm(board, *board.position_of(m.code), origin) for m in on_board])
         # where the nominal machine expects each decoded mark: a misread code lands a pitch or more away
         expected = np.einsum("ji,nj->ni", R_nominal[i], w_mm - p_nominal[i])
@@ -399,7 +432,8 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
                 rejected.append(Rejected(line, name, f"code {on_board[k].code} decoded {miss[k]:.1f} mm from where the "
                                                      f"readings put it (a misread code or a wrong board origin)"))
                 continue
-            rows.append((i, on_board[k].code, w_mm[k], offsets[k], normal[:2] / normal[2]))
+            rows.append((i, on_board[k].code, w_mm[k], offsets[k], normal[:2] / normal[2],
+                         {src: v[k] for src, v in pose_shift.items()}, d_xy[k] - spot))
     if not rows:
         raise DataError(f"no image of the run gave an observation ({len(rejected)} rejected; the first: line "
                         f"{rejected[0].line}, {rejected[0].image}: {rejected[0].reason})" if rejected else
@@ -414,6 +448,11 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         lines=tuple(log.lines[j] for j in idx),
         source=log.source,
         offsets_mm=np.array([r[3] for r in rows]),
-        shifts_mm=_laser_offset_shifts(sensor, np.array([r[4] for r in rows])),
+        shifts_mm={**_laser_offset_shifts(sensor, np.array([r[4] for r in rows])), **_pose_shifts(rows, shifted)},
     )
-    return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected))
+    columns = {}
+    if log.laser_mm is not None and np.hypot(*sensor.laser_offset_mm) > 0:
+        lever, slope = np.array([r[6] for r in rows]), np.array([r[4] for r in rows])
+        columns = {"laser_lever_x_mm": lever[:, 0], "laser_lever_y_mm": lever[:, 1], "board_slope_x": slope[:, 0],
+                   "board_slope_y": slope[:, 1]}
+    return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected), columns)

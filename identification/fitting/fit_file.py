@@ -52,7 +52,7 @@ FIT_SCHEMA = Fields(
                                                 "residual_um": _SIZE, "sigmas": Number(null=True)})),
         "axis_ranges": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True), length=2, ordered=True)),
         "axis_readings": Table(Items(Number(low=-LARGEST, high=LARGEST))),
-        "shared_std": Table(Items(_STD)),
+        "shared_std": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True))),  # signed changes
         "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(),
         "implausible": Items(Fields({}, other=True)),
     },
