@@ -95,8 +95,10 @@ def test_sensor_refuses_a_tilted_tool_and_unknown_roles(tmp_path, capsys):
 
 
 def test_a_wrong_sensor_offset_is_called_inconsistent_and_nothing_implausible_is_added(run, tmp_path, capsys):
-    """The same run observed as if the laser were on the camera's axis: the fit needs centimetres, which is
-    flagged; --auto refuses the effect that would explain the laser's tan B error; diagnose says why."""
+    """The same run observed as if the laser were on the camera's axis: the fit needs centimetres and does not
+    converge; identify refuses it in one line that says the observations look inconsistent and names the sizes
+    (it wrote such a fit, flagged, before a fit that did not converge was refused), so nothing implausible is
+    added and nothing reaches a controller; with the offset measured the fit is written and nothing is flagged."""
     folder, truth = run
     sensor = json.loads((folder / "sensor.json").read_text())
     for name, s in (("wrong", sensor), ("right", {**sensor, "laser_offset_mm": list(LASER_MM)})):
@@ -104,15 +106,17 @@ def test_a_wrong_sensor_offset_is_called_inconsistent_and_nothing_implausible_is
         assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
                      str(tmp_path / f"{name}.json"), "--log", str(folder / "log.csv"), "--out",
                      str(tmp_path / f"{name}.csv")]) == 0
-        assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / f"{name}.csv"), "--auto",
-                     "--out", str(tmp_path / f"{name}_fit.json")]) == 0
     capsys.readouterr()
-    wrong = json.loads((tmp_path / "wrong_fit.json").read_text())
+    assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "wrong.csv"), "--auto",
+                 "--out", str(tmp_path / "wrong_fit.json")]) == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]  # --auto's step lines come before it
+    assert last.startswith("kinid identify: ") and "the observations look inconsistent" in last
+    assert "no machine has" in last and last.endswith("no fit written")
+    assert not (tmp_path / "wrong_fit.json").exists()
+    assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "right.csv"), "--auto",
+                 "--out", str(tmp_path / "right_fit.json")]) == 0
     right = json.loads((tmp_path / "right_fit.json").read_text())
-    assert wrong["implausible"] and not right["implausible"]
-    assert all(":" not in e for e in wrong["effects"])  # nothing added on top of the default model
-    assert main(["diagnose", "--fit", str(tmp_path / "wrong_fit.json"), "--data", str(tmp_path / "wrong.csv")]) == 0
-    assert "the observations look inconsistent" in capsys.readouterr().out
+    assert not right["implausible"]
 
 
 def test_the_laser_offsets_uncertainty_is_carried_into_the_fit(run, tmp_path, capsys):

@@ -18,7 +18,6 @@ One rule, in this order:
 from __future__ import annotations
 
 import csv
-import re
 from dataclasses import dataclass
 from pathlib import Path
 

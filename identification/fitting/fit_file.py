@@ -16,7 +16,7 @@ from kinid.errors import DataError, KinidError
 from kinid.files import read_json, write_json
 from kinid.schema import Fields, Flag, Items, Number, Row, Table, Text, validate
 
-from ..model import machine_from_urdf, parse_effect
+from ..model import implausible_effects, machine_from_urdf, parse_effect
 from ..data import SetAside
 from .fit import FIT_FORMAT, FitResult
 from .identifiability import Alias
@@ -205,6 +205,11 @@ def untrusted(result: FitResult, hints=()) -> str:
         return (f"{why}; likely σ typed in mm: --noise-um is in µm ({result.noise_um:g} mm is "
                 f"{result.noise_um * 1000:g} µm)")
     if not result.success:
+        odd = [o for o in implausible_effects(result) if not o.undetermined]
+        if odd:
+            return (f"{why}, with sizes no machine has ({'; '.join(o.describe() for o in odd[:3])}): the observations "
+                    f"look inconsistent — a sensor offset or board file that is not the set-up measured, a camera "
+                    f"model, a unit; check them before adding effects")
         return f"{why}; check the units of the marks and the readings and that the URDF is the machine measured"
     return (f"{why}; if σ is right, the model lacks an error far above the noise or the data hold gross errors: "
             f"fit without --noise-um (σ from the residuals) and run kinid diagnose")
