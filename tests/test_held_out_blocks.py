@@ -76,6 +76,10 @@ def test_jittered_readings_of_one_pose_stay_one_pose(machines):
     from dataclasses import replace
 
     assert machine_poses(machine, replace(obs, axes=axes)).max() + 1 == 84
+    # the same angles visited again later are another visit
+    twice = replace(obs, axes=np.r_[axes, axes], w_mm=np.r_[obs.w_mm, obs.w_mm], t_s=np.r_[obs.t_s, obs.t_s + 1e5],
+                    marks=obs.marks * 2, lines=tuple(range(2 * len(obs))))
+    assert machine_poses(machine, twice).max() + 1 == 168
 
 
 def _bhead_lead(machine, seed, noise_um=1.0):
