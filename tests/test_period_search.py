@@ -158,9 +158,9 @@ def test_gross_misread_on_top_of_a_real_effect(bc):
 
 
 def test_sigma_given_too_small_adds_nothing_and_says_so(bc):
-    """1.6 µm noise, σ given as 1 µm, no effect hidden: nothing is added, and the verdict does not call a residual
-    above the σ given noise — it says an effect remains that the data cannot single out, or the noise is about
-    1.6 µm (the data cannot tell which), and how to say so."""
+    """1.6 µm noise, σ given as 1 µm, no effect hidden: nothing is added, and the verdict gives no clean bill of
+    health to a residual above the σ given — the residual is white, so it says the σ given looks too small, that the
+    noise is about 1.6 µm, and how to say so."""
     added = 0
     for seed in range(6):
         rng = np.random.default_rng(500 + seed)
@@ -169,10 +169,11 @@ def test_sigma_given_too_small_adds_nothing_and_says_so(bc):
         steps = forward_select(bc, obs, default_model(bc), noise_um=1.0)
         added += len(steps) - 1
         dg = steps[0].diagnosis
-        assert dg.verdict == "missing-effect"
-        assert re.search(r"or the noise is about 1\.[567] µm, not 1 µm as given \(if so, give --noise-um 1\.[567]\)",
-                         dg.note), dg.note
-        assert what_is_left(steps).startswith("no effect was added") and "structure remains: " in what_is_left(steps)
+        assert dg.verdict == "noise" and dg.note.startswith("the σ given looks too small")
+        assert re.search(r"the noise is about 1\.[567] µm, not 1 µm as given \(give --noise-um 1\.[567]", dg.note), \
+            dg.note
+        words = what_is_left(steps)
+        assert words.startswith("no effect was added") and "the σ given looks too small" in words
     assert added == 0
 
 

@@ -94,7 +94,7 @@ def test_the_held_out_check_gives_the_refits_figures(monkeypatch):
     those of the check on data too large to hold their Jacobian, which refits every turn."""
     import kinid.identification.fitting.crossval as crossval
     from kinid.identification import default_model, diagnose, fit, parse_effect
-    from kinid.identification.fitting.crossval import _gain_se, cross_validate
+    from kinid.identification.fitting.crossval import _gain_se, cross_validate, held_out_blocks
     from kinid.identification.fitting.residuals import design, residuals
 
     for seed, layout, kinds in ((3, "arm6", ["gear"]), (5, "five_axis_ac", ["lead"]), (8, "gantry_dual_y", ["sag"])):
@@ -104,10 +104,8 @@ def test_the_held_out_check_gives_the_refits_figures(monkeypatch):
         for c in (dg.live[0], dg.live[len(dg.live) // 2]):
             candidate = parse_effect(c.effect, machine)
             cv = cross_validate(machine, obs, effects, candidate, noise_um=1.0, theta0=dg.fit.theta)
-            order = np.argsort(obs.t_s, kind="stable")
             squares = np.zeros((2, len(obs)))
-            for k in range(4):
-                test = np.sort(order[k::4])
+            for test in held_out_blocks(machine, obs, 4):  # the check's blocks: whole poses
                 train, te = obs.subset(np.setdiff1d(np.arange(len(obs)), test)), obs.subset(test)
                 for m, model in enumerate((effects, effects + [candidate])):
                     refit = fit(machine, train, model, noise_um=1.0)
@@ -378,8 +376,12 @@ def test_a_period_that_only_the_held_out_blocks_noise_chose_is_not_added(monkeyp
     print(_line(sc))
     assert not sc.hidden and sc.sigma_declared is None
     assert sc.result["added"] == [] and sc.result["held_out_um"] == sc.result["default_um"]
-    # the same scenario with a gain above zero asked of the period chosen per turn, as before: the period goes in
-    monkeypatch.setitem(crossval.CHOSEN_AGAIN, "periodic", ("period", 0.0))
+    # the same scenario with a gain above zero asked of the period chosen per turn, as before, and the blocks dealt
+    # as they were then (every 4th alignment in measurement order): the period goes in
+    monkeypatch.setitem(crossval.CHOSEN_AGAIN, "period", 0.0)
+    assert pg.run(23 * 100003 + 428).result["added"] == []  # with blocks of whole poses, not even then
+    monkeypatch.setattr(crossval, "held_out_blocks", lambda machine, obs, folds, **kw: [
+        np.sort(np.argsort(obs.t_s, kind="stable")[k::folds]) for k in range(folds)])
     before = pg.run(23 * 100003 + 428)
     assert [a.split(":")[:2] for a in before.result["added"]] == [["EZX", "periodic"]]
     assert before.result["held_out_um"] > 2.0 * before.result["default_um"]

@@ -370,16 +370,20 @@ def diagnose(machine: Machine, obs: Observations, effects, *, noise_um=None, car
             verdict = "missing-effect"
             note = f"an effect no candidate describes remains: {structure.describe()}"
         elif not f_passes:
-            # the residual exceeds the σ given, and nothing found describes it: not a clean bill of health.
-            # Either an effect remains below what a candidate or the neighbour test can single out, or σ is larger
-            # than given; the data alone cannot tell, so the verdict stays missing-effect and says both.
-            verdict = "missing-effect"
             apparent = np.sqrt(rss / dof) * sigma
-            where = (f", most structured along {'time' if structure.axis == 'time' else structure.axis}"
-                     if structure is not None and structure.axis else "")
-            note = (f"the residual exceeds the noise σ given (χ² p = {chi2_p:.2g}) and no candidate or neighbour "
-                    f"test explains it: an effect remains that the data cannot single out{where}, or the noise is "
-                    f"about {apparent:.2g} µm, not {sigma:.2g} µm as given (if so, give --noise-um {apparent:.2g})")
+            if structure is not None:  # above the σ given, yet white: the σ given looks too small, not an effect
+                verdict = "noise"      # "most structured along" an axis the neighbour test did not single out
+                note = (f"the σ given looks too small: the residual is {apparent / sigma:.2g}× the noise σ given (χ² "
+                        f"p {f'= {chi2_p:.2g}' if chi2_p > 0 else '< 1e-300'}) yet white — no candidate passes the F "
+                        f"test and neighbouring alignments agree no more than noise would (p = "
+                        f"{structure.p_value:.2g}): the noise is about {apparent:.2g} µm, not {sigma:.2g} µm as given "
+                        f"(give --noise-um {apparent:.2g}, or let identify estimate it)")
+            else:  # too few alignments for the neighbour test: an effect no candidate singles out, or a σ larger
+                # than given; the data alone cannot tell, so the verdict stays missing-effect and says both
+                verdict = "missing-effect"
+                note = (f"the residual exceeds the noise σ given (χ² p = {chi2_p:.2g}) and no candidate explains it: "
+                        f"an effect remains that the data cannot single out, or the noise is about {apparent:.2g} µm, "
+                        f"not {sigma:.2g} µm as given (if so, give --noise-um {apparent:.2g})")
     advised = advise(machine, live, result.axis_ranges)
     best, passed = advised
     chosen = best is not None and best.p_value < threshold  # the candidate advised, significant

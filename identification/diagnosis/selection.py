@@ -116,8 +116,10 @@ def what_is_left(steps) -> str:
 
 
 def _between_positions(step) -> str:
-    """What the final model's tables (the error at each of an axis's few positions) do not know, in words."""
-    from ..model import position_tables
+    """What the final model's errors along an axis read at few positions do not know, in words: a table (the error
+    at each of a linear axis's few positions), and any other error varying with the position of an axis, linear or
+    rotary, read at no more positions than a table is made for (an A axis read at 7 angles)."""
+    from ..model import TABLE_POSITIONS, basis_of, position_tables
     from ..data import positions_per_axis
 
     if step.data is None:
@@ -126,14 +128,23 @@ def _between_positions(step) -> str:
     positions = positions_per_axis(machine, step.data)
     names = set(position_tables(machine, positions))
     tables = [e for e in step.fit.effects if e.name in names]
-    axes = sorted({e.axis for e in tables})
-    if not axes:
-        return ""
-    where = " and ".join(f"the {positions[a]} positions of {a}" for a in axes)
-    which = " and ".join(e.name for e in tables)
-    return (f"; {which} {'is' if len(tables) == 1 else 'are'} the error at each of {where} measured (too few for a "
-            f"map): between them a polynomial through those values, not a measurement — measure "
-            f"{' and '.join(axes)} at more positions to know it there")
+    few = [e for e in step.fit.effects if e.name not in names and e.axis in positions and basis_of(e).positional
+           and 1 < positions[e.axis] <= max(TABLE_POSITIONS)]
+    text = ""
+    if tables:
+        axes = sorted({e.axis for e in tables})
+        where = " and ".join(f"the {positions[a]} positions of {a}" for a in axes)
+        which = " and ".join(e.name for e in tables)
+        text = (f"; {which} {'is' if len(tables) == 1 else 'are'} the error at each of {where} measured (too few "
+                f"for a map): between them a polynomial through those values, not a measurement — measure "
+                f"{' and '.join(axes)} at more positions to know it there")
+    for axis in sorted({e.axis for e in few}):
+        which = " and ".join(e.name for e in few if e.axis == axis)
+        where = "angles" if machine.axis(axis).kind != "prismatic" else "positions"
+        text += (f"; {which} {'varies' if ' and ' not in which else 'vary'} with {axis}, read at {positions[axis]} "
+                 f"{where}: between the {positions[axis]} {where} of {axis} the model is interpolation, not a "
+                 f"measurement — measure {axis} at more {where} to know it there")
+    return text
 
 
 def _explained(steps) -> str:
@@ -157,8 +168,9 @@ def _explained(steps) -> str:
     if final.verdict == "missing-effect":
         return text + f"; structure remains: {final.note}" if final.note else text + "; structure remains"
     if st is not None:
+        sigma_note = f"; {final.note}" if final.verdict == "noise" and final.note else ""  # a σ given too small
         return text + (f"; nothing structured remains: no candidate is significant and neighbouring alignments "
-                       f"agree no more than noise would (p = {st.p_value:.2g})")
+                       f"agree no more than noise would (p = {st.p_value:.2g})") + sigma_note
     return text + "; nothing structured remains: no candidate is significant"
 
 

@@ -11,7 +11,8 @@ _SOURCES = {
     "local_column_index": "bsplines", "local_columns": "bsplines", "local_grid": "bsplines",
     "axis_dependent_joints": "effects", "basis_values": "effects", "candidate_library": "effects",
     "check_effects": "effects", "default_model": "effects", "model_effects": "effects",
-    "parse_effect": "effects", "position_tables": "effects", "Machine": "machine", "axis_limits": "machine",
+    "parse_effect": "effects", "position_tables": "effects", "TABLE_POSITIONS": "effects",
+    "Machine": "machine", "axis_limits": "machine",
     "check_machine": "machine", "evaluate": "machine", "load_machine": "machine",
     "machine_from_urdf": "machine", "tool_in_workpiece_mm": "machine", "tool_rotation_in_workpiece": "machine",
     "axis_directions": "names", "effect_description": "names", "plain_name": "names",
@@ -20,7 +21,8 @@ _SOURCES = {
     "MAX_URDF_BYTES": "urdf_checks", "joint_kind": "urdf_checks", "identification_urdf": "urdf_import",
 }
 
-__all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG", "axis_dependent_joints",
+__all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG", "TABLE_POSITIONS",
+           "axis_dependent_joints",
            "axis_directions", "axis_limits", "basis_of", "basis_values", "candidate_library", "check_effects",
            "check_machine", "chosen_of", "default_model", "effect_description", "evaluate",
            "identification_urdf", "implausible_candidate", "implausible_effects", "joint_kind", "load_machine",
