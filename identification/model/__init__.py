@@ -9,11 +9,10 @@ from kinid.lazy import front_door as _front_door
 _SOURCES = {
     "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "chosen_of": "bases",
     "local_column_index": "bsplines", "local_columns": "bsplines", "local_grid": "bsplines",
-    "axis_dependent_joints": "effects", "basis_values": "effects", "candidate_library": "effects",
-    "check_effects": "effects", "default_model": "effects", "model_effects": "effects",
-    "parse_effect": "effects", "position_tables": "effects", "TABLE_POSITIONS": "effects",
-    "Machine": "machine", "axis_limits": "machine",
-    "check_machine": "machine", "evaluate": "machine", "load_machine": "machine",
+    "TABLE_POSITIONS": "effects", "axis_dependent_joints": "effects", "basis_values": "effects",
+    "candidate_library": "effects", "check_effects": "effects", "default_model": "effects",
+    "model_effects": "effects", "parse_effect": "effects", "position_tables": "effects", "Machine": "machine",
+    "axis_limits": "machine", "check_machine": "machine", "evaluate": "machine", "load_machine": "machine",
     "machine_from_urdf": "machine", "tool_in_workpiece_mm": "machine", "tool_rotation_in_workpiece": "machine",
     "axis_directions": "names", "effect_description": "names", "plain_name": "names",
     "implausible_candidate": "plausibility", "implausible_effects": "plausibility",
@@ -22,12 +21,12 @@ _SOURCES = {
 }
 
 __all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG", "TABLE_POSITIONS",
-           "axis_dependent_joints",
-           "axis_directions", "axis_limits", "basis_of", "basis_values", "candidate_library", "check_effects",
-           "check_machine", "chosen_of", "default_model", "effect_description", "evaluate",
-           "identification_urdf", "implausible_candidate", "implausible_effects", "joint_kind", "load_machine",
-           "local_column_index", "local_columns", "local_grid", "machine_from_urdf", "model_effects",
-           "parse_effect", "plain_name", "position_tables", "rigid_transform", "share_of_limit",
-           "tool_in_workpiece_mm", "tool_rotation_in_workpiece", "warning_lines"]
+           "axis_dependent_joints", "axis_directions", "axis_limits", "basis_of", "basis_values",
+           "candidate_library", "check_effects", "check_machine", "chosen_of", "default_model",
+           "effect_description", "evaluate", "identification_urdf", "implausible_candidate",
+           "implausible_effects", "joint_kind", "load_machine", "local_column_index", "local_columns",
+           "local_grid", "machine_from_urdf", "model_effects", "parse_effect", "plain_name", "position_tables",
+           "rigid_transform", "share_of_limit", "tool_in_workpiece_mm", "tool_rotation_in_workpiece",
+           "warning_lines"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)
