@@ -172,3 +172,26 @@ def test_verify_says_made_worse_and_where(tmp_path, capsys):
     assert f"B = {g['readings']['B']:.4g}" in out
     assert "check that the compensation is loaded" not in out
     assert "Made worse" in (tmp_path / "report" / "index.html").read_text()
+
+
+def test_the_loop_works_on_a_urdf_whose_rotary_travels_are_wider_than_the_data(tmp_path, capsys):
+    """The same loop on the machine's URDF with B's travel ±10 rad (as generated URDFs and many ROS files give it;
+    C's is two turns), B measured over −40…40°: the tables cover the readings, and the second run, made through
+    the compensation as a controller applies it, is at the noise level ("worked")."""
+    text = (urdf_path("five_axis_bc")).read_text()
+    text = text.replace('<limit lower="-1.5708" upper="1.5708"', '<limit lower="-10" upper="10"')
+    wide = tmp_path / "bc_wide.urdf"
+    wide.write_text(text)
+    rng = np.random.default_rng(21)
+    first_run(tmp_path / "run1.csv", rng)
+    assert main(["identify", "--machine", str(wide), "--data", str(tmp_path / "run1.csv"), "--noise-um",
+                 str(SIGMA_UM), "--add", "EXX:periodic:10", "--out", str(tmp_path / "fit.json")]) == 0
+    assert main(["compensate", "--fit", str(tmp_path / "fit.json"), "--out", str(tmp_path / "comp")]) == 0
+    second_run(tmp_path / "run2.csv", tmp_path / "comp", np.random.default_rng(22))
+    capsys.readouterr()
+    assert main(["verify", "--compensation", str(tmp_path / "comp"), "--data", str(tmp_path / "run2.csv"),
+                 "--json"]) == 0
+    v = json.loads(capsys.readouterr().out)
+    print(f"wide travels: before {v['before_um']['3d']:.3f} µm, after {v['after_um']['3d']:.3f} µm, "
+          f"noise level {v['noise_level_3d_um']:.3f} µm")
+    assert v["after_um"]["3d"] <= 1.5 * v["noise_level_3d_um"] and v["before_um"]["3d"] > 5 * v["after_um"]["3d"]
