@@ -1,6 +1,8 @@
 """``kinid compensate``: a fit -> axis error tables, constants, set-up, a calibrated URDF, controller files."""
 from __future__ import annotations
 
+from kinid.options import add_alias
+
 __all__ = ["register"]
 
 
@@ -24,7 +26,7 @@ def register(sub) -> None:
     p.add_argument("--format", dest="formats", nargs="+", choices=sorted(CONTROLLER_FORMATS),
                    default=list(default_formats()),
                    help=f"controller formats to write (default: {' '.join(default_formats())})")
-    p.add_argument("--range", dest="range_policy", choices=("data", "travel"), default="data",
+    p.add_argument("--table-range", dest="range_policy", choices=("data", "travel"), default="data",
                    help="tables over the measured readings of each axis (default) or over the URDF travel")
     p.add_argument("--beyond", choices=("hold", "zero"), default="hold",
                    help="beyond a table's ends: hold the end values (default) or return to zero")
@@ -39,6 +41,7 @@ def register(sub) -> None:
     p.add_argument("--step-deg", type=float, default=None, help="fixed grid step of rotary axes, degrees "
                                                                 "(default: chosen like --step-mm)")
     # the folder is written whole (kinid.folders.staged_folder): no input may lie anywhere in it
+    add_alias(p, "--range", "--table-range")
     p.set_defaults(run=_compensate, outputs={"out": "replaced folder"})
 
 
