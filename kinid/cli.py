@@ -167,7 +167,7 @@ def _option_for(parser: argparse.ArgumentParser, args, verb: str | None, paramet
     sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
     verb_parser = sub.choices.get(verb) if sub is not None and verb else None
     for action in verb_parser._actions if verb_parser is not None else ():
-        if action.dest == parameter and action.option_strings:
+        if action.dest == parameter and action.option_strings and not getattr(action, "canonical", None):
             return max(action.option_strings, key=len)
     return None
 
@@ -182,7 +182,7 @@ def _check_files(parser, args, verb) -> None:
     from .files import check_outputs
 
     outputs = getattr(args, "outputs", None) or DEFAULT_OUTPUTS
-    skip = {"run", "outputs", "parameter_options", "verb"}
+    skip = {"run", "outputs", "parameter_options", "verb", "json_result"}
 
     def option(dest):
         return _option_for(parser, args, verb, dest) or dest
@@ -249,12 +249,20 @@ def _run(argv) -> int:
         parser = build_parser(verb)
         args = parser.parse_args(argv)
         _check_files(parser, args, verb)
-        if "-" in (getattr(args, dest, None) for dest in (getattr(args, "outputs", None) or DEFAULT_OUTPUTS)):
+        to_stdout = "-" in (getattr(args, dest, None) for dest in (getattr(args, "outputs", None) or DEFAULT_OUTPUTS))
+        result = getattr(args, "json_result", None) if getattr(args, "json", False) else None
+        if result is not None and to_stdout:
+            raise KinidError("--json and an output '-' both print to standard output: give one of them")
+        if to_stdout or result is not None:
             # the data go to standard output: the verb's messages go to standard error
             with contextlib.redirect_stdout(sys.stderr):
                 status = args.run(args)
         else:
             status = args.run(args)
+        if result is not None and not status:
+            from .files import strict_json
+
+            print(strict_json(result(args)))
     except KinidError as exc:
         if exc.parameter is not None and parser is not None:
             option = _option_for(parser, args, verb, exc.parameter)

@@ -97,7 +97,7 @@ def compensated(tmp_path_factory):
     result = fit(m, obs, model, noise_um=0.5)
     save_fit(result, folder / "fit.json")
     assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(folder / "out"), "--all-terms",
-                 "--range", "travel", "--step-mm", "0.5", "--step-deg", "0.5"]) == 0
+                 "--table-range", "travel", "--step-mm", "0.5", "--step-deg", "0.5"]) == 0
     return folder / "out", result
 
 

@@ -192,7 +192,7 @@ def readme_example(tmp_path_factory):
 def test_each_controller_follows_the_model_inside_the_measured_range(readme_example, policy, capsys):
     folder, result = readme_example
     out = folder / f"comp_{policy}"
-    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--range", policy,
+    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--table-range", policy,
                  "--format", *sorted(CONTROLLER_FORMATS)]) == 0
     said = capsys.readouterr().out
     info = json.loads((out / "compensation.json").read_text())

@@ -1,7 +1,7 @@
 """``kinid compensate``: a fit -> axis error tables, constants, set-up, a calibrated URDF, controller files."""
 from __future__ import annotations
 
-from kinid.options import add_alias
+from kinid.options import add_alias, add_json_option, json_file
 
 __all__ = ["register"]
 
@@ -42,6 +42,7 @@ def register(sub) -> None:
                                                                 "(default: chosen like --step-mm)")
     # the folder is written whole (kinid.folders.staged_folder): no input may lie anywhere in it
     add_alias(p, "--range", "--table-range")
+    add_json_option(p, json_file("out", "compensation.json"), "compensation.json")
     p.set_defaults(run=_compensate, outputs={"out": "replaced folder"})
 
 

@@ -1,7 +1,7 @@
 """``kinid observe``: images and axis readings of a run -> the observation CSV (docs/observe.md)."""
 from __future__ import annotations
 
-from kinid.options import add_alias
+from kinid.options import add_alias, add_json_option, csv_rows
 
 from pathlib import Path
 
@@ -28,6 +28,7 @@ def register(sub) -> None:
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     add_alias(p, "--log", "--data")
+    add_json_option(p, csv_rows("out"), "the observation rows written")
     p.set_defaults(run=_observe, parameter_options={"board_origin_mm": "--board-origin-mm"})
 
 

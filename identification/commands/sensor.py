@@ -16,7 +16,7 @@ into the sensor file ``kinid observe`` reads, with its standard deviations. The 
 """
 from __future__ import annotations
 
-from kinid.options import add_alias
+from kinid.options import add_alias, add_json_option, json_file
 
 __all__ = ["register"]
 
@@ -45,6 +45,7 @@ def register(sub) -> None:
                    help="a sensor file whose other keys (camera, pixel size, stand-off) are kept")
     p.add_argument("--out", required=True, metavar="SENSOR.json", help="the sensor file to write")
     add_alias(p, "--sigma-mm", "--noise-mm")
+    add_json_option(p, json_file("out"), "the sensor file written")
     p.set_defaults(run=_sensor, outputs={"out": "file"})
 
 

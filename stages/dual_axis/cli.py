@@ -59,7 +59,8 @@ def register(subparsers) -> None:
     sim.add_argument("--repeatability-um", dest="repeat_um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
     add_alias(p, "--noise", "--noise-grey")
     add_alias(p, "--repeat-um", "--repeatability-um")
-    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"},
+    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm",
+                                                "noise_sigma": "--noise-grey", "repeat_um": "--repeatability-um"},
                    outputs=outputs)
 
 
