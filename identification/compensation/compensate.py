@@ -316,7 +316,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             notes.append(f"{a.name}: tables over {rng.source} {rng.low:.4g} .. {rng.high:.4g} {unit_q} of the travel "
                          f"{rng.travel[0]:.4g} .. {rng.travel[1]:.4g} {unit_q}; beyond, "
                          + ("the end values are held" if beyond == "hold" else "the compensation returns to zero")
-                         + (" (--range travel for the whole travel)" if range_policy == "data" else ""))
+                         + (" (--table-range travel for the whole travel)" if range_policy == "data" else ""))
         code = f"E{a.name}{a.name}"
         key = f"{code}_{'urad' if rotary else 'um'}"
         if code not in machine.error_codes or not np.any(probe.get(key, np.zeros(1)) != 0):

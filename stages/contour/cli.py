@@ -121,7 +121,7 @@ def _simulate(args) -> int:
         raise DataError(f"--sim-frames must be 8 .. 2000, got {args.sim_frames}")
     if args.path != "circle":
         raise DataError(f"--simulate renders a circular run: --path circle, got --path {args.path}", column="--path")
-    path = _path_from_args(args)  # --radius and --centre, if given, are the nominal circle's
+    path = _path_from_args(args)  # --radius-mm and --centre, if given, are the nominal circle's
     check_report(args)
     board = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
     camera = simulation_camera((512, 512), 0.03, k1=-0.05)
