@@ -1,23 +1,11 @@
-"""One vocabulary for every verb's options: old names kept as hidden aliases, and "did you mean" for a typo.
-
-Every verb names the same thing the same way (the table is in docs/cli.md): the measurement a verb computes
-from is ``--data``, the machine ``--machine``, the σ of a length ``--noise-um`` (``--noise-mm`` where mm is
-natural), image noise ``--noise-grey``, a pixel's size ``--pixel-um``, what a verb writes ``--out``, its
-result on standard output ``--json``. A name a verb used before stays as a hidden alias
-(:func:`add_alias`): it still works, and one warning names the new option.
-
-A typo gets a suggestion (:func:`did_you_mean`): an unknown verb, an unknown option or a value that is not one
-of an option's choices is one line with the closest name, exit status 2 (kinid.cli's parser).
-"""
+"""An option's old name kept as a hidden alias: it still works, and one warning names the new option."""
 from __future__ import annotations
 
 import argparse
 import copy
-import difflib
 import warnings
 
-__all__ = ["add_alias", "add_positional_alias", "add_json_option", "csv_rows", "json_file", "aliases_of",
-           "canonical_argv", "did_you_mean", "known_options", "OptionRenamed"]
+__all__ = ["add_alias", "add_positional_alias", "aliases_of", "canonical_argv", "OptionRenamed"]
 
 
 class OptionRenamed(UserWarning):
@@ -139,78 +127,3 @@ def canonical_argv(parser: argparse.ArgumentParser, argv: list) -> list:
             seen.add(name)
         out.append(action.canonical + eq + value)
     return out
-
-
-def known_options(parser: argparse.ArgumentParser) -> list:
-    """The option names ``parser`` shows (aliases and ``-h`` left out), its sub-commands' too."""
-    names = []
-    for a in parser._actions:
-        if isinstance(a, argparse._SubParsersAction):
-            for sub in a.choices.values():
-                names.extend(n for n in known_options(sub) if n not in names)
-        elif a.help != argparse.SUPPRESS and not isinstance(a, _AliasMixin):
-            names.extend(s for s in a.option_strings if s.startswith("--") and s != "--help")
-    return names
-
-
-def did_you_mean(word: str, choices, *, aliases=None) -> str:
-    """`` (did you mean X?)`` with the closest of ``choices`` to ``word`` (difflib), or ``""``.
-
-    ``aliases`` maps old names to new: a typo of an old name suggests the new one.
-    """
-    aliases = aliases or {}
-    pool = list(choices) + [a for a in aliases if a not in choices]
-    close = difflib.get_close_matches(word, pool, n=1, cutoff=0.6)
-    if not close:
-        return ""
-    return f" (did you mean {aliases.get(close[0], close[0])}?)"
-
-
-def add_json_option(parser: argparse.ArgumentParser, result, what: str) -> None:
-    """``--json``: after the verb has run, its result ``result(args)`` printed as one strict JSON value on
-    standard output, the verb's own text going to standard error (``what`` names the result in the help).
-
-    For verbs whose result is the file they write (:func:`json_file`, :func:`csv_rows`): the roof
-    (kinid.cli) prints it, so the verb's code is the same with or without ``--json``.
-    """
-    parser.add_argument("--json", action="store_true", help=f"print {what} as JSON on standard output (the "
-                                                            "text goes to standard error)")
-    parser.set_defaults(json_result=result)
-
-
-def json_file(dest: str, name: str | None = None):
-    """A ``result`` for :func:`add_json_option`: the JSON file the verb wrote at ``args.<dest>`` (inside it,
-    ``name``, when ``args.<dest>`` is a folder)."""
-    def result(args):
-        from pathlib import Path
-
-        from .untrusted import read_json
-
-        path = Path(getattr(args, dest))
-        return read_json(path / name if name else path)
-    return result
-
-
-def csv_rows(dest: str):
-    """A ``result`` for :func:`add_json_option`: the rows of the CSV the verb wrote at ``args.<dest>``, one
-    object per row (numbers as numbers, empty cells as null)."""
-    def result(args):
-        import csv
-        import io
-
-        from .untrusted import read_limited_text
-        from .files import MAX_CSV_BYTES
-
-        text = read_limited_text(getattr(args, dest), what="CSV file", max_bytes=MAX_CSV_BYTES)
-        return [{k: _cell(v) for k, v in row.items()}
-                for row in csv.DictReader(io.StringIO(text)) if any(row.values())]
-    return result
-
-
-def _cell(text):
-    if text is None or text.strip() == "":
-        return None
-    try:
-        return float(text) if any(c in text for c in ".eEn") else int(text)
-    except ValueError:
-        return text
