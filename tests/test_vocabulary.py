@@ -198,3 +198,96 @@ def test_a_typo_gets_one_line_with_the_closest_name(argv, line, capsys):
         assert err == line + "\n"
     else:
         assert "(did you mean add?)" in err
+
+
+# --- --json on the verbs that computed without it -------------------------------------------------------------
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+BC = str(ROOT / "urdf" / "five_axis_bc.urdf")
+
+
+def _json_run(argv, capsys):
+    import json
+
+    assert main(argv) == 0
+    out = capsys.readouterr()
+    return json.loads(out.out), out.err  # stdout is one strict JSON value and nothing else
+
+
+def _rows(path):
+    import csv
+
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_json_of_simulate_identify_predict_compensate_is_what_they_wrote(tmp_path, capsys):
+    import json
+
+    obs, fit, pred, comp = (str(tmp_path / n) for n in ("obs.csv", "fit.json", "pred.csv", "comp"))
+    rows, err = _json_run(["simulate", "--machine", BC, "--errors", str(ROOT / "examples" / "errors.json"),
+                           "--noise-um", "1", "--out", obs, "--json"], capsys)
+    written = _rows(obs)
+    assert len(rows) == len(written) > 0
+    assert all(r["mark"] == w["mark"] and r["x_mm"] == pytest.approx(float(w["x_mm"]), abs=1e-9)
+               for r, w in zip(rows, written))
+    doc, err = _json_run(["identify", "--machine", BC, "--data", obs, "--noise-um", "1", "--out", fit, "--json"],
+                         capsys)
+    assert doc == json.loads(open(fit).read()) and "rms" in err.lower()  # the text went to stderr
+    rows, _ = _json_run(["predict", "--fit", fit, "--poses", str(ROOT / "examples" / "poses.csv"), "--out", pred,
+                         "--json"], capsys)
+    assert [r["x_mm"] for r in rows] == pytest.approx([float(w["x_mm"]) for w in _rows(pred)], abs=1e-9)
+    doc, _ = _json_run(["compensate", "--fit", fit, "--out", comp, "--json"], capsys)
+    assert doc == json.loads(open(f"{comp}/compensation.json").read())
+
+
+def test_json_of_model_names_what_the_machine_holds(tmp_path, capsys):
+    import re
+
+    out = tmp_path / "ur.urdf"
+    doc, _ = _json_run(["model", "--urdf", str(ROOT / "examples" / "ur_like.urdf"), "--base", "world", "--tool",
+                        "wrist_3_link", "--out", str(out), "--json"], capsys)
+    assert [a["name"] for a in doc["axes"]] == [f"J{i}" for i in range(1, 7)]
+    assert doc["axes"][0]["joint"] == "shoulder_pan_joint" and doc["axes"][0]["column"] == "j1_deg"
+    # error joints as the written URDF declares them (joints whose name is an ISO 230-1 code, E...)
+    declared = re.findall(r'<joint name="(E[A-Z0-9]+)"', out.read_text())
+    assert sorted(doc["error_parameters"]) == sorted(declared) and len(declared) > 0
+
+
+def test_json_of_sensor_is_the_file_and_json_with_out_dash_is_refused(tmp_path, capsys):
+    import json
+
+    out = tmp_path / "s.json"
+    doc, _ = _json_run(["sensor", "--machine", BC, "--hole", str(ROOT / "examples" / "sensor_hole.csv"), "--base",
+                        str(ROOT / "examples" / "run" / "sensor.json"), "--out", str(out), "--json"], capsys)
+    assert doc == json.loads(out.read_text())
+    assert main(["predict", "--fit", "f.json", "--poses", "p.csv", "--out", "-", "--json"]) == 2
+    assert "--json and an output '-' both print" in capsys.readouterr().err
+
+
+# --- a missing column names its likely typo -------------------------------------------------------------------
+
+@pytest.mark.parametrize("old, new, hint", [
+    ("x_mm", "xmm", "missing column 'x_mm' for axis X (did you mean 'xmm'?)"),
+    ("wx_mm", "wxmm", "missing column 'wx_mm' (did you mean 'wxmm'? header:"),
+    ("dir_x", "dir_xx", "'dir_' column for unknown axis 'xx'; did you mean 'dir_x'?"),
+])
+def test_a_misspelt_column_is_named(old, new, hint, tmp_path):
+    from kinid.errors import DataError
+    from kinid.identification import load_machine, read_observations
+
+    header = ["mark", "wx_mm", "wy_mm", "wz_mm", "x_mm", "y_mm", "z_mm", "b_deg", "c_deg", "dir_x"]
+    text = ",".join(new if h == old else h for h in header) + "\nM1,40,40,0,10,0,10,0,0,1\n"
+    (tmp_path / "o.csv").write_text(text)
+    with pytest.raises(DataError, match=__import__("re").escape(hint)):
+        read_observations(tmp_path / "o.csv", load_machine(BC))
+
+
+def test_a_column_far_from_every_name_gets_no_guess(tmp_path):
+    from kinid.errors import DataError
+    from kinid.identification import load_machine, read_observations
+
+    (tmp_path / "o.csv").write_text("mark,wx_mm,wy_mm,wz_mm,temperature,y_mm,z_mm,b_deg,c_deg\nM1,0,0,0,1,2,3,4,5\n")
+    with pytest.raises(DataError) as exc:
+        read_observations(tmp_path / "o.csv", load_machine(BC))
+    assert "missing column 'x_mm' for axis X" in str(exc.value) and "did you mean" not in str(exc.value)
