@@ -260,9 +260,9 @@ def _run(argv) -> int:
         else:
             status = args.run(args)
         if result is not None and not status:
-            from .files import strict_json
+            from .options import json_text
 
-            print(strict_json(result(args)))
+            print(json_text(result(args)))
     except KinidError as exc:
         if exc.parameter is not None and parser is not None:
             option = _option_for(parser, args, verb, exc.parameter)

@@ -35,7 +35,7 @@ KEPT = {
 }
 
 #: Verbs that compute a result and so print it with --json.
-COMPUTING = ("plan", "identify", "diagnose", "predict", "model", "compensate", "verify", "sensor", "observe",
+COMPUTING = ("plan", "simulate", "identify", "diagnose", "predict", "model", "compensate", "verify", "sensor", "observe",
              "markers", "backlash", "uvw", "dual-axis", "contour", "iso230-2")
 
 

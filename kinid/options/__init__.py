@@ -13,8 +13,8 @@ Modules: :mod:`.aliases` (old names), :mod:`.suggestions` (did you mean), :mod:`
 Imports only the standard library and the rest of the ground floor (no NumPy: building a parser stays light).
 """
 from .aliases import OptionRenamed, add_alias, add_positional_alias, aliases_of, canonical_argv
-from .json_result import add_json_option, csv_rows, json_file
+from .json_result import WrittenJson, add_json_option, csv_rows, json_file, json_text
 from .suggestions import did_you_mean, known_options
 
-__all__ = ["add_alias", "add_positional_alias", "add_json_option", "csv_rows", "json_file", "aliases_of",
-           "canonical_argv", "did_you_mean", "known_options", "OptionRenamed"]
+__all__ = ["add_alias", "add_positional_alias", "add_json_option", "csv_rows", "json_file", "json_text",
+           "WrittenJson", "aliases_of", "canonical_argv", "did_you_mean", "known_options", "OptionRenamed"]

@@ -2,8 +2,9 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
-__all__ = ["add_json_option", "csv_rows", "json_file"]
+__all__ = ["add_json_option", "csv_rows", "json_file", "json_text", "WrittenJson"]
 
 
 def add_json_option(parser: argparse.ArgumentParser, result, what: str) -> None:
@@ -18,17 +19,33 @@ def add_json_option(parser: argparse.ArgumentParser, result, what: str) -> None:
     parser.set_defaults(json_result=result)
 
 
+@dataclass(frozen=True)
+class WrittenJson:
+    """The JSON file a verb wrote (kinid's own strict JSON, checked when it was made): printed as written."""
+
+    path: str
+
+
 def json_file(dest: str, name: str | None = None):
     """A ``result`` for :func:`add_json_option`: the JSON file the verb wrote at ``args.<dest>`` (inside it,
     ``name``, when ``args.<dest>`` is a folder)."""
     def result(args):
         from pathlib import Path
 
-        from ..untrusted import read_json
-
         path = Path(getattr(args, dest))
-        return read_json(path / name if name else path)
+        return WrittenJson(str(path / name if name else path))
     return result
+
+
+def json_text(value) -> str:
+    """What ``--json`` prints for a verb's result: a :class:`WrittenJson` file's text, any other value as
+    strict JSON (kinid.files.strict_json)."""
+    from ..files import MAX_JSON_BYTES, strict_json
+    from ..untrusted import read_limited_text
+
+    if isinstance(value, WrittenJson):
+        return read_limited_text(value.path, what="JSON file", max_bytes=MAX_JSON_BYTES).strip()
+    return strict_json(value)
 
 
 def csv_rows(dest: str):
