@@ -5,7 +5,7 @@ Run: ``python benchmarks/bench_compensation.py`` (a few seconds).
 The README's five-axis example: ``examples/errors.json`` (a 10 mm lead of X among location errors) on
 the patent plan with 1 µm noise, fitted with ``EXX:periodic:10``, compensated by ``kinid compensate``
 with every registered controller format, once with the tables over the measured readings (the
-default) and once over the URDF travel (``--range travel``). Each file is read back as its controller
+default) and once over the URDF travel (``--table-range travel``). Each file is read back as its controller
 reads it (tests/controller_consumers.py: its units, signs, point rules, modulo and held ends) and its
 interpolation compared with the fitted model inside the measured range.
 
@@ -49,7 +49,7 @@ def main(seed: int = 0):
     for policy in ("data", "travel"):
         out = folder / policy
         with redirect_stdout(io.StringIO()):
-            kinid(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--range", policy,
+            kinid(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--table-range", policy,
                    "--format", *sorted(CONTROLLER_FORMATS)])
         info = json.loads((out / "compensation.json").read_text())
         for e in info["controller_files"]:

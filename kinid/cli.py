@@ -57,10 +57,65 @@ VERBS = {
 
 
 class _Parser(argparse.ArgumentParser):
-    """Argument errors as one line on stderr and exit status 2."""
+    """Argument errors as one line on stderr and exit status 2, a typo with the closest name; an option's old
+    name (a hidden alias, :func:`kinid.options.add_alias`) read as its new one with one warning."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        from .options import canonical_argv
+
+        if args is not None:
+            args = canonical_argv(self, list(args))
+            self._given = args
+        return super().parse_known_args(args, namespace)
+
+    def parse_args(self, args=None, namespace=None):
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            _unknown_option(self, parsed, extras)
+        return parsed
 
     def error(self, message):  # noqa: D401 - argparse API
-        self.exit(2, f"{self.prog}: {message}\n")
+        unknown = [a for a in getattr(self, "_given", ()) if a.startswith("--") and a != "--"
+                   and not any(o.startswith(a.partition("=")[0]) for o in self._option_string_actions)]
+        if unknown and message.startswith("the following arguments are required"):
+            _unknown_option(self, argparse.Namespace(), unknown)  # the typo, not what it left missing
+        self.exit(2, f"{self.prog}: {_with_suggestion(message)}\n")
+
+
+def _with_suggestion(message: str) -> str:
+    """argparse's 'invalid choice' with the closest choice first: ``invalid choice: 'identfy' (did you mean
+    identify?)``; other messages as they are."""
+    import re
+
+    from .options import did_you_mean
+
+    m = re.search(r"invalid choice: '?(.*?)'? \(choose from (.*)\)$", message)
+    if not m:
+        return message
+    choices = [c.strip().strip("'") for c in m.group(2).split(",")]
+    hint = did_you_mean(m.group(1), choices)
+    if message.startswith("argument VERB:"):
+        return f"unknown verb '{m.group(1)}'{hint}; kinid --help lists the verbs"
+    return message[:m.start(2) - len("(choose from ")] + (hint.strip() + " " if hint else "") + \
+        f"(choose from {m.group(2)})"
+
+
+def _unknown_option(parser, parsed, extras) -> None:
+    """One line for arguments no option of the verb takes, naming the closest option of the verb."""
+    from .options import aliases_of, did_you_mean, known_options
+
+    verb_parser = parser
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    if sub is not None and getattr(parsed, sub.dest, None) in sub.choices:
+        verb_parser = sub.choices[getattr(parsed, sub.dest)]
+    options = known_options(verb_parser)
+    renamed = {old: a.canonical for old, a in aliases_of(verb_parser).items()}
+    word = next((e for e in extras if e.startswith("-")), extras[0])
+    if word.startswith("-"):
+        name = word.partition("=")[0]
+        verb_parser.error(f"unknown option {name}{did_you_mean(name, options, aliases=renamed)}; "
+                          f"{verb_parser.prog} --help lists its options")
+    verb_parser.error(f"unrecognized arguments: {' '.join(extras)}")
 
 
 def _version() -> str:
@@ -112,7 +167,7 @@ def _option_for(parser: argparse.ArgumentParser, args, verb: str | None, paramet
     sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
     verb_parser = sub.choices.get(verb) if sub is not None and verb else None
     for action in verb_parser._actions if verb_parser is not None else ():
-        if action.dest == parameter and action.option_strings:
+        if action.dest == parameter and action.option_strings and not getattr(action, "canonical", None):
             return max(action.option_strings, key=len)
     return None
 
@@ -127,7 +182,7 @@ def _check_files(parser, args, verb) -> None:
     from .files import check_outputs
 
     outputs = getattr(args, "outputs", None) or DEFAULT_OUTPUTS
-    skip = {"run", "outputs", "parameter_options", "verb"}
+    skip = {"run", "outputs", "parameter_options", "verb", "json_result"}
 
     def option(dest):
         return _option_for(parser, args, verb, dest) or dest
@@ -194,12 +249,20 @@ def _run(argv) -> int:
         parser = build_parser(verb)
         args = parser.parse_args(argv)
         _check_files(parser, args, verb)
-        if "-" in (getattr(args, dest, None) for dest in (getattr(args, "outputs", None) or DEFAULT_OUTPUTS)):
+        to_stdout = "-" in (getattr(args, dest, None) for dest in (getattr(args, "outputs", None) or DEFAULT_OUTPUTS))
+        result = getattr(args, "json_result", None) if getattr(args, "json", False) else None
+        if result is not None and to_stdout:
+            raise KinidError("--json and an output '-' both print to standard output: give one of them")
+        if to_stdout or result is not None:
             # the data go to standard output: the verb's messages go to standard error
             with contextlib.redirect_stdout(sys.stderr):
                 status = args.run(args)
         else:
             status = args.run(args)
+        if result is not None and not status:
+            from .options import json_text
+
+            print(json_text(result(args)))
     except KinidError as exc:
         if exc.parameter is not None and parser is not None:
             option = _option_for(parser, args, verb, exc.parameter)

@@ -68,8 +68,9 @@ class CsvColumns:
         return out
 
 
-def read_csv_columns(path, *, what: str = "CSV file", required=(), texts=()) -> CsvColumns:
-    """Read a CSV table with a header row into columns (module docstring); ``texts``: columns kept as text.
+def read_csv_columns(path, *, what: str = "CSV file", required=(), texts=(), known=()) -> CsvColumns:
+    """Read a CSV table with a header row into columns (module docstring); ``texts``: columns kept as text;
+    ``known``: other columns the reader uses (never suggested for a missing required one).
 
     Raises
     ------
@@ -78,7 +79,7 @@ def read_csv_columns(path, *, what: str = "CSV file", required=(), texts=()) -> 
     """
     path = Path(path)
     rows = iter_csv_rows(path, what=what)
-    header_line, header = checked_header(path, next(rows, None), required)
+    header_line, header = checked_header(path, next(rows, None), required, known)
     kept = [k for k, h in enumerate(header) if h in texts]
     values = [array("d") for _ in header]
     text = {header[k]: [] for k in kept}

@@ -214,9 +214,10 @@ def read_csv_table(path, *, what: str = "CSV file", required=()) -> tuple:
     return header_line, header, rows[1:]
 
 
-def checked_header(path, first, required=()) -> tuple:
+def checked_header(path, first, required=(), known=()) -> tuple:
     """``(header_line, header)`` of a CSV table's first row ``(line, cells)`` (None: an empty file), the cells
-    stripped; DataError for an empty file, a column given twice or a ``required`` one missing."""
+    stripped; DataError for an empty file, a column given twice or a ``required`` one missing (with the
+    closest column neither required nor ``known`` as a likely typo of it)."""
     from .errors import DataError
 
     if first is None:
@@ -228,8 +229,19 @@ def checked_header(path, first, required=()) -> tuple:
                         column=next(h for h in header if header.count(h) > 1))
     for col in required:
         if col not in header:
-            raise DataError(f"missing column {col!r} (header: {', '.join(header)})", path=path, line=header_line)
+            hint = column_hint(col, [h for h in header if h not in required and h not in known])
+            raise DataError(f"missing column {col!r} ({hint}header: {', '.join(header)})", path=path,
+                            line=header_line)
     return header_line, header
+
+
+def column_hint(wanted: str, unused) -> str:
+    """``"did you mean 'x_m'? "`` when one of the columns a reader did not use (``unused``) is a likely typo of
+    the column ``wanted`` it misses (difflib's ratio at least 0.6), else ``""``."""
+    import difflib
+
+    close = difflib.get_close_matches(wanted, list(unused), n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}? " if close else ""
 
 
 def check_row_width(path, line, cells, header) -> None:

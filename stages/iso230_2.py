@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from kinid.errors import DataError
+from kinid.options import add_positional_alias
 
 if TYPE_CHECKING:  # numpy is imported by the functions that compute: ``kinid iso230-2 --help`` loads without it
     import numpy as np
@@ -274,16 +275,19 @@ def register(subparsers) -> None:
         description="Evaluate bidirectional positioning runs of one axis by ISO 230-2: A, E, R, M, B, the mean "
                     "reversal value and the unidirectional values. RUNS.csv columns: "
                     "target_mm,run,direction,deviation_um (direction +1/-1; deviation = measured - target, µm).")
-    p.add_argument("runs", metavar="RUNS.csv", help="bidirectional positioning runs")
+    p.add_argument("--data", dest="runs", metavar="RUNS.csv", help="bidirectional positioning runs (required)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys A_um, E_um, R_um, M_um, B_um, ...)")
     p.add_argument("--plot", metavar="OUT.png", help="mean deviations ±2s per direction against the target")
     p.add_argument("--axis", default="", metavar="NAME", help="the axis measured, for the report (e.g. X)")
     p.add_argument("--report", metavar="DIR", help="write the test report into DIR: the standard's values, the "
                                                    "table per target, the plot (HTML, one-file HTML and PDF)")
+    add_positional_alias(p, "RUNS.csv", "--data")
     p.set_defaults(run=_run, outputs={"plot": "file", "report": "replaced folder"})
 
 
 def _run(args) -> int:
+    if args.runs is None:
+        raise DataError("no runs given: --data RUNS.csv (target_mm,run,direction,deviation_um)")
     target, direction, deviation = read_runs(args.runs)
     try:
         result = evaluate_runs(target, direction, deviation)

@@ -98,7 +98,7 @@ def compensated(tmp_path_factory):
     save_fit(result, folder / "fit.json")
     # LinuxCNC's 256 points cannot follow the 10 mm lead over the 1200 mm travel: refused (below)
     assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(folder / "out"), "--all-terms",
-                 "--range", "travel", "--step-mm", "0.5", "--step-deg", "0.5", "--format", "twincat", "sinumerik"]) == 0
+                 "--table-range", "travel", "--step-mm", "0.5", "--step-deg", "0.5", "--format", "twincat", "sinumerik"]) == 0
     return folder / "out", result
 
 
@@ -173,7 +173,7 @@ def test_linuxcnc_over_the_travel_is_refused_and_over_the_data_holds_the_reversa
     fit_json = folder.parent / "fit.json"
     capsys.readouterr()
     assert main(["compensate", "--fit", str(fit_json), "--out", str(folder.parent / "lcnc_travel"), "--all-terms",
-                 "--range", "travel", "--step-mm", "0.5", "--format", "linuxcnc"]) == 2
+                 "--table-range", "travel", "--step-mm", "0.5", "--format", "linuxcnc"]) == 2
     err = capsys.readouterr().err
     assert "X.comp: applied as the controller applies it, it would leave" in err and " at X = " in err
     assert len(err.strip().splitlines()) == 1 and not (folder.parent / "lcnc_travel").exists()

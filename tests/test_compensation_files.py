@@ -194,7 +194,7 @@ def test_each_controller_follows_the_model_inside_the_measured_range(readme_exam
     out = folder / f"comp_{policy}"
     # over the travel LinuxCNC's 256 points cannot follow the lead: refused (tests/test_compensate.py)
     formats = sorted(CONTROLLER_FORMATS) if policy == "data" else ["sinumerik", "twincat"]
-    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--range", policy,
+    assert main(["compensate", "--fit", str(folder / "fit.json"), "--out", str(out), "--table-range", policy,
                  "--format", *formats]) == 0
     said = capsys.readouterr().out
     info = json.loads((out / "compensation.json").read_text())

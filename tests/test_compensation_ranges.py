@@ -101,10 +101,10 @@ def test_tables_of_a_wide_travel_cover_the_readings_and_are_never_worse(poly_b, 
 def test_range_travel_is_refused_where_the_travel_is_more_than_the_data(poly_b, capsys):
     folder, fit_json, _ = poly_b
     capsys.readouterr()
-    assert main(["compensate", "--fit", str(fit_json), "--out", str(folder / "travel"), "--range", "travel"]) == 2
+    assert main(["compensate", "--fit", str(fit_json), "--out", str(folder / "travel"), "--table-range", "travel"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1
-    assert "--range travel: axis B's travel" in err and "--range data" in err
+    assert "--table-range travel: axis B's travel" in err and "--table-range data" in err
     assert not (folder / "travel").exists()
 
 

@@ -51,8 +51,8 @@ def test_local_dask_cluster_gives_the_pools_tracks_bit_for_bit(frames):
 
 
 def test_contour_cli_with_scheduler(frames, tmp_path, capsys):
-    args = ["contour", "--frames", str(frames / "frames"), "--board", str(frames / "board.json"),
-            "--pixel-mm", str(PIXEL_MM)]
+    args = ["contour", "--data", str(frames / "frames"), "--board", str(frames / "board.json"),
+            "--pixel-um", str(PIXEL_MM * 1e3)]
     assert main([*args, "--out", str(tmp_path / "a.csv")]) == 0
     assert main([*args, "--out", str(tmp_path / "b.csv"), "--scheduler", "local"]) == 0
     assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
@@ -60,8 +60,8 @@ def test_contour_cli_with_scheduler(frames, tmp_path, capsys):
 
 
 def test_unreachable_scheduler_is_one_line(frames, tmp_path, capsys):
-    status = main(["contour", "--frames", str(frames / "frames"), "--board", str(frames / "board.json"),
-                   "--pixel-mm", str(PIXEL_MM), "--out", str(tmp_path / "a.csv"), "--scheduler", "tcp://127.0.0.1:9"])
+    status = main(["contour", "--data", str(frames / "frames"), "--board", str(frames / "board.json"),
+                   "--pixel-um", str(PIXEL_MM * 1e3), "--out", str(tmp_path / "a.csv"), "--scheduler", "tcp://127.0.0.1:9"])
     err = capsys.readouterr().err
     assert status == 2 and "cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'" in err and err.count("\n") == 1, err
 
@@ -93,8 +93,8 @@ def test_a_scheduler_that_cannot_serve_is_one_line_within_the_time_out(frames, t
         address = cluster.scheduler_address
     try:
         started = time.monotonic()
-        status = main(["contour", "--frames", str(frames / "frames"), "--board", str(frames / "board.json"),
-                       "--pixel-mm", str(PIXEL_MM), "--out", str(tmp_path / "a.csv"), "--scheduler", address])
+        status = main(["contour", "--data", str(frames / "frames"), "--board", str(frames / "board.json"),
+                       "--pixel-um", str(PIXEL_MM * 1e3), "--out", str(tmp_path / "a.csv"), "--scheduler", address])
         seconds = time.monotonic() - started
     finally:
         for close in cleanup:

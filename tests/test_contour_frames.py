@@ -104,7 +104,7 @@ def test_worker_processes_end_when_kinid_is_killed(tmp_path):
 
     assert main(["contour", "--simulate", "--sim-frames", "120", "--workers", "1", "--keep", str(tmp_path / "run")]) == 0
     run = tmp_path / "run"
-    p = subprocess.Popen([sys.executable, "-m", "kinid", "contour", "--frames", str(run / "frames"), "--board",
+    p = subprocess.Popen([sys.executable, "-m", "kinid", "contour", "--data", str(run / "frames"), "--board",
                           str(run / "board.json"), "--camera", str(run / "camera.json"), "--out",
                           str(tmp_path / "t.csv"), "--workers", "2"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline, helpers = time.monotonic() + 60, set()

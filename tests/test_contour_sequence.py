@@ -89,7 +89,7 @@ def test_pixel_mm_mode_and_video_source_agree(seq, tmp_path):
 def test_cli_json_csv_plot(seq, tmp_path, capsys):
     root, cam, s = seq
     out, png = tmp_path / "track.csv", tmp_path / "polar.png"
-    status = main(["contour", "--frames", str(root / "frames"), "--board", str(root / "board.json"), "--camera",
+    status = main(["contour", "--data", str(root / "frames"), "--board", str(root / "board.json"), "--camera",
                    str(root / "camera.json"), "--path", "circle", "--fps", "80", "--out", str(out), "--json",
                    "--plot", str(png)])
     assert status == 0
@@ -122,8 +122,8 @@ def test_cli_report_and_polyline_path(seq, tmp_path, capsys):
     poly.write_text("x_mm,y_mm\n" + "\n".join(f"{centre[0] + RADIUS_MM * np.cos(a):.9f},"
                                                f"{centre[1] + RADIUS_MM * np.sin(a):.9f}" for a in phi) + "\n")
     out = tmp_path / "track.csv"
-    status = main(["contour", "--frames", str(root / "frames"), "--board", str(root / "board.json"), "--pixel-mm",
-                   str(PIXEL_MM), "--path", "polyline", "--path-file", str(poly), "--out", str(out)])
+    status = main(["contour", "--data", str(root / "frames"), "--board", str(root / "board.json"), "--pixel-um",
+                   str(PIXEL_MM * 1e3), "--path", "polyline", "--path-file", str(poly), "--out", str(out)])
     assert status == 0
     text = capsys.readouterr().out
     assert "located 23" in text and "contour error" in text
@@ -137,10 +137,10 @@ def test_cli_report_and_polyline_path(seq, tmp_path, capsys):
 
 @pytest.mark.parametrize("args, message", [
     (["--board", "BAD"], "board.json: codes: missing"),
-    (["--frames", "EMPTY"], "no image files"),
+    (["--data", "EMPTY"], "no image files"),
     (["--centre", "1;2"], "--centre expects two numbers X,Y in mm, got '1;2'"),
     (["--path", "polyline"], "--path polyline needs --path-file"),
-    (["--pixel-mm", "-0.03"], "--pixel-mm must be a positive number"),
+    (["--pixel-um", "-30"], "--pixel-um must be a positive number"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(seq, tmp_path, capsys, args, message):
     root, cam, s = seq
@@ -149,7 +149,7 @@ def test_cli_bad_input_exits_2_with_one_line(seq, tmp_path, capsys, args, messag
                                if k != "codes"}))
     empty = tmp_path / "empty"
     empty.mkdir()
-    opts = {"--frames": str(root / "frames"), "--board": str(root / "board.json"), "--pixel-mm": str(PIXEL_MM),
+    opts = {"--data": str(root / "frames"), "--board": str(root / "board.json"), "--pixel-um": str(PIXEL_MM * 1e3),
             "--out": str(tmp_path / "t.csv")}
     extra = []
     for k, v in zip(args[::2], args[1::2]):

@@ -15,15 +15,15 @@ def test_simulate_reports_measured_against_true_and_keeps_the_frames(tmp_path, c
     assert s["track_rms_error_um"] < 0.5
     assert abs(s["contour_rms_um"] - s["true_contour_rms_um"]) < 0.1 and s["true_contour_rms_um"] > 1.0
     run = tmp_path / "run"
-    assert main(["contour", "--frames", str(run / "frames"), "--board", str(run / "board.json"), "--camera",
+    assert main(["contour", "--data", str(run / "frames"), "--board", str(run / "board.json"), "--camera",
                  str(run / "camera.json"), "--out", str(tmp_path / "real.csv")]) == 0
     rows = lambda p: [ln.split(",")[2:4] for ln in p.read_text().splitlines()[1:]]  # noqa: E731
     assert rows(tmp_path / "real.csv") == rows(tmp_path / "sim.csv")
 
 
 def test_measured_frames_need_their_inputs(capsys):
-    assert main(["contour", "--frames", "x"]) == 2
-    assert "measured frames need --board, --out, --pixel-mm or --camera" in capsys.readouterr().err
+    assert main(["contour", "--data", "x"]) == 2
+    assert "measured frames need --board, --out, --pixel-um or --camera" in capsys.readouterr().err
 
 
 def test_contour_report(tmp_path, capsys):
@@ -36,7 +36,7 @@ def test_contour_report(tmp_path, capsys):
 def test_simulate_measures_against_the_radius_given(tmp_path, capsys):
     """--radius with --simulate is the nominal circle (it was ignored, and the report then stated the fitted radius
     as the nominal R0 without saying it was fitted); --simulate with a path other than a circle is refused."""
-    assert main(["contour", "--simulate", "--sim-frames", "16", "--radius", "8.05", "--report", str(tmp_path / "rep")]) == 0
+    assert main(["contour", "--simulate", "--sim-frames", "16", "--radius-mm", "8.05", "--report", str(tmp_path / "rep")]) == 0
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "nominal radius R0</td><td>8.0500 mm</td>" in page
     capsys.readouterr()

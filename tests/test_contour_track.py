@@ -86,7 +86,7 @@ def test_noise_stays_within_the_reported_sigma():
 
 def test_scale_comes_from_the_board_not_the_nominal_pixel():
     truth = truth_track(n=30)
-    with pytest.warns(UserWarning, match=r"pixel size \+3\.00% different from --pixel-mm"):
+    with pytest.warns(UserWarning, match=r"pixel size \+3\.00% different from --pixel-um"):
         track = estimate_track(detections(truth, scale=1.03), BOARD, FrameSettings(pixel_mm=PIXEL_MM))
     np.testing.assert_allclose(track.xy_mm, truth, atol=1e-9)
     assert track.scale == pytest.approx(1.03)

@@ -97,14 +97,14 @@ NUMBER_CASES = [
                                         "--out", "f.json"], r"--noise-um must be a number in \[0\.0001, 100000\] \(σ in µm\), got 1e-300"),
     ("diagnose σ 1e300 µm", lambda d: ["diagnose", "--fit", "fit.json", "--data", "obs.csv", "--noise-um", "1e300"],
      r"--noise-um must be a number in \[0\.0001, 100000\] \(σ in µm\)"),
-    ("sensor σ 1e300 mm", lambda d: ["sensor", "--machine", "m.urdf", "--hole", _text(d, "hole.csv", HOLE), "--sigma-mm", "1e300",
-                                     "--out", "s.json"], r"--sigma-mm must be a number in \[1e-07, 100\] \(σ in mm\), got 1e\+300"),
+    ("sensor σ 1e300 mm", lambda d: ["sensor", "--machine", "m.urdf", "--hole", _text(d, "hole.csv", HOLE), "--noise-mm", "1e300",
+                                     "--out", "s.json"], r"--noise-mm must be a number in \[1e-07, 100\] \(σ in mm\), got 1e\+300"),
     ("sensor stand-off 1e-30 mm", lambda d: ["sensor", "--machine", "m.urdf", "--sphere", _text(d, "hole.csv", HOLE),
                                              "--standoff-mm", "1e-30", "--out", "s.json"], r"--standoff-mm must be a number in \[0\.0001, 100000\]"),
     ("plan σ 1e300 µm", lambda d: PLAN + ["--noise-um", "1e300"], r"--noise-um must be a number in \[0\.0001, 100000\]"),
     ("plan alignment 1e308 s", lambda d: PLAN + ["--align-s", "1e308"], r"--align-s must be a number in \[0, 1e\+06\] \(time in s\)"),
     ("plan speed 1e-300", lambda d: PLAN + ["--speed-mm-s", "1e-300"], r"--speed-mm-s must be a number in \[0\.001, 1e\+06\]"),
-    ("iso230-2 deviation 1e155 µm", lambda d: ["iso230-2", _text(d, "runs.csv", "target_mm,run,direction,deviation_um\n" + "".join(
+    ("iso230-2 deviation 1e155 µm", lambda d: ["iso230-2", "--data", _text(d, "runs.csv", "target_mm,run,direction,deviation_um\n" + "".join(
         f"{t},{r},{s},{1e155 if (t, r, s) == (10, 2, -1) else 1.5}\n" for t in (0, 10) for r in (1, 2) for s in (1, -1))), "--json"],
      r"runs\.csv:\d+, column 'deviation_um': a deviation of 1e\+155 µm is beyond 1e\+06 µm"),
     ("compensate step 1e-9 mm", lambda d: ["compensate", "--fit", "fit.json", "--out", "comp", "--step-mm", "1e-9"],

@@ -34,7 +34,7 @@ def test_readable_report_and_plot(tmp_path, capsys):
     (["--steps", "0"], "--steps must be an integer >= 1, got 0"),
     (["--step-mm", "-2"], "--step-mm must be positive"),
     (["--spec-um", "0"], "--spec-um must be a positive number"),
-    (["--noise", "-1"], "--noise must be a non-negative number"),
+    (["--noise-grey", "-1"], "--noise-grey must be a non-negative number"),
     (["--steps", "60", "--step-mm", "10"], "outside its travel"),
 ])
 def test_bad_input_one_line_exit_2(argv, match, capsys):

@@ -23,8 +23,8 @@ PIXEL_TO_MM = ["0.0049931", "0.0002617", "0.0002617", "-0.0049931"]
 
 def _commands(d: Path) -> list:
     """Every command that draws, with its outputs in ``d``."""
-    backlash = ["backlash", "--log", str(STAGES / "backlash" / "log.csv"), "--travel-mm", "0.4"]
-    uvw = ["uvw", "--moves", str(STAGES / "uvw_moves.csv"), "--lead-um", "2000"]
+    backlash = ["backlash", "--data", str(STAGES / "backlash" / "log.csv"), "--travel-mm", "0.4"]
+    uvw = ["uvw", "--data", str(STAGES / "uvw_moves.csv"), "--lead-um", "2000"]
     dual = ["dual-axis", "--data", str(STAGES / "dual_axis.csv"), "--pixel-to-mm", *PIXEL_TO_MM]
     contour = ["contour", "--simulate", "--sim-frames", "40", "--workers", "1"]
     return [
@@ -40,7 +40,7 @@ def _commands(d: Path) -> list:
         [*dual, "--report", str(d / "dual"), "--plot", str(d / "dual.png")],
         ["dual-axis", "--simulate", "--plot", str(d / "dual_sim.png")],
         [*contour, "--report", str(d / "contour"), "--plot", str(d / "contour.png")],
-        ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--plot", str(d / "iso.png"), "--report",
+        ["iso230-2", "--data", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--plot", str(d / "iso.png"), "--report",
          str(d / "iso")],
     ]
 

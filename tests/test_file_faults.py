@@ -40,21 +40,21 @@ CALLS = {
     ("sensor", "--out"): ["sensor", "--machine", MACHINE, "--hole", str(EXAMPLES / "sensor_hole.csv"), "--base",
                           str(RUN / "sensor.json")],
     ("observe", "--out"): ["observe", "--machine", MACHINE, "--board", str(RUN / "board.json"), "--sensor",
-                           str(RUN / "sensor.json"), "--log", str(RUN / "log.csv")],
+                           str(RUN / "sensor.json"), "--data", str(RUN / "log.csv")],
     ("board", "--out"): ["board", "--rows", "3", "--cols", "4"],
     ("board", "--svg"): ["board", "--rows", "3", "--cols", "4", "--out", "{d}/b_{u}.json"],
     ("board", "--pdf"): ["board", "--rows", "3", "--cols", "4", "--out", "{d}/b_{u}.json"],
     ("markers", "--draw"): ["markers", str(RUN / "images" / "000.png")],
-    ("backlash", "--out"): ["backlash", "--log", BACKLASH, "--travel-mm", "0.4"],
-    ("backlash", "--plot"): ["backlash", "--log", BACKLASH, "--travel-mm", "0.4"],
+    ("backlash", "--out"): ["backlash", "--data", BACKLASH, "--travel-mm", "0.4"],
+    ("backlash", "--plot"): ["backlash", "--data", BACKLASH, "--travel-mm", "0.4"],
     ("backlash", "--plan-out"): ["backlash", "--travel-mm", "0.4"],
-    ("uvw", "--out"): ["uvw", "--moves", MOVES, "--lead-um", "2000"],
-    ("uvw", "--plot"): ["uvw", "--moves", MOVES, "--lead-um", "2000"],
+    ("uvw", "--out"): ["uvw", "--data", MOVES, "--lead-um", "2000"],
+    ("uvw", "--plot"): ["uvw", "--data", MOVES, "--lead-um", "2000"],
     ("dual-axis", "--out"): ["dual-axis", "--data", DUAL, "--pixel-to-mm", *PIXEL_TO_MM],
     ("dual-axis", "--plot"): ["dual-axis", "--data", DUAL, "--pixel-to-mm", *PIXEL_TO_MM],
     ("contour", "--out"): ["contour", "--simulate", "--sim-frames", "12", "--workers", "1"],
     ("contour", "--plot"): ["contour", "--simulate", "--sim-frames", "12", "--workers", "1"],
-    ("iso230-2", "--plot"): ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X"],
+    ("iso230-2", "--plot"): ["iso230-2", "--data", str(EXAMPLES / "x_runs.csv"), "--axis", "X"],
 }
 
 
@@ -162,8 +162,8 @@ def _inject(monkeypatch, out: Path, fault: str, code: int) -> None:
 
 
 @pytest.mark.parametrize("argv", [
-    ["uvw", "--moves", MOVES, "--lead-um", "2000", "--json"],
-    ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--json"],
+    ["uvw", "--data", MOVES, "--lead-um", "2000", "--json"],
+    ["iso230-2", "--data", str(EXAMPLES / "x_runs.csv"), "--axis", "X", "--json"],
     ["diagnose", "--fit", FIT, "--data", OBS, "--json"],
 ], ids=lambda a: a[0])
 def test_json_to_a_full_standard_output_is_one_line(data, argv, capsys, monkeypatch):

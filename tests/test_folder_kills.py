@@ -197,17 +197,17 @@ CALLS = {
     ("diagnose", "--report"): ["diagnose", "--fit", "{d}/fit.json", "--data", "{d}/obs.csv"],
     ("compensate", "--out"): ["compensate", "--fit", "{d}/fit.json"],
     ("verify", "--report"): ["verify", "--fit", "{d}/fit.json", "--data", "{d}/obs.csv"],
-    ("backlash", "--tables"): ["backlash", "--log", str(EXAMPLES / "stages" / "backlash" / "log.csv"),
+    ("backlash", "--tables"): ["backlash", "--data", str(EXAMPLES / "stages" / "backlash" / "log.csv"),
                                "--travel-mm", "0.4"],
-    ("backlash", "--report"): ["backlash", "--log", str(EXAMPLES / "stages" / "backlash" / "log.csv"),
+    ("backlash", "--report"): ["backlash", "--data", str(EXAMPLES / "stages" / "backlash" / "log.csv"),
                                "--travel-mm", "0.4"],
-    ("uvw", "--tables"): ["uvw", "--moves", str(EXAMPLES / "stages" / "uvw_moves.csv"), "--lead-um", "2000"],
-    ("uvw", "--report"): ["uvw", "--moves", str(EXAMPLES / "stages" / "uvw_moves.csv"), "--lead-um", "2000"],
+    ("uvw", "--tables"): ["uvw", "--data", str(EXAMPLES / "stages" / "uvw_moves.csv"), "--lead-um", "2000"],
+    ("uvw", "--report"): ["uvw", "--data", str(EXAMPLES / "stages" / "uvw_moves.csv"), "--lead-um", "2000"],
     ("dual-axis", "--report"): ["dual-axis", "--data", str(EXAMPLES / "stages" / "dual_axis.csv"), "--pixel-to-mm",
                                 "0.0049931", "0.0002617", "0.0002617", "-0.0049931"],
     ("contour", "--report"): ["contour", "--simulate", "--sim-frames", "16", "--workers", "1"],
     ("contour", "--keep"): ["contour", "--simulate", "--sim-frames", "16", "--workers", "1"],
-    ("iso230-2", "--report"): ["iso230-2", str(EXAMPLES / "x_runs.csv"), "--axis", "X"],
+    ("iso230-2", "--report"): ["iso230-2", "--data", str(EXAMPLES / "x_runs.csv"), "--axis", "X"],
 }
 
 

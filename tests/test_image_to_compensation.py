@@ -39,7 +39,7 @@ def test_images_to_compensated_machine(tmp_path, capsys):
     sim.write_run(tmp_path, sim.plan(), rng=np.random.default_rng(21))
     run = lambda *argv: main([*argv])  # noqa: E731
     assert run("observe", "--machine", MACHINE, "--board", str(tmp_path / "board.json"), "--sensor",
-               str(tmp_path / "sensor.json"), "--log", str(tmp_path / "log.csv"), "--out", str(tmp_path / "obs.csv")) == 0
+               str(tmp_path / "sensor.json"), "--data", str(tmp_path / "log.csv"), "--out", str(tmp_path / "obs.csv")) == 0
     assert run("identify", "--machine", MACHINE, "--data", str(tmp_path / "obs.csv"), "--out", str(tmp_path / "fit0.json")) == 0
     capsys.readouterr()
     assert run("diagnose", "--fit", str(tmp_path / "fit0.json"), "--data", str(tmp_path / "obs.csv"), "--json") == 0

@@ -41,13 +41,13 @@ def test_worked_example_by_hand():
 def test_command_line_json_text_and_plot(tmp_path, capsys):
     f = tmp_path / "runs.csv"
     f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, r)) for r in RUNS) + "\n")
-    assert main(["iso230-2", str(f), "--json", "--plot", str(tmp_path / "iso.png")]) == 0
+    assert main(["iso230-2", "--data", str(f), "--json", "--plot", str(tmp_path / "iso.png")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["standard"] == "ISO 230-2:2014" and out["source"] == str(f)
     for key, value in HAND.items():
         assert out[key] == pytest.approx(value, abs=1e-9), key
     assert (tmp_path / "iso.png").stat().st_size > 5000
-    assert main(["iso230-2", str(f), "--axis", "X"]) == 0
+    assert main(["iso230-2", "--data", str(f), "--axis", "X"]) == 0
     text = capsys.readouterr().out
     k = _decimals([HAND["A_um"], HAND["R_um"], HAND["E_um"]])  # four significant digits of A
     assert text.startswith("ISO 230-2:2014 positioning of axis X from runs.csv")
@@ -71,7 +71,7 @@ def test_decimals_follow_the_size_of_the_axis():
 def test_bad_runs_files(tmp_path, capsys, rows, message):
     f = tmp_path / "bad.csv"
     f.write_text(rows)
-    assert main(["iso230-2", str(f)]) == 2
+    assert main(["iso230-2", "--data", str(f)]) == 2
     err = capsys.readouterr().err
     assert message in err, err
     assert err.count("\n") == 1
@@ -87,12 +87,12 @@ def test_millimetres_in_the_micrometre_column_are_warned_of(tmp_path, capsys):
     rows = [(t, r, d, (0.001 * r + 0.002 * t / 100) * (1 if d > 0 else 1.5)) for t in (0, 100, 200)
             for r in (1, 2, 3) for d in (1, -1)]
     f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
-    assert main(["iso230-2", str(f)]) == 0
+    assert main(["iso230-2", "--data", str(f)]) == 0
     err = capsys.readouterr().err
     assert "if they are millimetres, multiply by 1000" in err and err.count("\n") == 1
     f.write_text("target_mm,run,direction,deviation_um\n" + "\n".join(",".join(map(str, (t, r, d, v * 1000)))
                                                                        for t, r, d, v in rows) + "\n")
-    assert main(["iso230-2", str(f)]) == 0
+    assert main(["iso230-2", "--data", str(f)]) == 0
     assert "millimetres" not in capsys.readouterr().err
 
 
@@ -102,9 +102,9 @@ def test_report_states_the_standard_axis_file_and_values(tmp_path, capsys):
     import pathlib
 
     runs = pathlib.Path(__file__).resolve().parent.parent / "examples" / "x_runs.csv"
-    assert main(["iso230-2", str(runs), "--axis", "X", "--json"]) == 0
+    assert main(["iso230-2", "--data", str(runs), "--axis", "X", "--json"]) == 0
     values = json.loads(capsys.readouterr().out)
-    assert main(["iso230-2", str(runs), "--axis", "X", "--report", str(tmp_path / "rep")]) == 0
+    assert main(["iso230-2", "--data", str(runs), "--axis", "X", "--report", str(tmp_path / "rep")]) == 0
     assert f"report written to {tmp_path / 'rep'}" in capsys.readouterr().out
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "ISO 230-2:2014" in page and "x_runs.csv" in page and "SHA-256" in page and "of axis X" in page

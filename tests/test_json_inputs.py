@@ -109,7 +109,7 @@ def test_a_tampered_sensor_is_refused_naming_the_key(tmp_path, capsys, change, m
     bad = tmp_path / "sensor.json"
     bad.write_text(json.dumps({**_load(run / "sensor.json"), **change}))
     _refused(["observe", "--machine", MACHINE, "--board", str(run / "board.json"), "--sensor", str(bad),
-              "--log", str(run / "log.csv"), "--out", str(tmp_path / "o.csv")], bad, message, capsys)
+              "--data", str(run / "log.csv"), "--out", str(tmp_path / "o.csv")], bad, message, capsys)
     assert not (tmp_path / "o.csv").exists()
 
 
@@ -126,7 +126,7 @@ def test_a_tampered_camera_is_refused_naming_the_key(files, tmp_path, capsys, wh
     sensor = tmp_path / "sensor.json"
     sensor.write_text(json.dumps({"camera": "camera.json", "working_distance_mm": 100}))
     _refused(["observe", "--machine", MACHINE, "--board", str(run / "board.json"), "--sensor", str(sensor),
-              "--log", str(run / "log.csv"), "--out", str(tmp_path / "o.csv")], bad, message, capsys)
+              "--data", str(run / "log.csv"), "--out", str(tmp_path / "o.csv")], bad, message, capsys)
 
 
 @pytest.mark.parametrize("where, value, message", [

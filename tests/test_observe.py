@@ -27,7 +27,7 @@ def run(tmp_path_factory):
 
 def _observe(folder, *extra):
     return main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
-                 str(folder / "sensor.json"), "--log", str(folder / "log.csv"), *extra])
+                 str(folder / "sensor.json"), "--data", str(folder / "log.csv"), *extra])
 
 
 def test_observe_recovers_the_seen_offsets(run, capsys):
@@ -125,7 +125,7 @@ def test_bad_sensor_file(run, tmp_path, capsys, sensor, message):
     folder, _ = run
     (tmp_path / "sensor.json").write_text(json.dumps(sensor))
     status = main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
-                   str(tmp_path / "sensor.json"), "--log", str(folder / "log.csv"), "--out", str(tmp_path / "o.csv")])
+                   str(tmp_path / "sensor.json"), "--data", str(folder / "log.csv"), "--out", str(tmp_path / "o.csv")])
     err = capsys.readouterr().err
     assert status == 2 and message in err and "sensor.json" in err, err
 

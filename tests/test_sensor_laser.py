@@ -30,7 +30,7 @@ def run(tmp_path_factory):
 def _observed_dz_error_um(folder, truth, sensor):
     (folder / "sensor_used.json").write_text(json.dumps(sensor))
     assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
-                 str(folder / "sensor_used.json"), "--log", str(folder / "log.csv"), "--out",
+                 str(folder / "sensor_used.json"), "--data", str(folder / "log.csv"), "--out",
                  str(folder / "obs.csv")]) == 0
     rows = list(csv.DictReader(open(folder / "obs.csv")))
     err = [float(r["mark_dz_mm"]) - sim.seen_offset(true, b, c, m)[2] for r, (true, b, c, m) in zip(rows, truth)]
@@ -72,7 +72,7 @@ def test_sensor_recovers_the_offset_from_the_hole_within_its_uncertainty(tmp_pat
         (folder / "base.json").write_text(json.dumps({"pixel_mm": 0.045, "laser_standoff_mm": 30.0}))
         # the alignment's repeatability is known (2 µm per reading): the offset's σ is then exact
         assert main(["sensor", "--machine", MACHINE, "--hole", str(folder / "hole.csv"), "--base",
-                     str(folder / "base.json"), "--sigma-mm", "0.002", "--out", str(folder / "sensor.json")]) == 0
+                     str(folder / "base.json"), "--noise-mm", "0.002", "--out", str(folder / "sensor.json")]) == 0
         s = json.loads((folder / "sensor.json").read_text())
         assert s["pixel_mm"] == 0.045 and s["laser_standoff_mm"] == 30.0  # the base file's keys are kept
         got, std = np.array(s["laser_offset_mm"]), np.array(s["laser_offset_std_mm"])
@@ -104,7 +104,7 @@ def test_a_wrong_sensor_offset_is_called_inconsistent_and_nothing_implausible_is
     for name, s in (("wrong", sensor), ("right", {**sensor, "laser_offset_mm": list(LASER_MM)})):
         (tmp_path / f"{name}.json").write_text(json.dumps(s))
         assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
-                     str(tmp_path / f"{name}.json"), "--log", str(folder / "log.csv"), "--out",
+                     str(tmp_path / f"{name}.json"), "--data", str(folder / "log.csv"), "--out",
                      str(tmp_path / f"{name}.csv")]) == 0
     capsys.readouterr()
     assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "wrong.csv"), "--auto",
@@ -131,7 +131,7 @@ def test_the_laser_offsets_uncertainty_is_carried_into_the_fit(run, tmp_path, ca
         (tmp_path / f"{name}.json").write_text(json.dumps({**sensor, "laser_offset_mm": laser,
                                                            **({"laser_offset_std_mm": std} if std else {})}))
         assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
-                     str(tmp_path / f"{name}.json"), "--log", str(folder / "log.csv"), "--out",
+                     str(tmp_path / f"{name}.json"), "--data", str(folder / "log.csv"), "--out",
                      str(tmp_path / f"{name}.csv")]) == 0
         assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / f"{name}.csv"), "--noise-um", "0.5",
                      "--out", str(tmp_path / f"{name}_fit.json")]) == 0

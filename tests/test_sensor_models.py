@@ -33,7 +33,7 @@ def _observe(folder, sensor_extra=None, out="obs.csv"):
     sensor = {**json.loads((folder / "sensor.json").read_text()), **(sensor_extra or {})}
     (folder / "sensor_used.json").write_text(json.dumps(sensor))
     assert main(["observe", "--machine", MACHINE, "--board", str(folder / "board.json"), "--sensor",
-                 str(folder / "sensor_used.json"), "--log", str(folder / "log.csv"), "--out", str(folder / out)]) == 0
+                 str(folder / "sensor_used.json"), "--data", str(folder / "log.csv"), "--out", str(folder / out)]) == 0
     return folder / out
 
 

@@ -23,7 +23,7 @@ def _json_out(capsys):
 
 def test_backlash_from_a_recorded_run(tmp_path, capsys):
     truth = json.loads((EX / "backlash" / "truth.json").read_text())
-    assert main(["backlash", "--log", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4", "--json",
+    assert main(["backlash", "--data", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4", "--json",
                  "--out", str(tmp_path / "r.json"), "--tables", str(tmp_path / "t")]) == 0
     got = _json_out(capsys)["measured"]
     assert got["backlash_x_um"] == pytest.approx(truth["backlash_x_um"], abs=0.05)
@@ -64,7 +64,7 @@ def test_backlash_bad_logs(tmp_path, capsys, change, argv, message):
     run = _copy_run(tmp_path)
     if change is not None:
         (run / "log.csv").write_text(change((run / "log.csv").read_text()))
-    assert main(["backlash", "--log", str(run / "log.csv"), *argv]) == 2
+    assert main(["backlash", "--data", str(run / "log.csv"), *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1, err
 
@@ -73,14 +73,14 @@ def test_backlash_needs_a_mode(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["backlash"])
     assert exit_.value.code == 2
-    assert "one of the arguments --log --plan-out --simulate is required" in capsys.readouterr().err
+    assert "one of the arguments --data --plan-out --simulate is required" in capsys.readouterr().err
 
 
 # --- UVW ------------------------------------------------------------------------------------------
 
 def test_uvw_from_measured_moves(tmp_path, capsys):
     truth = json.loads((EX / "uvw_moves_truth.json").read_text())
-    assert main(["uvw", "--moves", str(EX / "uvw_moves.csv"), "--json", "--out", str(tmp_path / "m.json"),
+    assert main(["uvw", "--data", str(EX / "uvw_moves.csv"), "--json", "--out", str(tmp_path / "m.json"),
                  "--tables", str(tmp_path / "t")]) == 0
     got = _json_out(capsys)["actuators"]
     for a in ("X1", "X2", "Y"):
@@ -100,7 +100,7 @@ def test_uvw_from_measured_moves(tmp_path, capsys):
 ])
 def test_uvw_bad_moves(tmp_path, capsys, change, message):
     (tmp_path / "m.csv").write_text(change((EX / "uvw_moves.csv").read_text()))
-    assert main(["uvw", "--moves", str(tmp_path / "m.csv")]) == 2
+    assert main(["uvw", "--data", str(tmp_path / "m.csv")]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1, err
 
@@ -132,7 +132,7 @@ def test_dual_axis_bad_input(capsys, argv, message):
 def test_backlash_report(tmp_path, capsys):
     import hashlib
 
-    assert main(["backlash", "--log", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4", "--report",
+    assert main(["backlash", "--data", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4", "--report",
                  str(tmp_path / "rep")]) == 0
     page = (tmp_path / "rep" / "index.html").read_text()
     assert hashlib.sha256((EX / "backlash" / "log.csv").read_bytes()).hexdigest() in page
@@ -141,7 +141,7 @@ def test_backlash_report(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, title, figure", [
-    (["uvw", "--moves", str(EX / "uvw_moves.csv")], "UVW stage: actuator error models", "actuators.png"),
+    (["uvw", "--data", str(EX / "uvw_moves.csv")], "UVW stage: actuator error models", "actuators.png"),
     (["dual-axis", "--data", str(EX / "dual_axis.csv"), "--pixel-to-mm", "0.0049931", "0.0002617", "0.0002617",
       "-0.0049931"], "Dual-axis offset table", "offset_table.png"),
 ])

@@ -100,7 +100,7 @@ def test_uvw_measured_json(monkeypatch, capsys):
         return doc
 
     monkeypatch.setattr(module, "models_json", with_nan)
-    assert main(["uvw", "--moves", str(EX / "uvw_moves.csv"), "--json"]) == 0
+    assert main(["uvw", "--data", str(EX / "uvw_moves.csv"), "--json"]) == 0
     out = _strict(capsys.readouterr().out)
     first = next(iter(out["actuators"].values()))
     assert first["rms_um"] is None and first["noise_um"] is None and first["parameters"]
@@ -140,8 +140,8 @@ def test_contour_measured_json(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(frames, "open_frames", lambda path: SimpleNamespace(count=2))
     monkeypatch.setattr(measure, "measure_contour", lambda *a, **k: fake)
     monkeypatch.setattr(measure, "track_csv", lambda m: "frame,t_s,x_mm,y_mm,error_um\n")
-    assert main(["contour", "--frames", str(tmp_path), "--board", str(tmp_path / "board.json"), "--pixel-mm",
-                 "0.01", "--out", str(tmp_path / "track.csv"), "--json"]) == 0
+    assert main(["contour", "--data", str(tmp_path), "--board", str(tmp_path / "board.json"), "--pixel-um",
+                 "10", "--out", str(tmp_path / "track.csv"), "--json"]) == 0
     assert _strict(capsys.readouterr().out) == {"frames": 2, "located": 0, "rms_error_um": None,
                                                 "max_error_um": None}
 
@@ -203,7 +203,7 @@ def test_camera_file_is_strict(tmp_path):
 
 # --- report folders: whole or not at all, never over the user's files ---------------------------------
 
-UVW = ["uvw", "--moves", str(EX / "uvw_moves.csv")]
+UVW = ["uvw", "--data", str(EX / "uvw_moves.csv")]
 
 
 def test_report_into_a_folder_of_other_files_is_refused(tmp_path, capsys):
@@ -255,16 +255,16 @@ def test_a_report_folder_may_not_hold_an_input(tmp_path, capsys):
     rep = tmp_path / "rep"
     rep.mkdir()
     (rep / "moves.csv").write_bytes((EX / "uvw_moves.csv").read_bytes())
-    assert main(["uvw", "--moves", str(rep / "moves.csv"), "--report", str(rep)]) == 2
+    assert main(["uvw", "--data", str(rep / "moves.csv"), "--report", str(rep)]) == 2
     assert "moves.csv" in capsys.readouterr().err
     assert sorted(os.listdir(rep)) == ["moves.csv"]
 
 
 @pytest.mark.parametrize("argv, module, work", [
-    (["backlash", "--log", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4"], "kinid.stages.backlash.calibrate",
+    (["backlash", "--data", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4"], "kinid.stages.backlash.calibrate",
      "calibrate"),
     (["contour", "--simulate", "--sim-frames", "8"], "kinid.stages.contour.simulate", "render_sequence"),
-    (["uvw", "--moves", str(EX / "uvw_moves.csv")], "kinid.stages.uvw.measured", "fit_moves"),
+    (["uvw", "--data", str(EX / "uvw_moves.csv")], "kinid.stages.uvw.measured", "fit_moves"),
 ], ids=["backlash", "contour", "uvw"])
 def test_stage_reports_refuse_other_files_before_their_work(argv, module, work, tmp_path, monkeypatch, capsys):
     mine = _foreign(tmp_path)
@@ -277,7 +277,7 @@ def test_stage_reports_refuse_other_files_before_their_work(argv, module, work, 
 
 
 def test_backlash_and_contour_reports_are_written_whole(tmp_path, capsys):
-    for argv, figure in ((["backlash", "--log", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4"],
+    for argv, figure in ((["backlash", "--data", str(EX / "backlash" / "log.csv"), "--travel-mm", "0.4"],
                           "backlash.png"),
                          (["contour", "--simulate", "--sim-frames", "8", "--workers", "1"], "contour.png")):
         rep = tmp_path / argv[0]

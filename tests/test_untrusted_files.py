@@ -216,7 +216,7 @@ def test_observe_with_a_log_naming_a_fifo_or_device(short_run, tmp_path, name, w
     lines[1] = ",".join([name, *first[1:]])
     (tmp_path / "log.csv").write_text("\n".join(lines) + "\n")
     argv = ["observe", "--machine", str(urdf_path("five_axis_bc")), "--board", str(tmp_path / "board.json"),
-            "--sensor", str(tmp_path / "sensor.json"), "--log", str(tmp_path / "log.csv"),
+            "--sensor", str(tmp_path / "sensor.json"), "--data", str(tmp_path / "log.csv"),
             "--out", str(tmp_path / "obs.csv")]
     outcome = guarded(_cli, argv, limit=60.0)  # the verb loads the machine first; a FIFO would hang for ever
     assert outcome[0] == "ok", outcome
@@ -249,11 +249,11 @@ def test_iso230_2_json_is_strict(tmp_path, capsys):
     runs.write_text("\n".join(rows) + "\n")
     # deviations of 1e308 µm squared to infinity and gave null results with exit 0; a deviation beyond a metre is
     # now refused at the door, naming its line and column, and nothing is printed as a result
-    assert main(["iso230-2", str(runs), "--json"]) == 2
+    assert main(["iso230-2", "--data", str(runs), "--json"]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1 and "deviation_um" in captured.err
     runs.write_text("\n".join(rows[:1] + ["0,1,1,1", "0,2,1,-1", "0,1,-1,1", "0,2,-1,1"] + rows[5:]) + "\n")
-    assert main(["iso230-2", str(runs), "--json"]) == 0
+    assert main(["iso230-2", "--data", str(runs), "--json"]) == 0
     out = _strict(capsys.readouterr().out)
     assert out["positions"][1]["mean_um"] == pytest.approx(1.75)
 
@@ -294,7 +294,7 @@ def test_compensate_refuses_a_step_too_fine(fit_file, tmp_path, option, value, m
     million points is refused before anything is allocated."""
     out = tmp_path / "comp"
     outcome = guarded(_cli, ["compensate", "--fit", str(fit_file), "--out", str(out), option, value,
-                             "--range", "travel"], limit=60.0)
+                             "--table-range", "travel"], limit=60.0)
     assert outcome[0] == "ok", outcome
     status, err, _ = outcome[1]
     assert status == 2 and len(err.strip().splitlines()) == 1, err

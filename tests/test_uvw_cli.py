@@ -54,7 +54,7 @@ def test_a_folder_that_cannot_be_made_is_one_line(tmp_path, capsys):
 
     moves = Path(__file__).resolve().parent.parent / "examples" / "stages" / "uvw_moves.csv"
     (tmp_path / "afile").write_text("")
-    assert main(["uvw", "--moves", str(moves), "--tables", str(tmp_path / "afile" / "tables")]) == 2
+    assert main(["uvw", "--data", str(moves), "--tables", str(tmp_path / "afile" / "tables")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "afile/tables: cannot use as output folder (Not a directory)" in err, err
 

@@ -1,6 +1,8 @@
 """``kinid compensate``: a fit -> axis error tables, constants, set-up, a calibrated URDF, controller files."""
 from __future__ import annotations
 
+from kinid.options import add_alias, add_json_option, json_file
+
 __all__ = ["register"]
 
 
@@ -24,7 +26,7 @@ def register(sub) -> None:
     p.add_argument("--format", dest="formats", nargs="+", choices=sorted(CONTROLLER_FORMATS),
                    default=list(default_formats()),
                    help=f"controller formats to write (default: {' '.join(default_formats())})")
-    p.add_argument("--range", dest="range_policy", choices=("data", "travel"), default="data",
+    p.add_argument("--table-range", dest="range_policy", choices=("data", "travel"), default="data",
                    help="tables over the measured readings of each axis (default) or over the URDF travel (refused "
                         "where it is unbounded, or more than a turn the readings do not go round)")
     p.add_argument("--beyond", choices=("hold", "zero"), default="hold",
@@ -40,6 +42,8 @@ def register(sub) -> None:
     p.add_argument("--step-deg", type=float, default=None, help="fixed grid step of rotary axes, degrees "
                                                                 "(default: chosen like --step-mm)")
     # the folder is written whole (kinid.folders.staged_folder): no input may lie anywhere in it
+    add_alias(p, "--range", "--table-range")
+    add_json_option(p, json_file("out", "compensation.json"), "compensation.json")
     p.set_defaults(run=_compensate, outputs={"out": "replaced folder"})
 
 

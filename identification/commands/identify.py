@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 from kinid.errors import DataError
+from kinid.options import add_json_option, csv_rows, json_file
 
 # NumPy and the modules that do the work are imported inside the function that runs the verb:
 # building the parsers (``kinid identify --help``) imports none of them.
@@ -49,6 +50,7 @@ def register(sub) -> None:
                    help="with --prior: the typical size of a location error along an axis, µm (default 1000)")
     p.add_argument("--prior-urad", type=float, default=None, metavar="S",
                    help="with --prior: the typical size of a location error about an axis, µrad (default 1000)")
+    add_json_option(p, json_file("out"), "the fit (FIT.json)")
     p.set_defaults(run=_identify)
 
     p = sub.add_parser("predict", help="axis readings at which the fitted machine aligns the tool point with each mark",
@@ -60,6 +62,7 @@ def register(sub) -> None:
     p.add_argument("--solve", default=None, help="axes to solve, comma-separated (default: the prismatic axes)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
+    add_json_option(p, csv_rows("out"), "the rows written (one object per pose)")
     p.set_defaults(run=_predict)
 
     p = sub.add_parser("simulate", help="alignment readings of a machine with a known error set",
@@ -77,6 +80,7 @@ def register(sub) -> None:
                    help="the operator stops within about S µm of each alignment; the rows record where the mark "
                         "was seen relative to the tool point (mark_dx_mm, mark_dy_mm, mark_dz_mm)")
     p.add_argument("--out", required=True, help="observation CSV to write (docs/formats.md)")
+    add_json_option(p, csv_rows("out"), "the observation rows written")
     p.set_defaults(run=_simulate)
 
     p = sub.add_parser("diagnose", help="compare a fit with data and rank the effects that may be missing",

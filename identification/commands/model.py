@@ -1,6 +1,8 @@
 """``kinid model``: an existing URDF (a ROS robot, a machine drawn elsewhere) -> a machine kinid identifies."""
 from __future__ import annotations
 
+from kinid.options import add_json_option
+
 __all__ = ["register"]
 
 
@@ -23,6 +25,8 @@ def register(sub) -> None:
                    help="also the six position-dependent error joints after every motion joint (straightness, "
                         "positioning, angular errors of a machine tool's axes)")
     p.add_argument("--out", required=True, metavar="URDF", help="the identification machine to write")
+    add_json_option(p, _summary, "the machine written: its axes (name, joint, kind, chain, column) and error "
+                               "parameters")
     p.set_defaults(run=_model, outputs={"out": "file"})
 
 
@@ -59,3 +63,14 @@ def _model(args) -> int:
     print(f"next: kinid simulate or kinid identify --machine {shown_path(args.out)} --data <observations.csv> "
           f"(columns {', '.join(a.column for a in machine.axes)})")
     return 0
+
+
+def _summary(args) -> dict:
+    """``--json``: the machine written, as kinid reads it back."""
+    from ..model import load_machine
+
+    machine = load_machine(args.out)
+    return {"machine": str(args.out),
+            "axes": [{"name": a.name, "joint": a.joint, "kind": a.kind, "chain": a.chain, "column": a.column}
+                     for a in machine.axes],
+            "error_parameters": list(machine.error_codes)}

@@ -1,6 +1,8 @@
 """``kinid observe``: images and axis readings of a run -> the observation CSV (docs/observe.md)."""
 from __future__ import annotations
 
+from kinid.options import add_alias, add_json_option, csv_rows
+
 from pathlib import Path
 
 __all__ = ["register"]
@@ -16,7 +18,7 @@ def register(sub) -> None:
     p.add_argument("--machine", required=True, help="machine URDF (docs/machines.md)")
     p.add_argument("--board", required=True, help="board file, JSON (docs/formats.md, 'Board file')")
     p.add_argument("--sensor", required=True, help="sensor file, JSON: camera and laser on the tool (docs/formats.md)")
-    p.add_argument("--log", required=True, help="run log CSV: image, axis readings, laser_mm (docs/formats.md)")
+    p.add_argument("--data", dest="log", required=True, help="run log CSV: image, axis readings, laser_mm (docs/formats.md)")
     p.add_argument("--out", required=True, help="observation CSV to write ('-' for standard output)")
     p.add_argument("--board-origin-mm", type=float, nargs=3, default=None, metavar=("X", "Y", "Z"),
                    help="workpiece-frame position of the board's mark in row 0, column 0 (default: the board "
@@ -29,6 +31,8 @@ def register(sub) -> None:
                         "beside the camera (docs/observe.md)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
+    add_alias(p, "--log", "--data")
+    add_json_option(p, csv_rows("out"), "the observation rows written")
     p.set_defaults(run=_observe, parameter_options={"board_origin_mm": "--board-origin-mm"})
 
 
@@ -48,7 +52,7 @@ def _observe(args) -> int:
     sensor = load_sensor(args.sensor)
     log = read_run_log(args.log, machine, check_limits=not args.allow_outside_limits)
     folder = Path(args.log).parent
-    check_outputs([("--out", args.out, "file")], [("--log", str(folder / name)) for name in log.images])
+    check_outputs([("--out", args.out, "file")], [("--data", str(folder / name)) for name in log.images])
     if args.board_origin_mm is not None and not np.all(np.isfinite(args.board_origin_mm)):
         raise DataError("--board-origin-mm must be three finite numbers")
     from kinid.progress import Progress

@@ -16,6 +16,8 @@ into the sensor file ``kinid observe`` reads, with its standard deviations. The 
 """
 from __future__ import annotations
 
+from kinid.options import add_alias, add_json_option, json_file
+
 __all__ = ["register"]
 
 
@@ -37,11 +39,13 @@ def register(sub) -> None:
                    help="with --sphere: the laser reading held on the ball, mm (default: the --base file's "
                         "laser_standoff_mm)")
     p.add_argument("--radius-mm", type=float, default=None, help="with --sphere: the ball's radius if known, mm")
-    p.add_argument("--sigma-mm", type=float, default=None,
+    p.add_argument("--noise-mm", dest="sigma_mm", type=float, default=None,
                    help="repeatability of one alignment, mm (default: the scatter of repeated readings)")
     p.add_argument("--base", metavar="SENSOR.json", default=None,
                    help="a sensor file whose other keys (camera, pixel size, stand-off) are kept")
     p.add_argument("--out", required=True, metavar="SENSOR.json", help="the sensor file to write")
+    add_alias(p, "--sigma-mm", "--noise-mm")
+    add_json_option(p, json_file("out"), "the sensor file written")
     p.set_defaults(run=_sensor, outputs={"out": "file"})
 
 
@@ -57,7 +61,7 @@ def _sensor(args) -> int:
     from ..data import SENSOR_SCHEMA, check_laser_offset, laser_offset, read_axis_table
 
     for option, value, kind in (("--standoff-mm", args.standoff_mm, "size_mm"), ("--radius-mm", args.radius_mm, "size_mm"),
-                                ("--sigma-mm", args.sigma_mm, "sigma_mm")):
+                                ("--noise-mm", args.sigma_mm, "sigma_mm")):
         if value is not None:
             check_positive(option, value)
             check_plausible(option, value, kind)
@@ -91,5 +95,5 @@ def _sensor(args) -> int:
     print(f"laser beside the camera ({method}, {result.n_points} readings): ({offset[0]:.4f}, {offset[1]:.4f}) mm in "
           f"the tool frame{u}; written to {args.out}")
     if "laser_offset_std_mm" not in out:
-        print("note: no repeated readings and no --sigma-mm: the offset has no uncertainty; repeat each alignment")
+        print("note: no repeated readings and no --noise-mm: the offset has no uncertainty; repeat each alignment")
     return 0

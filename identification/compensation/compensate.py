@@ -292,7 +292,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         if not_modulo is not None:
             if range_policy == "travel":
                 raise DataError(f"travel: {not_modulo['reason']}, and {a.name}'s travel is more than a turn; give "
-                                f"--range data (the measured readings)", parameter="range_policy")
+                                f"--table-range data (the measured readings)", parameter="range_policy")
             rng = replace(rng, low=rng.measured[0], high=rng.measured[1], source="measured readings", modulo=False)
             notes.append(f"{a.name}: {not_modulo['reason']}; its tables are not modulo, over the measured readings "
                          f"{rng.low:.4g} .. {rng.high:.4g}°, " + ("end values held" if beyond == "hold" else
@@ -322,7 +322,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             notes.append(f"{a.name}: tables over {rng.source} {rng.low:.4g} .. {rng.high:.4g} {unit_q} of the travel "
                          f"{rng.travel[0]:.4g} .. {rng.travel[1]:.4g} {unit_q}; beyond, "
                          + ("the end values are held" if beyond == "hold" else "the compensation returns to zero")
-                         + (" (--range travel for the whole travel)" if range_policy == "data" and
+                         + (" (--table-range travel for the whole travel)" if range_policy == "data" and
                             (not rotary or rng.travel[1] - rng.travel[0] <= 360.0 + 1e-9) else ""))
         code = f"E{a.name}{a.name}"
         key = f"{code}_{'urad' if rotary else 'um'}"

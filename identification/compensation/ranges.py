@@ -82,13 +82,13 @@ def axis_range(result: FitResult, axis: str, policy: str = "data") -> AxisRange 
         if not np.isfinite(hi - lo):
             kind = "continuous" if a.nq == 2 else "no limits"
             raise DataError(f"travel: axis {axis} has no finite travel in the URDF ({kind}), so no table can cover it; "
-                            f"give --range data (the measured readings)",
+                            f"give --table-range data (the measured readings)",
                             parameter="range_policy")
         if rotary and hi - lo > 360.0 + 1e-9:
             seen = "" if measured is None else f" (measured {measured[0]:g} .. {measured[1]:g}°)"
             raise DataError(f"travel: axis {axis}'s travel {lo:g} .. {hi:g}° is more than a turn and its readings do "
                             f"not go all the way round{seen}: the fitted model is not defined over that travel; give "
-                            f"--range data (the measured readings)", parameter="range_policy")
+                            f"--table-range data (the measured readings)", parameter="range_policy")
         return AxisRange(lo, hi, "URDF travel", False, (lo, hi), measured)
     if measured is None:
         return None

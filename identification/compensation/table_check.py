@@ -83,7 +83,7 @@ def check_table(check: TableCheck, inside: np.ndarray, ends=()) -> dict:
         raise DataError(f"{check.file}: applied as the controller applies it, it would leave {left[k, i]:.3g} {unit} "
                         f"at {check.axis} = {inside[i]:g} {q_unit}, where no compensation leaves {abs(e[k, i]):.3g} "
                         f"{unit} (more error than none inside the measured range); nothing written — the format's "
-                        f"points or resolution cannot follow the error there: try --range data, a finer step or "
+                        f"points or resolution cannot follow the error there: try --table-range data, a finer step or "
                         f"another --format")
     largest = float(np.max(np.abs(e))) if e.size else 0.0
     ends = np.asarray(ends, float)

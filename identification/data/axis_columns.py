@@ -16,6 +16,7 @@ import numpy as np
 
 from kinid.errors import DataError
 from kinid.csv_columns import CsvColumns, read_csv_columns
+from kinid.files import column_hint
 from ..model import Machine, axis_limits
 
 __all__ = ["AxisTable", "read_axis_table", "check_travel", "warn_if_metres", "metres_columns", "TRAVEL_MARGIN",
@@ -102,7 +103,8 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         Naming the file, line and column of the first problem.
     """
     path = Path(path)
-    table = read_csv_columns(path, what=what, required=required, texts=texts)
+    known = [a.column for a in machine.axes] + [f"dir_{a.name.lower()}" for a in machine.axes] + ["t_s"]
+    table = read_csv_columns(path, what=what, required=required, texts=texts, known=known)
     header_line, header = table.header_line, table.header
     axis_cols, dir_cols = {}, {}
     for h in header:
@@ -115,14 +117,19 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         if h.startswith("dir_"):
             match = [a for a in machine.axes if a.name.lower() == h[4:]]
             if not match:
-                raise DataError(f"'dir_' column for unknown axis {h[4:]!r}; axes: "
+                hint = column_hint(h, [f"dir_{a.name.lower()}" for a in machine.axes if f"dir_{a.name.lower()}"
+                                       not in header]).replace("? ", "?; ")
+                raise DataError(f"'dir_' column for unknown axis {h[4:]!r}; {hint}axes: "
                                 f"{', '.join(a.name.lower() for a in machine.axes)}", path=path, line=header_line,
                                 column=h)
             dir_cols[match[0].name] = header.index(h)
     optional = set(optional_axes)
     for a in machine.axes:
         if a.name not in axis_cols and a.name not in optional:
-            raise DataError(f"missing column {a.column!r} for axis {a.name}", path=path, line=header_line)
+            known = set(required) | {header[k] for k in axis_cols.values()} | {"t_s", "mark"}
+            hint = column_hint(a.column, [h for h in header if h not in known and not h.startswith("dir_")])
+            raise DataError(f"missing column {a.column!r} for axis {a.name}{' (' + hint.strip() + ')' if hint else ''}",
+                            path=path, line=header_line)
     lines = table.lines
     if not lines:
         raise DataError("no data rows after the header", path=path, line=header_line)

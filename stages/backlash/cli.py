@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from kinid.errors import DataError
+from kinid.options import add_alias
 from ..outputs import add_output_options, check_report, staged_report, staged_tables
 
 __all__ = ["register", "plot_result"]
@@ -24,10 +25,10 @@ def register(subparsers) -> None:
         "backlash",
         help="measure pixel equivalent and X/Y/θ lead-screw backlash from images",
         description="Image-based backlash calibration of an X-Y-θ stage: write the move plan (--plan-out), run it "
-                    "on the stage saving an image after each photo move, and evaluate the run's log (--log); or "
+                    "on the stage saving an image after each photo move, and evaluate the run's log (--data); or "
                     "learn the method on a simulated stage (--simulate), measured against the simulated truth.")
     mode = p.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--log", metavar="LOG.csv", help="the run's log: the plan's rows with image file names (docs/backlash.md)")
+    mode.add_argument("--data", dest="log", metavar="LOG.csv", help="the run's log: the plan's rows with image file names (docs/backlash.md)")
     mode.add_argument("--plan-out", metavar="PLAN.csv", help="write the plan to run on the stage (commands and photos)")
     mode.add_argument("--simulate", action="store_true", help="run the method on a simulated stage")
     p.add_argument("--start", type=float, nargs=3, default=(0.0, 0.0, 0.0), metavar=("X", "Y", "THETA"),
@@ -51,10 +52,12 @@ def register(subparsers) -> None:
                      help="rotation of the camera about the stage axes, degrees (default 7)")
     sim.add_argument("--theta-centre-mm", type=float, nargs=2, default=(-12.0, 8.0), metavar=("DX", "DY"),
                      help="θ rotation centre relative to the fiducial, mm (default -12 8)")
-    sim.add_argument("--noise", type=float, default=2.0, help="image noise, grey levels (default 2)")
+    sim.add_argument("--noise-grey", dest="noise", type=float, default=2.0, help="image noise, grey levels (default 2)")
     sim.add_argument("--repeatability-um", type=float, default=0.0,
                      help="random X/Y positioning scatter per move, µm (default 0)")
     sim.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    add_alias(p, "--log", "--data")
+    add_alias(p, "--noise", "--noise-grey")
     p.set_defaults(run=_run, parameter_options={"n_targets": "--targets"},
                    outputs={**outputs, "plan_out": "file"})
 

@@ -5,9 +5,15 @@ import math
 import sys
 
 from kinid.errors import DataError
+from kinid.options import add_alias
 from ..outputs import add_output_options, check_report, staged_report
 
 __all__ = ["register"]
+
+
+def micrometres(text: str) -> float:
+    """``--pixel-um``: a pixel's size given in µm, kept in mm (the unit the tracker works in)."""
+    return float(text) * 1e-3
 
 
 def register(subparsers) -> None:
@@ -21,7 +27,7 @@ def register(subparsers) -> None:
                     "with the programmed path. TRACK.csv: frame,t_s,x_mm,y_mm,error_um (camera frame: x right, "
                     "y down, mm relative to the first frame; frames not located keep their row with empty "
                     "x_mm, y_mm and error_um).")
-    p.add_argument("--frames", metavar="DIR",
+    p.add_argument("--data", dest="frames", metavar="DIR",
                    help="folder of image files (read in name order) or a video file")
     p.add_argument("--board", metavar="BOARD.json", help="board description file")
     p.add_argument("--simulate", action="store_true",
@@ -30,13 +36,13 @@ def register(subparsers) -> None:
     p.add_argument("--keep", metavar="DIR", help="with --simulate: write the frames, board.json and camera.json here")
     p.add_argument("--sim-frames", type=int, default=40, help="with --simulate: frames over one turn (default 40)")
     scale = p.add_mutually_exclusive_group()
-    scale.add_argument("--pixel-mm", type=float, metavar="S", help="object-side pixel size, mm per pixel")
+    scale.add_argument("--pixel-um", dest="pixel_mm", type=micrometres, metavar="S", help="object-side pixel size, µm")
     scale.add_argument("--camera", metavar="CAMERA.json", help="camera calibration (lens distortion is removed)")
     p.add_argument("--path", choices=("circle", "line", "polyline"), default="circle",
                    help="programmed path (default circle: least-squares circle through the track)")
     p.add_argument("--centre", "--center", dest="centre", metavar="X,Y",
                    help="circle centre in track coordinates, mm (default: fitted)")
-    p.add_argument("--radius", type=float, metavar="R", help="circle radius, mm (default: fitted)")
+    p.add_argument("--radius-mm", dest="radius", type=float, metavar="R", help="circle radius, mm (default: fitted)")
     p.add_argument("--start", metavar="X,Y", help="line start, mm (with --end; default: fitted line)")
     p.add_argument("--end", metavar="X,Y", help="line end, mm")
     p.add_argument("--path-file", metavar="PATH.csv", help="polyline vertices: CSV with columns x_mm,y_mm")
@@ -59,6 +65,9 @@ def register(subparsers) -> None:
                    help="mark centre refinement: model fit (default, most accurate) or weighted centroid (faster)")
     p.add_argument("--seed", type=int, default=0, help="with --simulate: seed of the image noise (default 0)")
     p.add_argument("--progress", action="store_true", help="show a progress line even when stderr is not a terminal")
+    add_alias(p, "--frames", "--data")
+    add_alias(p, "--radius", "--radius-mm")
+    add_alias(p, "--pixel-mm", "--pixel-um", reads=float, note=" in µm (1000 x the mm value)")
     p.set_defaults(run=_run, outputs={**outputs, "keep": "replaced folder"})
 
 
@@ -77,7 +86,7 @@ def _path_from_args(args):
 
     if args.path == "circle":
         if args.radius is not None and not (math.isfinite(args.radius) and args.radius > 0):
-            raise DataError(f"--radius must be a positive number of mm, got {args.radius}", column="--radius")
+            raise DataError(f"--radius-mm must be a positive number of mm, got {args.radius}", column="--radius-mm")
         centre = _pair(args.centre, "--centre") if args.centre else None
         return CirclePath(centre, args.radius)
     if args.path == "line":
@@ -112,7 +121,7 @@ def _simulate(args) -> int:
         raise DataError(f"--sim-frames must be 8 .. 2000, got {args.sim_frames}")
     if args.path != "circle":
         raise DataError(f"--simulate renders a circular run: --path circle, got --path {args.path}", column="--path")
-    path = _path_from_args(args)  # --radius and --centre, if given, are the nominal circle's
+    path = _path_from_args(args)  # --radius-mm and --centre, if given, are the nominal circle's
     check_report(args)
     board = make_board(rows=10, cols=10, pitch_mm=6.0, center_d_mm=2.0, ring_inner_d_mm=3.6, ring_outer_d_mm=5.2)
     camera = simulation_camera((512, 512), 0.03, k1=-0.05)
@@ -165,7 +174,7 @@ def _simulate(args) -> int:
         where = f"kept in {folder}" if args.keep else "rendered in a temporary folder"
         print(f"frames, board.json and camera.json {where}")
         if args.keep:
-            print(f"measure them as real frames: kinid contour --frames {frames} --board {folder / 'board.json'} "
+            print(f"measure them as real frames: kinid contour --data {frames} --board {folder / 'board.json'} "
                   f"--camera {folder / 'camera.json'} --out TRACK.csv")
     if not args.keep:
         import shutil
@@ -183,9 +192,9 @@ def _run(args) -> int:
 
     if args.simulate:
         return _simulate(args)
-    missing = [o for o, v in (("--frames", args.frames), ("--board", args.board), ("--out", args.out)) if not v]
+    missing = [o for o, v in (("--data", args.frames), ("--board", args.board), ("--out", args.out)) if not v]
     if missing or (args.pixel_mm is None and args.camera is None):
-        need = missing + ([] if args.pixel_mm is not None or args.camera is not None else ["--pixel-mm or --camera"])
+        need = missing + ([] if args.pixel_mm is not None or args.camera is not None else ["--pixel-um or --camera"])
         raise DataError(f"measured frames need {', '.join(need)} (or run --simulate to learn the method)")
     check_report(args)
 
@@ -201,8 +210,8 @@ def _run(args) -> int:
 
         camera = load_camera(args.camera)
     if args.pixel_mm is not None and not (math.isfinite(args.pixel_mm) and args.pixel_mm > 0):
-        raise DataError(f"--pixel-mm must be a positive number of mm per pixel, got {args.pixel_mm}",
-                        column="--pixel-mm")
+        raise DataError(f"--pixel-um must be a positive number of µm, got {args.pixel_mm * 1e3:g}",
+                        column="--pixel-um")
     if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
         raise DataError(f"--fps must be a positive number, got {args.fps}", column="--fps")
     if args.downsample == "auto":
@@ -243,7 +252,7 @@ def _run(args) -> int:
     if args.report:
         with staged_report(args) as staged:
             write_report(m, staged, frames=args.frames, board=args.board,
-                         scale=f"--pixel-mm {args.pixel_mm:g}" if args.pixel_mm else Path(args.camera))
+                         scale=f"--pixel-um {args.pixel_mm * 1e3:g}" if args.pixel_mm else Path(args.camera))
     tr = m.track
     if tr.not_located:
         shown = ", ".join(str(k) for k in tr.not_located[:20]) + (" ..." if len(tr.not_located) > 20 else "")

@@ -142,7 +142,7 @@ def _conditions(m, args, simulated):
     rows = []
     if c is not None:
         given = getattr(args, "radius", None) is not None
-        rows += [("nominal radius R0", f"{c.nominal_radius_mm:.4f} mm" + ("" if given else " (fitted: no --radius "
+        rows += [("nominal radius R0", f"{c.nominal_radius_mm:.4f} mm" + ("" if given else " (fitted: no --radius-mm "
                   "given, so F is against the least-squares circle)")),
                  ("least-squares circle", f"centre ({c.centre_mm[0]:.4f}, {c.centre_mm[1]:.4f}) mm, "
                                           f"radius {c.radius_mm:.4f} mm"),

@@ -5,7 +5,7 @@ process pool or on Dask): decode the ring-coded marks, match them to the board,
 and convert their centres to *plane coordinates* ``z`` (complex ``x + iy``,
 image axes: x right, y down):
 
-* ``--pixel-mm S``: ``z = S * pixel`` (mm; no lens correction);
+* ``--pixel-um S``: ``z = S / 1000 * pixel`` (mm; no lens correction);
 * ``--camera``: lens distortion removed and the camera matrix inverted, then
   scaled by ``fx`` (ideal, square pixels).
 
@@ -42,7 +42,7 @@ from kinid.errors import DataError
 __all__ = ["FrameSettings", "FrameResult", "Track", "TrackBuilder", "process_frame", "estimate_track",
            "consistent_marks"]
 
-#: Relative difference between the board-derived scale and ``--pixel-mm`` above which a warning is given.
+#: Relative difference between the board-derived scale and ``--pixel-um`` above which a warning is given.
 SCALE_WARN_REL = 0.02
 #: A mark farther than this (pixels) from where the board's layout puts it is an outlier (the locators reach
 #: ~0.005 px, so this only catches gross errors: a partly hidden or soiled mark, a wrong match).
@@ -259,7 +259,7 @@ class Track:
     angle_deg : float
         Board rotation in the image (clockwise as seen, y down), degrees.
     scale : float
-        Plane units per board mm (``|c|``): ~1 with ``--pixel-mm`` (its
+        Plane units per board mm (``|c|``): ~1 with ``--pixel-um`` (its
         departure from 1 is the error of the given pixel size), ideal pixels per
         mm with a camera.
     residual_rms : float
@@ -372,7 +372,7 @@ class TrackBuilder:
             located = located & ~bad
         if self.settings.pixel_mm is not None and abs(scale - 1.0) > SCALE_WARN_REL:
             warnings.warn(f"the board's pitch gives a pixel size {100 * (scale - 1):+.2f}% different from "
-                          f"--pixel-mm {self.settings.pixel_mm}; the track uses the board's scale", stacklevel=2)
+                          f"--pixel-um {self.settings.pixel_mm * 1e3:g}; the track uses the board's scale", stacklevel=2)
         n_loc = int(located.sum())
         dof = 2 * int(n[located].sum()) - 2 * n_loc - (2 if sbb > 0 else 0)
         s = math.sqrt(max(float(rss[located].sum()), 0.0) / dof) if dof > 0 else float("nan")
@@ -395,7 +395,7 @@ class TrackBuilder:
             return complex(sbz / sbb)
         if self.settings.pixel_mm is not None:
             warnings.warn("no frame shows two marks: the board's rotation cannot be estimated; assuming the "
-                          "board is aligned with the image and --pixel-mm is exact", stacklevel=3)
+                          "board is aligned with the image and --pixel-um is exact", stacklevel=3)
             return 1.0 + 0j
         raise DataError("no frame shows two marks of the board, so its rotation and the image scale cannot "
                         "be estimated; use a larger field of view or a board with a smaller pitch",

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 
 from kinid.errors import DataError
+from kinid.options import add_alias
 from ..outputs import add_output_options, check_report, staged_report
 
 __all__ = ["register", "run_simulation"]
@@ -54,9 +55,12 @@ def register(subparsers) -> None:
     sim.add_argument("--seed", type=int, default=0, help="seed of the simulation (texture, noise)")
     sim.add_argument("--random-errors", action="store_true",
                      help="draw a random error set from the seed instead of the built-in one")
-    sim.add_argument("--noise", type=float, default=1.5, help="image noise, grey levels (default 1.5)")
-    sim.add_argument("--repeat-um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
-    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm"},
+    sim.add_argument("--noise-grey", dest="noise", type=float, default=1.5, help="image noise, grey levels (default 1.5)")
+    sim.add_argument("--repeatability-um", dest="repeat_um", type=float, default=0.0, help="axis positioning repeatability, µm (default 0)")
+    add_alias(p, "--noise", "--noise-grey")
+    add_alias(p, "--repeat-um", "--repeatability-um")
+    p.set_defaults(run=_run, parameter_options={"n_steps": "--steps", "y_start_mm": "--y-start-mm",
+                                                "noise_sigma": "--noise-grey", "repeat_um": "--repeatability-um"},
                    outputs=outputs)
 
 

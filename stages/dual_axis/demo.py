@@ -46,9 +46,9 @@ def run_simulation(*, y_start_mm=0.0, step_mm=10.0, n_steps=30, spec_um=1.0, max
     from .simulate import SimulatedGantry, random_error_profiles
     from .smooth import fit_smooth
 
-    for name, v in (("noise", noise_sigma), ("repeat-um", repeat_um)):
+    for name, v in (("noise_sigma", noise_sigma), ("repeat_um", repeat_um)):
         if not np.isfinite(v) or v < 0:
-            raise DataError(f"--{name} must be a non-negative number, got {v!r}")
+            raise DataError(f"must be a non-negative number, got {v!r}", parameter=name)
     if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 1:
         raise DataError(f"degree must be an integer >= 1, got {degree!r}")
     # validate the plan before any move (the pixel_to_mm argument is measured later)

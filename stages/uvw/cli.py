@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import math
 
+from kinid.options import add_alias
+
 from ..outputs import add_output_options, check_report, refuse_unused, staged_report, staged_tables
 
 __all__ = ["register"]
@@ -13,11 +15,11 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "uvw", help="UVW alignment stage: actuator error models and compensation from measured moves",
         description="Fit each actuator's error model (offset, scale, backlash, bow, lead harmonics; chosen by "
-                    "BIC) to the moves measured on a UVW stage (--moves), and write the model and the "
+                    "BIC) to the moves measured on a UVW stage (--data), and write the model and the "
                     "actuators' compensation tables; or calibrate a simulated UVW stage with the patent's method "
                     "and with the fitted model and compare them on random alignment moves (--simulate).")
     mode = p.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--moves", metavar="MOVES.csv", help="measured moves: actuator,command_um,direction,measured_um")
+    mode.add_argument("--data", dest="moves", metavar="MOVES.csv", help="measured moves: actuator,command_um,direction,measured_um")
     mode.add_argument("--simulate", action="store_true", help="the whole story on a simulated stage")
     p.add_argument("--lead-um", type=float, default=2000.0, help="screw lead, µm (default 2000)")
     p.add_argument("--noise-um", type=float, default=None,
@@ -37,6 +39,7 @@ def register(subparsers) -> None:
                      help="measurements per stroke in the patent's test (default 18, as in its example)")
     sim.add_argument("--validation-moves", dest="moves_n", type=int, default=200,
                      help="validation moves per actuator (default 200)")
+    add_alias(p, "--moves", "--data")
     p.set_defaults(run=_run, outputs=outputs)
 
 
@@ -88,7 +91,7 @@ def _run(args) -> int:
     if args.moves:
         return _measured(args)
     refuse_unused(args, ("tables",), "--simulate",
-                  "they are of measured moves (--moves); the simulated story writes --plot, --out, --report and --json")
+                  "they are of measured moves (--data); the simulated story writes --plot, --out, --report and --json")
     check_report(args)
     noise_um = 0.1 if args.noise_um is None else args.noise_um
     if not (noise_um >= 0 and math.isfinite(noise_um)):

@@ -1,4 +1,4 @@
-"""The UVW actuator model from measured moves (``kinid uvw --moves MOVES.csv``, docs/uvw.md).
+"""The UVW actuator model from measured moves (``kinid uvw --data MOVES.csv``, docs/uvw.md).
 
 The moves file holds, per actuator, the test plan a user ran on the stage: each commanded position, the
 direction it was approached from, and the position the vision system measured (µm from home). Each

@@ -43,7 +43,7 @@ def write_measured_report(models, args) -> None:
     worst = max(before, key=before.get)
     summary = [f"Uncompensated, the actuators miss their commands by up to {before[worst]:.3g} µm ({worst}); the "
                f"fitted models leave {max(m.rms_um for m in models.values()):.3g} µm RMS at most.",
-               f"Next: write the actuator tables (kinid uvw --moves {args.moves} --lead-um {args.lead_um:g} --tables "
+               f"Next: write the actuator tables (kinid uvw --data {args.moves} --lead-um {args.lead_um:g} --tables "
                "tables), load them or the models into the alignment's compensation, and check with new moves."]
     prov = [("measured", file_provenance(args.moves)), ("lead", f"{args.lead_um:g} µm"), ("made", now_utc())]
     sections = [Section("Actuator models", tables=(table,)),
@@ -98,7 +98,7 @@ def write_simulated_report(result: dict, args) -> None:
     summary = [f"On random alignment moves the fitted model leaves {a['model']['rms_um']:.3g} µm RMS "
                f"({a['model']['max_um']:.3g} µm at most) of the uncompensated {a['uncompensated']['rms_um']:.3g} µm; "
                f"the patent's method leaves {a['patent']['rms_um']:.3g} µm ({a['patent']['max_um']:.3g} µm at most).",
-               f"Next: measure the real stage's moves and fit them (kinid uvw --moves MOVES.csv --lead-um "
+               f"Next: measure the real stage's moves and fit them (kinid uvw --data MOVES.csv --lead-um "
                f"{result['lead_um']:g} --report DIR)."]
     prov = [("measured", f"a simulated UVW stage (seed {result['seed']}, vision noise {result['noise_um']:g} µm, "
                          f"screw lead {result['lead_um']:g} µm)"),
