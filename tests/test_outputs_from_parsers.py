@@ -36,7 +36,8 @@ def _cases():
     for verb in VERBS:
         sub = _verb_parser(verb)
         outputs = sub.get_default("outputs") or DEFAULT_OUTPUTS
-        actions = [a for a in sub._actions if a.dest != "help"]
+        # an old option name kept as a hidden alias warns before its refusal: the aliases' own test is test_vocabulary
+        actions = [a for a in sub._actions if a.dest != "help" and a.help != argparse.SUPPRESS]
         files = [a for a in actions if a.dest in outputs and outputs[a.dest] == "file" and a.option_strings]
         inputs = [a for a in actions if _reads(a, outputs)]
         exclusive = [set(g._group_actions) for g in sub._mutually_exclusive_groups]
@@ -75,7 +76,7 @@ def _argv(verb, output, source, path, tmp_path):
     given = {output, source}
     positional = []
     for a in sub._actions:
-        if a.dest == "help":
+        if a.dest == "help" or a.help == argparse.SUPPRESS:  # a hidden alias (an old name, a read by position)
             continue
         name = a.option_strings[-1] if a.option_strings else a.dest
         if name == source and not a.option_strings:
