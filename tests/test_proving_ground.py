@@ -318,16 +318,15 @@ def test_a_local_error_is_tried_on_joints_no_parametric_candidate_points_to():
     positions about 7 mm apart (proving ground seed 23 #317). The bump stands out on a few rows; with one of them set
     aside as a misread, no candidate of EXX was among the best three, whose joints were the only ones local windows
     were tried on, and the run ended "noise" at 8.4× the oracle's held-out error. Windows are now tried on every
-    joint, at a tenth of the test's level: the likeliest is the bump's, far beyond chance."""
-    import re
-
+    joint, at a tenth of the test's level: the likeliest is the bump's, far beyond chance. It was then named and not
+    added (its window, chosen per turn on blocks of every 4th row, gained 1.9 standard errors); with the held-out
+    blocks made of whole visits it is added, and the held-out error is within 1.5x the oracle's."""
     sc = pg.run(23 * 100003 + 317)
     print(_line(sc))
     assert sc.layout == "five_axis_bhead_c" and sc.kinds == "bump" and sc.hidden[0].joint == "EXX"
     r = sc.result
-    assert r["verdict"] == "missing-effect" and "X" in r["named"]  # it ended "noise", naming nothing
-    p = re.search(r"the best candidate, EXX:local:\S+ \(p = (\S+)\)", r["stopped"])
-    assert p and float(p.group(1)) < 1e-10, r["stopped"]  # not added: its window, chosen per turn, gains 1.9 SE
+    assert any(a.startswith("EXX:local:") for a in r["added"]), r["stopped"]  # it ended "noise", naming nothing
+    assert r["held_out_um"] <= 1.5 * r["oracle_um"]
 
 
 def test_misreads_are_judged_against_the_residuals_scale_not_a_sigma_given_too_large():
