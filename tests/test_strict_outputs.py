@@ -140,7 +140,8 @@ def test_contour_measured_json(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(frames, "open_frames", lambda path: SimpleNamespace(count=2))
     monkeypatch.setattr(measure, "measure_contour", lambda *a, **k: fake)
     monkeypatch.setattr(measure, "track_csv", lambda m: "frame,t_s,x_mm,y_mm,error_um\n")
-    assert main(["contour", "--data", str(tmp_path), "--board", str(tmp_path / "board.json"), "--pixel-um",
+    (tmp_path / "frames").mkdir()  # the track is written beside the frames, never among them
+    assert main(["contour", "--data", str(tmp_path / "frames"), "--board", str(tmp_path / "board.json"), "--pixel-um",
                  "10", "--out", str(tmp_path / "track.csv"), "--json"]) == 0
     assert _strict(capsys.readouterr().out) == {"frames": 2, "located": 0, "rms_error_um": None,
                                                 "max_error_um": None}
