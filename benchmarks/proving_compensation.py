@@ -84,17 +84,21 @@ def hidden_errors(machine, rng) -> dict:
     return out
 
 
-def controller_shares(folder: Path, result) -> list:
-    """(format, axis, share left or None when the consumer refuses the file)."""
-    out = []
+def _controller_files(folder: Path, result):
+    """(file, format, axis, rotary, 4001 positions over the measured range) of each controller file in ``folder``."""
     for f in sorted(folder.iterdir()):
         fmt = next((v for k, v in PARSERS.items() if f.name.endswith(k)), None)
         if fmt is None:
             continue
         axis = f.name[: f.name.index(next(k for k in PARSERS if f.name.endswith(k)))]
-        rotary = result.machine.axis(axis).kind == "revolute"
         lo, hi = result.axis_ranges[axis]
-        x = np.linspace(lo, hi, 4001)
+        yield f, fmt, axis, result.machine.axis(axis).kind == "revolute", np.linspace(lo, hi, 4001)
+
+
+def controller_shares(folder: Path, result) -> list:
+    """(format, axis, share left or None when the consumer refuses the file)."""
+    out = []
+    for f, fmt, axis, rotary, x in _controller_files(folder, result):
         model = positioning_table(result, axis, x)
         try:
             reads = READERS[fmt](f.read_text(), rotary)
@@ -168,14 +172,7 @@ def worse_than_none(folder: Path, result, truth_result) -> dict:
     fitted model, by more than 10 % of the error's RMS or the format's resolution; worse than none in RMS over the
     measured range against the truth, the constant that no fit tells from the set-up and location errors aside)."""
     out = {}
-    for f in sorted(folder.iterdir()):
-        fmt = next((v for k, v in PARSERS.items() if f.name.endswith(k)), None)
-        if fmt is None:
-            continue
-        axis = f.name[: f.name.index(next(k for k in PARSERS if f.name.endswith(k)))]
-        rotary = result.machine.axis(axis).kind == "revolute"
-        lo, hi = result.axis_ranges[axis]
-        x = np.linspace(lo, hi, 4001)
+    for f, fmt, axis, rotary, x in _controller_files(folder, result):
         reads = READERS[fmt](f.read_text(), rotary)
         to_model = (lambda v: np.radians(v) * 1e6) if rotary else (lambda v: v * 1e3)
         c = to_model(reads(x))
