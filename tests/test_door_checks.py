@@ -143,6 +143,8 @@ ROW_CASES = [
      r"rows1\.csv: 1 observation row\(s\); a fit needs at least 2"),
     ("verify two rows", lambda d: ["verify", "--fit", "fit.json", "--data", _rows(d, 2)],
      r"rows2\.csv: 2 observation row\(s\); a verification needs at least 3"),
+    ("verify, first run of two rows", lambda d: ["verify", "--fit", "fit.json", "--data", "obs.csv", "--before", _rows(d, 2)],
+     r"rows2\.csv: 2 observation row\(s\); a verification needs at least 3"),
     ("diagnose three rows", lambda d: ["diagnose", "--fit", "fit.json", "--data", _rows(d, 3)],
      r"rows3\.csv: 3 observation row\(s\); a diagnosis needs at least 4"),
     ("auto three rows", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 3), "--auto", "--out", "f.json"],

@@ -81,6 +81,8 @@ def _verify(args) -> int:
     check_row_count(after, "a verification")
     before = None if args.before is None else read_observations(args.before, result.machine,
                                                                 check_limits=not args.allow_outside_limits)
+    if before is not None:
+        check_row_count(before, "a verification")
     out = verify(result, after, before=before, noise_um=args.noise_um)
     if args.report:
         from ..compensation import verification_report
