@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import json
 
+from pathlib import Path
+
 import pytest
 
 from kinid.cli import main
@@ -134,9 +136,15 @@ def _rows(d, n):
     return _text(d, f"rows{n}.csv", "\n".join(lines[:n + 1]) + "\n")
 
 
+_EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
 ROW_CASES = [
     ("identify one row, σ from residuals", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 1), "--out", "f.json"],
      r"rows1\.csv: 1 observation row\(s\); a fit needs at least 2"),
+    ("identify as many residuals as free parameters, σ from residuals",
+     lambda d: ["identify", "--machine", str(_EXAMPLES / "../urdf/five_axis_bc.urdf"), "--data",
+                str(_EXAMPLES / "observations.csv"), "--out", "f.json"],
+     r"--noise-um is needed: 4 observation row\(s\) of .*observations\.csv give 12 residuals for 12 free parameters"),
     ("identify one row, σ given", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 1), "--noise-um", "1", "--out", "f.json"],
      r"rows1\.csv: 1 observation row\(s\); a fit needs at least 2"),
     ("identify one row with a prior", lambda d: ["identify", "--machine", "m.urdf", "--data", _rows(d, 1), "--prior", "--out", "f.json"],

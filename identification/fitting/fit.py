@@ -350,7 +350,11 @@ def fit(
     rank = int(free.sum())
     dof = M - rank
     if noise is None:
-        noise = Noise(float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan"), "residuals")
+        if dof <= 0:
+            raise DataError(f"is needed: {len(obs)} observation row(s) of {obs.source} give {M} residuals for {rank} "
+                            "free parameters, too few to take σ from the residuals (or measure more rows)",
+                            parameter="noise_um")
+        noise = Noise(float(np.sqrt(np.sum(r**2) / dof)), "residuals")
     sigma = noise.value_um
     Jf = ps.R[:, free] / sigma
     if wf.any():  # the posterior: the prior's rows 1/s in whitened units
