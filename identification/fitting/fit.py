@@ -164,19 +164,26 @@ class FitResult:
     def table(self) -> str:
         """Readable table: parameter, value, standard deviation, unit."""
         w = max([len(n) for n in self.param_names] + [9])
-        lines = [f"{'parameter':<{w}}  {'value':>12}  {'std':>10}  unit"]
+        lines = [f"{'parameter':<{w}}  {'value':>12}  {'std (1σ)':>10}  unit"]
         for n, v, s, u, ok in zip(self.param_names, self.values, self.std, self.units, self.identifiable):
             if ok:
                 lines.append(f"{n:<{w}}  {v:12.4f}  {s:10.4f}  {u}")
             else:
                 lines.append(f"{n:<{w}}  {'held':>12}  {'':>10}  {u}")
         lines.append("")
-        lines.append(
-            f"residual RMS {self.rms_um:.4f} µm per coordinate over {self.n_observations} alignments; "
-            f"σ = {self.noise_um:.4f} µm ({self.noise_source}); rank {self.rank}/{len(self.param_names)}; "
-            f"condition {self.condition_number:.3g}; observability O1 {self.o1:.3g} (mean), O3 {self.o3:.3g} (weakest "
-            f"direction; larger is better, Sun & Hollerbach 2008)"
-        )
+        held = len(self.param_names) - self.rank
+        lines += [
+            f"residual RMS {self.rms_um:.4f} µm per coordinate over {self.n_observations} alignments, σ = "
+            f"{self.noise_um:.4f} µm ({self.noise_source}): what the model leaves against the noise; near σ, "
+            f"nothing systematic is left",
+            f"rank {self.rank}/{len(self.param_names)}: the data tell {self.rank} error terms apart"
+            + (f"; {held} are held (below)" if held else ""),
+            f"condition {self.condition_number:.3g}: the least certain combination of the terms (each scaled to its "
+            f"column) is {self.condition_number:.3g}× less certain than the best; large (over ~1000) means the poses "
+            f"hardly separate some terms",
+            f"observability O1 {self.o1:.3g} (mean), O3 {self.o3:.3g} (weakest direction): how strongly the poses "
+            f"excite the terms; larger is better (Sun & Hollerbach 2008)",
+        ]
         if self.start:
             lines.append(self.start)
         if self.prior:
