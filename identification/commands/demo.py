@@ -135,7 +135,7 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         start = sum(e.n_params for e in last.fit.effects[:k])
         a, b = last.fit.values[start : start + 2]
         sa, sb = last.fit.std[start : start + 2]
-        say(f"  identified: sin {a:.3f} ± {sa:.3f} µm, cos {b:.3f} ± {sb:.3f} µm (truth {truth[hidden][0]}, {truth[hidden][1]})")
+        say(f"  identified: sin {a:.3f} ± {sa:.3f} µm, cos {b:.3f} ± {sb:.3f} µm (± 1σ; truth {truth[hidden][0]}, {truth[hidden][1]})")
     from ..fitting import save_fit
 
     # the run's files, written whole into a new folder that replaces ``folder`` at the end

@@ -214,7 +214,7 @@ class Diagnosis:
         lines.append("")
         w = max([len(c.effect) for c in self.live[:top]] + [6])
         flagged = {} if self.verdict == "noise" else {id(c): odd for c, odd in self.advised[1]}
-        lines.append(f"{'rank':>4}  {'effect':<{w}}  {'k':>2}  {'Δχ²':>10}  {'p-value':>9}  {'RMS after':>9}  size ± std")
+        lines.append(f"{'rank':>4}  {'effect':<{w}}  {'k':>2}  {'Δχ²':>10}  {'p-value':>9}  {'RMS after':>9}  size ± std (1σ)")
         for i, c in enumerate(self.live[:top], 1):
             lines.append(
                 f"{i:>4}  {c.effect:<{w}}  {c.k:>2}  {c.statistic:10.1f}  {_p(c, 2):>9}  {c.rms_after_um:8.3f} µm  {c.size:.4g} ± {c.size_std:.2g} {c.size_unit}"

@@ -71,7 +71,7 @@ def found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side
             continue
         trials = est.trials * joints
         log10_p = min(0.0, c.log10_p + math.log10(trials))
-        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} "
+        note = (f"period found by search: {est.period:.4g} ± {est.period_std:.2g} {est.unit} (1σ) "
                 f"(p-value × {trials:.0f}: {est.trials:.0f} periods of {joints} joints searched)")
         out.append(replace(c, p_value=min(1.0, 10.0**log10_p), log10_p=log10_p, note=note, trials=trials))
         have.add(est.effect)

@@ -14,10 +14,10 @@ MODEL_WORDS = ("The error of each actuator, measured − commanded position at c
 
 
 def quantity(name: str, value: float, std: float, truth: str = "") -> str:
-    """``offset_um`` 1.653, 0.007 -> "offset 1.653 ± 0.007 µm" (the unit out of the parameter's name)."""
+    """``offset_um`` 1.653, 0.007 -> "offset 1.653 ± 0.007 µm (1σ)" (the unit out of the parameter's name)."""
     stem, _, unit = name.rpartition("_")
     unit = {"um": "µm", "ppm": "ppm"}.get(unit, unit)
-    return f"{stem} {value:.3f} ± {std:.3f} {unit}{truth}"
+    return f"{stem} {value:.3f} ± {std:.3f} {unit} (1σ){truth}"
 
 
 def write_measured_report(models, args) -> None:
