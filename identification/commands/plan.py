@@ -159,14 +159,14 @@ def _plan(args) -> int:
         if v is not None and not 0 < v <= 100_000:
             raise DataError(f"must be 1 to 100000, got {v}", parameter="--" + name)
     if args.count is not None and (args.target_um is not None or args.param):
-        raise DataError("--count or targets (--target-um, --param): choose one", parameter="--count")
+        raise DataError("or targets (--target-um, --param): choose one", parameter="--count")
     if args.data is not None and args.augment is None:
-        raise DataError("--data is for --augment FIT.json (the alignments the fit was made from)", parameter="--data")
+        raise DataError("is for --augment FIT.json (the alignments the fit was made from)", parameter="--data")
     if args.augment is not None:
         if args.data is None:
-            raise DataError("--augment needs --data OBS.csv: the alignments already measured", parameter="--augment")
+            raise DataError("needs --data OBS.csv: the alignments already measured", parameter="--augment")
         if args.detect:
-            raise DataError("--detect plans a first measurement; with --augment the fit has chosen its model",
+            raise DataError("plans a first measurement; with --augment the fit has chosen its model",
                             parameter="--detect")
         machine, loaded, measured = _augment_inputs(args.augment, args.data, args.machine)
     elif args.machine is None:
@@ -175,7 +175,7 @@ def _plan(args) -> int:
         machine = load_machine(args.machine)
     solve = solved_axes(machine, None if args.solve is None else [s.strip() for s in args.solve.split(",") if s.strip()])
     if args.board and args.marks_mm:
-        raise DataError("--board or --marks-mm: choose one", parameter="--board")
+        raise DataError("or --marks-mm: choose one", parameter="--board")
     if args.board:
         from kinid.vision import load_board
 
