@@ -91,6 +91,21 @@ def test_identify_reads_a_tracker_export_as_it_is_and_recovers_the_truth(arm, ca
     assert np.sqrt(np.mean(np.sum(r**2, axis=1))) / 1e3 < 1.0  # held-out 3-D RMS, mm (noise 0.05-0.3 mm)
 
 
+def test_diagnose_reads_the_export_the_fit_was_made_from(arm, capsys):
+    """diagnose takes the same export as identify (its mapping printed), and with the model right finds noise."""
+    d, urdf, machine, tm, free = arm
+    train, _, _, _ = far.draw(machine, tm, free, 5, n_train=60)
+    data = _tracker_file(d / "tracker_d.csv", train)
+    assert main(["identify", "--machine", str(urdf), "--data", str(data), "--out", str(d / "fit_d.json")]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", "--fit", str(d / "fit_d.json"), "--data", str(data), "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert "elbow_joint [rad] -> J3" in err
+    import json
+
+    assert json.loads(out)["verdict"] == "noise"
+
+
 def test_several_targets_per_pose_in_metres_are_rows_of_their_own_and_identify_asks_for_one(arm, capsys):
     d, urdf, machine, tm, free = arm
     train, _, _, _ = far.draw(machine, tm, free, 3, n_train=8)

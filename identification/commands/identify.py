@@ -88,13 +88,15 @@ def register(sub) -> None:
                                    "effect, where (by mark, by axis), and which effects of the candidate library "
                                    "would explain it, best first; with the command that adds it.")
     p.add_argument("--fit", required=True, help="FIT.json written by kinid identify (its model is refitted)")
-    p.add_argument("--data", required=True, help="observation CSV (docs/formats.md)")
+    p.add_argument("--data", required=True,
+                   help="observation CSV, or an instrument export read as identify reads it (docs/formats.md)")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: replicates, else the fit's)")
     p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
     p.add_argument("--report", default=None, metavar="DIR", help="write plots and an HTML report to DIR")
     p.add_argument("--top", type=int, default=10, help="candidates to show in the readable report")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
+    _export_options(p)
     p.set_defaults(run=_diagnose)
 
     p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect",
@@ -392,12 +394,11 @@ def _diagnose(args) -> int:
     from ..diagnosis import diagnose
     from ..fitting import load_fit
     from ..fitting import Noise
-    from ..data import check_row_count, read_observations
+    from ..data import check_row_count
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
-    obs = _without_duplicates(read_observations(args.data, loaded.machine,
-                                                check_limits=not args.allow_outside_limits))
+    obs = _without_duplicates(_read_data(args, loaded.machine))
     check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
