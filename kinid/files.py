@@ -76,6 +76,20 @@ def atomic_write(path, mode: str = "w", **kwargs):
         raise
 
 
+def write_together(contents: dict) -> None:
+    """Write several files as one unit: each ``path -> str or bytes`` (text as UTF-8) to a temporary file beside it,
+    and only when every one is written whole, each renamed onto its path (``"-"``: standard output, last). A failure on any (a missing folder, a full
+    disk) leaves all of them as they were — not a new board file beside an old drawing of it."""
+    files = {path: content for path, content in contents.items() if str(path) != "-"}
+    with contextlib.ExitStack() as stack:
+        streams = [(stack.enter_context(atomic_write(path, "wb")), content) for path, content in files.items()]
+        for f, content in streams:
+            f.write(content.encode("utf-8") if isinstance(content, str) else content)
+    for path, content in contents.items():
+        if str(path) == "-":  # standard output, once the files are in place
+            write_text(path, content if isinstance(content, str) else content.decode("utf-8"))
+
+
 def write_text(path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (UTF-8); ``"-"`` writes it to standard output."""
     if str(path) == "-":

@@ -148,3 +148,25 @@ def test_a_standard_page_with_two_scale_bars_and_the_board_s_identifier(printed,
     assert not (tmp_path / "big.json").exists() and not (tmp_path / "big.pdf").exists()
     assert main(["board", "--out", str(tmp_path / "big.json"), "--page", "auto"]) == 0
     assert "a3 page" in capsys.readouterr().out
+
+
+def test_the_board_file_and_its_drawings_are_written_as_one_unit(tmp_path, capsys, monkeypatch):
+    """A drawing that cannot be written (its folder missing; a kill or a full disk mid-way) leaves no board file
+    beside it: a board file without the drawing it describes — or beside an older one — is worse than none. The
+    earlier files of the unit are not written, and an existing board file keeps its content."""
+    old = tmp_path / "b.json"
+    old.write_text("old\n")
+    argv = ["board", "--out", str(old), "--svg", str(tmp_path / "b.svg"), "--pdf", str(tmp_path / "none" / "b.pdf")]
+    assert main(argv) == 2
+    assert "none" in capsys.readouterr().err
+    assert old.read_text() == "old\n" and not (tmp_path / "b.svg").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.json"]  # no temporary file left either
+
+    import kinid.vision.board_print as board_print
+
+    def interrupted(*args, **kwargs):  # the SVG drawn, then the run stopped while the PDF was made
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(board_print, "board_pdf", interrupted)
+    assert main(argv[:-1] + [str(tmp_path / "b.pdf")]) == 130  # the command line's status for an interrupt
+    assert old.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["b.json"]

@@ -195,12 +195,17 @@ def save_board(board: Board, path) -> None:
     """Write ``board`` as a board description file (JSON, docs/formats.md), atomically."""
     from kinid.files import write_text
 
+    write_text(path, board_text(board))
+
+
+def board_text(board: Board) -> str:
+    """The board description file's text (JSON, docs/formats.md): one row of codes per line."""
     data = {"pitch_mm": board.pitch_mm, "rows": board.rows, "cols": board.cols, "center_d_mm": board.center_d_mm,
             "ring_inner_d_mm": board.ring_inner_d_mm, "ring_outer_d_mm": board.ring_outer_d_mm,
             "bits": board.bits, "codes": [list(map(int, row)) for row in board.codes]}
     lines = ",\n".join("    " + json.dumps(row) for row in data["codes"])
     head = json.dumps({k: v for k, v in data.items() if k != "codes"})[:-1]
-    write_text(path, head + ',\n  "codes": [\n' + lines + "\n  ]}\n")
+    return head + ',\n  "codes": [\n' + lines + "\n  ]}\n"
 
 
 def match_to_board(board: Board, markers, *, tolerance_pitch=0.3) -> list:

@@ -31,8 +31,8 @@ def register(sub) -> None:
 
 def _run(args) -> int:
     from kinid.errors import DataError
-    from kinid.files import atomic_write, write_text
-    from .board import make_board, save_board
+    from kinid.files import write_together
+    from .board import board_text, make_board
     from .board_print import board_id, board_layout, board_pdf, board_svg
 
     if not 3 <= args.bits <= 30:
@@ -47,15 +47,13 @@ def _run(args) -> int:
     board = make_board(args.rows, args.cols, args.pitch_mm, args.bits, args.center_d_mm, args.ring_inner_d_mm,
                        args.ring_outer_d_mm)
     lay = board_layout(board, args.page)  # a page kinid cannot draw is refused here, before any file is written
-    save_board(board, args.out)
-    written = [args.out]
+    contents = {args.out: board_text(board)}  # the board file and its drawings are one unit: all or none
     if args.svg:
-        write_text(args.svg, board_svg(board, args.page))
-        written.append(args.svg)
+        contents[args.svg] = board_svg(board, args.page)
     if args.pdf:
-        with atomic_write(args.pdf, "wb") as f:
-            f.write(board_pdf(board, args.page))
-        written.append(args.pdf)
+        contents[args.pdf] = board_pdf(board, args.page)
+    write_together(contents)
+    written = list(contents)
     paper = f"{lay.page} " if lay.page != "fit" else ""
     print(f"board {board_id(board)} of {board.rows} x {board.cols} marks, pitch {board.pitch_mm:g} mm, {paper}page "
           f"{lay.width_mm:.1f} x {lay.height_mm:.1f} mm; written: {', '.join(written)}")
