@@ -190,6 +190,25 @@ def test_linuxcnc_over_the_travel_is_refused_and_over_the_data_holds_the_reversa
     np.testing.assert_allclose((fwd - rev) * 1e3, result.values[i], atol=2e-3)
 
 
+def test_a_default_format_that_cannot_follow_is_left_out_and_the_others_written(compensated, capsys):
+    """Without --format, the format that would leave more error than none (LinuxCNC's 256 points over the travel)
+    is left out with a note naming it and why, and the formats that follow are written (it once wrote nothing);
+    asked for by name, the same format is refused (the test above)."""
+    folder, _ = compensated
+    out = folder.parent / "default_travel"
+    capsys.readouterr()
+    assert main(["compensate", "--fit", str(folder.parent / "fit.json"), "--out", str(out), "--all-terms",
+                 "--table-range", "travel", "--step-mm", "0.5"]) == 0
+    printed = capsys.readouterr().out
+    assert "X.comp: left out — applied as the controller applies it, it would leave" in printed
+    assert "more error than none" in printed and "X.comp: the controller's interpolation" not in printed
+    assert not (out / "X.comp").exists() and (out / "X_ssfk.lis").exists() and (out / "X_EEC_INI.spf").exists()
+    info = json.loads((out / "compensation.json").read_text())
+    names = {c["file"] for c in info["controller_files"]}
+    assert "X.comp" not in names and {"Y.comp", "X_ssfk.lis", "X_EEC_INI.spf"} <= names
+    assert all(c["never_worse"]["left_max"] >= 0 for c in info["controller_files"])
+
+
 def test_compensate_refuses_bad_input(tmp_path, capsys):
     (tmp_path / "fit.json").write_text("{}")
     assert main(["compensate", "--fit", str(tmp_path / "fit.json"), "--out", str(tmp_path / "c")]) == 2

@@ -24,7 +24,7 @@ def register(sub) -> None:
                    help="folder to write, whole or not at all (created if missing; an existing one is replaced only "
                         "if it is empty or holds an earlier compensation)")
     p.add_argument("--format", dest="formats", nargs="+", choices=sorted(CONTROLLER_FORMATS),
-                   default=list(default_formats()),
+                   default=None,
                    help=f"controller formats to write (default: {' '.join(default_formats())})")
     p.add_argument("--table-range", dest="range_policy", choices=("data", "travel"), default="data",
                    help="tables over the measured readings of each axis (default) or over the URDF travel (refused "
@@ -86,7 +86,7 @@ def _compensate(args) -> int:
     numbers = _axis_numbers(args.axis_numbers)
     result = load_trusted_fit(args.fit)  # a fit that did not converge never reaches a controller
     out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,
-                             formats=tuple(args.formats), fit_path=args.fit, range_policy=args.range_policy,
+                             formats=None if args.formats is None else tuple(args.formats), fit_path=args.fit, range_policy=args.range_policy,
                              beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers)
     print(f"compensation of {Path(args.fit).name} written to {args.out}: {', '.join(out.files)}")
     if out.controller:

@@ -376,7 +376,21 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                              f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
                              f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
     # never worse than none: every table applied as its controller applies it, before anything is written
-    outcome = {check.file: check_table(check, at, ends) for check, at, ends in checks}
+    outcome, worse = {}, []
+    for check, at, ends in checks:
+        try:
+            outcome[check.file] = check_table(check, at, ends)
+        except DataError as exc:
+            if formats is not None or len(worse) + 1 == len(checks):  # asked for by name, or none would do
+                raise
+            worse.append((check.file, exc.message.split("; nothing written")[0].split(": ", 1)[-1]))
+    for name, why in worse:  # a default format that cannot follow the error is left out, the others written
+        del files[name]
+        written.remove(name)
+        notes[:] = [n for n in notes if not n.startswith(f"{name}: ")]
+        notes.append(f"{name}: left out — {why}; the other formats' tables are "
+                     f"written (--format names the formats to write, and refuses one that cannot follow)")
+    controller = [entry for entry in controller if entry["file"] in outcome]
     for entry in controller:
         entry["never_worse"] = outcome[entry["file"]]
     setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out))
