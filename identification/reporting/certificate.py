@@ -188,6 +188,12 @@ def _iso_part(isos):
         words.append(f"Axis {axis} positions with accuracy A = {_g(d['A_um'])} µm and repeatability R = "
                      f"{_g(d['R_um'])} µm over {span} mm ({d['standard']}, {len(targets)} targets, {d['runs']} runs "
                      f"each way).")
+    if len(isos) > 3:  # one sentence for many axes: the table carries each
+        worst = max(isos, key=lambda pd: pd[1]["A_um"])
+        words = [f"Positioning of {len(isos)} axes ({isos[0][1]['standard']}): accuracy A from "
+                 f"{_g(min(d['A_um'] for _, d in isos))} to {_g(worst[1]['A_um'])} µm (axis "
+                 f"{worst[1].get('axis') or Path(worst[0]).stem}), repeatability R from "
+                 f"{_g(min(d['R_um'] for _, d in isos))} to {_g(max(d['R_um'] for _, d in isos))} µm."]
     table = CertTable(("axis", "travel (mm)", "targets", "runs", "A (µm)", "R (µm)", "E (µm)", "B (µm)", "M (µm)"),
                       tuple(rows), numeric=(2, 3, 4, 5, 6, 7, 8),
                       caption="Positioning (ISO 230-2, bidirectional): A accuracy, R repeatability, E systematic "
