@@ -11,13 +11,13 @@ page is shrunk down to :data:`MIN_SCALE` and refused beyond; tables keep at most
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
 from pathlib import Path
 
 from kinid.errors import DataError
 from kinid.schema import Fields, Flag, Items, Number, Text, validate
 
 from ..fitting import load_trusted_fit
+from .certificate_layout import MIN_SCALE, Certificate, CertTable
 from .certificate_meta import CertificateMeta
 
 __all__ = ["Certificate", "CertTable", "build_certificate", "write_certificate", "read_verify", "read_iso",
@@ -28,8 +28,6 @@ __all__ = ["Certificate", "CertTable", "build_certificate", "write_certificate",
 K_COVERAGE = 2.0
 #: At most this many geometric errors in the table (the largest |value|/U first); the rest are counted.
 MAX_ERROR_ROWS = 14
-#: The smallest scale of the page's content (1 = 9 pt text) before the certificate is refused as too long.
-MIN_SCALE = 0.72
 #: The files the certificate folder holds.
 FILES = ("certificate.pdf", "certificate.html")
 
@@ -45,33 +43,6 @@ _POSITION = Fields({"target_mm": Number()}, other=True)
 ISO_SCHEMA = Fields({"standard": Text(), "A_um": Number(low=0), "R_um": Number(low=0), "E_um": Number(low=0),
                      "B_um": Number(low=0), "M_um": Number(low=0), "runs": Number(low=1, integer=True),
                      "positions": Items(_POSITION, min_length=1)}, optional={"axis": Text()}, other=True)
-
-
-@dataclass(frozen=True)
-class CertTable:
-    """A small table of the page: header cells, rows of cells (str), the numeric columns, a caption."""
-
-    header: tuple
-    rows: tuple
-    numeric: tuple = ()
-    caption: str = ""
-
-
-@dataclass(frozen=True)
-class Certificate:
-    """The content of the page, the same for the PDF and the HTML (every text plain, escaped where drawn)."""
-
-    title: str
-    number: str
-    identification: tuple          # (label, value)
-    conditions: tuple              # (label, value)
-    results: tuple                 # sentences: the results in plain words
-    tables: tuple                  # CertTable
-    uncertainty: tuple             # sentences: the uncertainty statement
-    traceability: tuple            # (label, value)
-    warnings: tuple                # sentences shown boxed on the page
-    signatures: tuple = ("Measured by (operator)", "Approved by", "Accepted by (customer)")
-    issued_by: str = ""
 
 
 def _sha256(path) -> str:

@@ -3,7 +3,7 @@
 reportlab's Platypus flows the text: paragraphs and table cells break lines only between words (a word longer
 than a line, a SHA-256, is the only one split), so no word is cut mid-line as a hand-made wrapper does. The page
 is one frame: the content is measured at the full size (9 pt text) and, where it is too tall, at smaller scales
-down to :data:`.certificate.MIN_SCALE`; beyond that it is refused, never spilled onto a second page. The fonts are
+down to :data:`MIN_SCALE`; beyond that it is refused, never spilled onto a second page. The fonts are
 DejaVu Sans from matplotlib's data (µ, σ, ±, ↑, ², ⁻¹ drawn as themselves), embedded in the PDF.
 """
 from __future__ import annotations
@@ -11,11 +11,42 @@ from __future__ import annotations
 import io
 from xml.sax.saxutils import escape
 
+from dataclasses import dataclass
+
 from kinid.errors import DataError
 
-from .certificate import MIN_SCALE, Certificate
+__all__ = ["Certificate", "CertTable", "certificate_pdf", "certificate_html", "fits_scale", "MIN_SCALE"]
 
-__all__ = ["certificate_pdf", "certificate_html", "fits_scale"]
+#: The smallest scale of the page's content (1 = 9 pt text) before the certificate is refused as too long.
+MIN_SCALE = 0.72
+
+
+@dataclass(frozen=True)
+class CertTable:
+    """A small table of the page: header cells, rows of cells (str), the numeric columns, a caption."""
+
+    header: tuple
+    rows: tuple
+    numeric: tuple = ()
+    caption: str = ""
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """The content of the page, the same for the PDF and the HTML (every text plain, escaped where drawn)."""
+
+    title: str
+    number: str
+    identification: tuple          # (label, value)
+    conditions: tuple              # (label, value)
+    results: tuple                 # sentences: the results in plain words
+    tables: tuple                  # CertTable
+    uncertainty: tuple             # sentences: the uncertainty statement
+    traceability: tuple            # (label, value)
+    warnings: tuple                # sentences shown boxed on the page
+    signatures: tuple = ("Measured by (operator)", "Approved by", "Accepted by (customer)")
+    issued_by: str = ""
+
 
 _MARGIN_MM = 14.0
 _GREY, _BLUE, _RED_BG = "#57606a", "#2f6fbf", "#fbeaea"

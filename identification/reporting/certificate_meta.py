@@ -61,8 +61,15 @@ class CertificateMeta:
 def read_meta(path, *, today: date | None = None) -> CertificateMeta:
     """Read and check META.json (:func:`check_meta`); a DataError naming the file and the key otherwise."""
     from kinid.files import read_json
+    from kinid.schema import Fields, Number, Text, validate
 
-    return check_meta(read_json(path, what="certificate metadata file"), path=path, today=today)
+    data = read_json(path, what="certificate metadata file")
+    meta = check_meta(data, path=path, today=today)  # the messages a person acts on: did you mean, °F given
+    schema = {k: Number(low=TEMPERATURE_RANGE_C[0], high=TEMPERATURE_RANGE_C[1]) if k.endswith("_c") else Text()
+              for k in META_KEYS}
+    validate(data, Fields({k: v for k, v in schema.items() if META_KEYS[k][0]},
+                          optional={k: Text(null=True) for k in schema if not META_KEYS[k][0]}), path=path)
+    return meta
 
 
 def check_meta(data, *, path=None, today: date | None = None) -> CertificateMeta:
