@@ -43,6 +43,7 @@ VERBS = {
     "model": Verb("kinid.identification.commands.model", "an existing URDF (a ROS robot, a machine drawn elsewhere) -> a machine kinid can identify"),
     "compensate": Verb("kinid.identification.commands.compensate", "axis error tables, constants, a calibrated URDF and controller files from a fit"),
     "verify": Verb("kinid.identification.commands.verify", "the run after loading the compensation: error before and after, what is left"),
+    "certificate": Verb("kinid.identification.commands.certificate", "a one-page certificate (PDF and HTML) for the customer to sign: fit, verification, ISO 230-2"),
     "history": Verb("kinid.identification.commands.history", "a machine's calibrations over time in one database: which error grows"),
     "sensor": Verb("kinid.identification.commands.sensor", "the laser's offset beside the camera from the hole or sphere set-up measurement"),
     "observe": Verb("kinid.identification.commands.observe", "images + axis readings of a run -> observation CSV (marks located and decoded)"),

@@ -207,6 +207,7 @@ CALLS = {
                                 "0.0049931", "0.0002617", "0.0002617", "-0.0049931"],
     ("contour", "--report"): ["contour", "--simulate", "--sim-frames", "16", "--workers", "1"],
     ("contour", "--keep"): ["contour", "--simulate", "--sim-frames", "16", "--workers", "1"],
+    ("certificate", "--out"): ["certificate", "--fit", "{d}/fit.json", "--meta", str(EXAMPLES / "certificate_meta.json")],
     ("iso230-2", "--report"): ["iso230-2", "--data", str(EXAMPLES / "x_runs.csv"), "--axis", "X"],
 }
 

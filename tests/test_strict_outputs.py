@@ -351,7 +351,7 @@ def test_verify_report_refused_early_replaced_and_interrupted(run, tmp_path, mon
     rep = tmp_path / "rep"
     assert main([*argv, str(rep)]) == 0
     first = _snapshot(rep)
-    assert set(first) == {"index.html", "before_after.png", "report.html", "report.pdf"}
+    assert set(first) == {"index.html", "before_after.png", "report.html", "report.pdf", "verify.json"}
 
     def interrupted(v, path):
         Path(path).write_bytes(b"half")

@@ -66,6 +66,8 @@ class Verification:
         The alignment of this run where the tool point error grew most against the fit's prediction of the error
         before at the same pose: ``mark``, ``line`` (of the CSV, where known), ``readings`` (axis -> mm / deg),
         ``before_um`` and ``after_um`` (3-D); None where it grew nowhere.
+    before_max_3d_um, after_max_3d_um : float
+        The largest 3-D tool point error before and after (over the same alignments as the RMS), µm.
     """
 
     n_observations: int
@@ -80,6 +82,8 @@ class Verification:
     diagnosis: Diagnosis
     noise_dof: float = math.inf
     grew_most: dict | None = None
+    before_max_3d_um: float = math.nan
+    after_max_3d_um: float = math.nan
 
     @property
     def made_worse(self) -> bool:
@@ -118,6 +122,7 @@ class Verification:
         best = self.diagnosis.advised[0]
         return {"n_observations": self.n_observations, "before_um": self.before_um,
                 "before_source": self.before_source, "after_um": self.after_um,
+                "before_max_3d_um": _finite(self.before_max_3d_um), "after_max_3d_um": _finite(self.after_max_3d_um),
                 "noise_um": self.noise.value_um, "noise_source": self.noise.source,
                 "noise_dof": None if not math.isfinite(self.noise_dof) else float(self.noise_dof),
                 "noise_level_3d_um": self.noise_level_3d_um,
@@ -167,6 +172,10 @@ class Verification:
         return "\n".join(lines)
 
 
+def _finite(x: float):
+    return float(x) if math.isfinite(x) else None
+
+
 def setup_effects(machine) -> list:
     """The constant set-up effects of the workpiece (W) and the sensor (T)."""
     return [e for e in default_model(machine) if machine.error_joint(e.code).axis in ("W", "T")]
@@ -177,6 +186,11 @@ def _rms(r_um: np.ndarray) -> dict:
     out = {k: float(np.sqrt(np.mean(r[:, i] ** 2))) for i, k in enumerate("xyz")}
     out["3d"] = float(np.sqrt(np.mean(np.sum(r ** 2, axis=1))))
     return out
+
+
+def _largest(r_um: np.ndarray) -> float:
+    """The largest 3-D tool point error of an (N, 3) residual, µm."""
+    return float(np.max(np.linalg.norm(np.asarray(r_um, float), axis=1)))
 
 
 def _predicted_before(result: FitResult, obs: Observations, effects) -> np.ndarray:
@@ -225,12 +239,12 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     after_fit = fit(machine, after, effects, noise_um=noise)
     predicted = _predicted_before(result, after, effects)
     if before is not None:
-        before_um = _rms(fit(machine, before, effects, noise_um=noise).residuals_um)
+        before_r = fit(machine, before, effects, noise_um=noise).residuals_um
         source = "measured in the first run"
     else:
-        before_um = _rms(predicted)
+        before_r = predicted
         source = "predicted by the fit at these poses"
-    after_um = _rms(after_fit.residuals_um)
+    before_um, after_um = _rms(before_r), _rms(after_fit.residuals_um)
     grew = _grew_most(machine, after, predicted, after_fit.residuals_um)
     n = after.axes.shape[0]
     dof = after_fit.dof
@@ -248,7 +262,8 @@ def verify(result: FitResult, after: Observations, *, before: Observations | Non
     at_noise = bool(np.isfinite(p) and p >= ALPHA) or (not np.isfinite(p) and remaining.verdict == "noise")
     return Verification(n_observations=n, before_um=before_um, before_source=source, after_um=after_um, noise=noise,
                         noise_level_3d_um=level, chi2_p=p, at_noise_level=at_noise, setup_fit=after_fit,
-                        diagnosis=remaining, noise_dof=noise_dof, grew_most=grew)
+                        diagnosis=remaining, noise_dof=noise_dof, grew_most=grew,
+                        before_max_3d_um=_largest(before_r), after_max_3d_um=_largest(after_fit.residuals_um))
 
 
 def _grew_most(machine, obs: Observations, before_um: np.ndarray, after_um: np.ndarray) -> dict | None:

@@ -47,6 +47,9 @@ def verification_report(v, folder, *, fit_path, data_path) -> Path:
 
 
 def _verification_report(v, folder: Path, *, fit_path, data_path) -> None:
+    from kinid.files import write_json
+
+    write_json(folder / "verify.json", v.summary())  # what kinid verify --json prints, for kinid certificate
     plot_before_after(v, folder / "before_after.png")
     rows = tuple((name, *(f"{d[k]:.3f}" for k in ("x", "y", "z", "3d")))
                  for name, d in ((f"before ({v.before_source})", v.before_um),

@@ -61,6 +61,10 @@ def write_pdf(path, title: str, subtitle: str, provenance, summary, sections, *,
         out.write(buf.getvalue())
 
 
+#: A page holding at most this many lines of a text block alone is avoided by setting the block's lines closer.
+_FEW_LINES = 8
+
+
 class _Flow:
     """Pages being filled top to bottom; positions in points from the page's top-left corner."""
 
@@ -168,13 +172,49 @@ class _Flow:
         self.y += 6
 
     def preformatted(self, s: str) -> None:
+        """Monospace text, a long line broken at a space (:meth:`wrap_preformatted`); where the block would leave
+        at most :data:`_FEW_LINES` lines alone on a page of their own, its lines are set up to 9 % closer instead."""
         size = 6.5
+        lines = self.wrap_preformatted(s, size, self.right - self.left)
         step = size * 1.3
-        for line in self.wrap(s.replace(" ", "\u00a0"), size, self.right - self.left, family="monospace"):
+        pages, alone = self._pages_for(len(lines), step)
+        if 0 < alone <= _FEW_LINES:
+            step = next((step * f for f in (0.97, 0.94, 0.91) if self._pages_for(len(lines), step * f)[0] < pages),
+                        step)
+        for line in lines:
             self._room(step)
-            self._put(self.left, self.y, line, size, family="monospace")
+            self._put(self.left, self.y, line.replace(" ", "\u00a0"), size, family="monospace")
             self.y += step
         self.y += 6
+
+    def _pages_for(self, n: int, step: float) -> tuple:
+        """New pages ``n`` lines at ``step`` open below the cursor, and the lines alone on the last of them."""
+        import math
+
+        here = 0 if not self.pages else max(0, math.floor((self.bottom - self.y) / step + 1e-9))
+        per_page = math.floor((self.bottom - self.top) / step + 1e-9)
+        if n <= here:
+            return 0, 0
+        return math.ceil((n - here) / per_page), (n - here) % per_page or per_page
+
+    def wrap_preformatted(self, s: str, size: float, width_pt: float) -> list:
+        """Lines of monospace ``s`` no wider than ``width_pt``: a longer line breaks at its last space that fits and
+        goes on two characters further in than it began; only a word longer than a line is cut."""
+        per_line = max(8, int(width_pt / (self._width("M" * 20, size, family="monospace") / 20)))
+        out = []
+        for line in s.split("\n"):
+            indent = min(len(line) - len(line.lstrip(" ")) + 2, per_line // 2)
+            first = True
+            while len(line) > per_line:
+                start = 0 if first else indent
+                cut = line.rfind(" ", start + 1, per_line + 1)
+                if cut <= start or not line[start:cut].strip():
+                    cut = per_line  # one word longer than a line (a hash, a path)
+                out.append(line[:cut].rstrip())
+                line = " " * indent + line[cut:].lstrip(" ")
+                first = False
+            out.append(line)
+        return out
 
     # -- tables and figures ---------------------------------------------------------------------------
     def table(self, t) -> None:
