@@ -38,6 +38,7 @@ from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
 from .ranges import axis_range, turn_change
+from .rotary_geometry import kinematics_files, rotary_geometry
 from .table_check import TableCheck, check_positions, check_table
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
@@ -190,12 +191,6 @@ def positioning_table(result: FitResult, axis: str, positions) -> AxisErrorTable
     return AxisErrorTable(axis, rotary, np.asarray(positions, float), fwd, rev)
 
 
-# --- URDF geometry ------------------------------------------------------------------------------
-
-
-# --- grids a controller's interpolation follows --------------------------------------------------
-
-
 # --- the compensation folder -------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -225,11 +220,13 @@ class CompensationFiles:
     controller: tuple = ()
     axis_numbers: AxisNumbers | None = None
     checked: int = 0
+    geometry: object = None  # the rotary axes' geometry (kinid.kinematics_formats.RotaryGeometry), or None
 
 
 def write_compensation(result: FitResult, folder, *, step_mm: float | None = None, step_deg: float | None = None,
                        formats=None, fit_path=None, range_policy: str = "data", beyond: str = "hold",
-                       all_terms: bool = False, axis_numbers: dict | None = None) -> CompensationFiles:
+                       all_terms: bool = False, axis_numbers: dict | None = None,
+                       kinematics_formats=None) -> CompensationFiles:
     """Write the compensation of ``result`` into ``folder``.
 
     Files: ``<AXIS>.csv`` per motion axis with compensated errors, ``constants.json``,
@@ -254,6 +251,9 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     axis_numbers : dict axis -> int, optional
         The controller's axis numbers; an axis not given gets its place in the URDF's chain
         (:func:`controller_axis_numbers`).
+    kinematics_formats : sequence of str, optional
+        Kinematics formats (:data:`kinid.kinematics_formats.KINEMATICS_FORMATS`) for the rotary axes' geometry;
+        default: every default one that has a layout for the machine (:mod:`.rotary_geometry`).
     """
     from kinid import __version__
     from kinid.files import check_outputs, json_text, write_text
@@ -392,6 +392,13 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         written.append("setup.json")
     files["calibrated.urdf"] = calibrated_urdf(model)
     written.append("calibrated.urdf")
+    geometry = rotary_geometry(comp)
+    kinematics = None if geometry is None else kinematics_files(
+        geometry, kinematics_formats, comment=f"kinid {__version__}: rotary axes of {Path(machine.path).name}")
+    if kinematics is not None:
+        files.update(kinematics.files)
+        written += list(kinematics.files)
+        notes += list(kinematics.notes)
     notes += [f"{n}: left out ({why})" for n, why in comp.left_out if not why.startswith("set-up")]
     notes += [f"{n}: written as 0 in setup.json ({why})" for n, why in comp.setup_left_out]
     info = {
@@ -416,6 +423,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                                f"written as 0"),
         "setup_written_as_zero": [{"effect": n, "reason": why} for n, why in comp.setup_left_out],
         "setup_file": "setup.json" if setup else None,
+        "kinematics": None if kinematics is None else kinematics.info,
         "never_worse": {"tables_checked": len(outcome), "rule": (
             "each table, read back and applied as its controller applies it, leaves at no measured position (the "
             "readings and 2001 points over the measured range) more than the error itself plus 10 % of its RMS (or "
@@ -426,7 +434,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     with staged_folder(folder, foreign=_not_earlier_compensation) as stage:
         for name, text in files.items():
             write_text(stage / name, text)
-    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome))
+    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome), geometry)
 
 
 def _not_one_turn(axis: str, names, cols_at, rng: AxisRange) -> dict | None:
@@ -483,8 +491,9 @@ def _not_earlier_compensation(folder) -> list:
         return names
     own = set(FIXED_FILES)
     tables, controller = info.get("tables"), info.get("controller_files")
+    kinematics = (info.get("kinematics") or {}).get("files") if isinstance(info.get("kinematics"), dict) else None
     for entry in [*(tables.values() if isinstance(tables, dict) else ()),
-                  *(controller if isinstance(controller, list) else ())]:
+                  *(controller if isinstance(controller, list) else ()), *(kinematics or ())]:
         if isinstance(entry, dict) and isinstance(entry.get("file"), str):
             own.add(entry["file"])
     return [n for n in names if n not in own or (folder / n).is_symlink() or not (folder / n).is_file()]
