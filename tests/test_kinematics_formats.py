@@ -121,6 +121,9 @@ def test_a_head_layout_gets_no_trunnion_file_and_a_one_line_reason(tmp_path, cap
     said = capsys.readouterr().out
     assert not (out / "trt-kins.hal").exists() and (out / "KINID_CYCLE800.MPF").exists()
     assert "not written, trunnion kinematics hold two table axes" in said
+    # the kinematics file is the folder's own: a second run replaces the folder (a foreign file would keep it)
+    assert main(["compensate", "--fit", str(tmp_path / "fit.json"), "--out", str(out)]) == 0
+    assert (out / "KINID_CYCLE800.MPF").exists()
 
 
 def test_a_machine_without_rotary_axes_gets_no_kinematics_files(tmp_path):

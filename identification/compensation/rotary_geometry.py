@@ -125,7 +125,8 @@ def rotary_geometry(comp) -> RotaryGeometry | None:
     for code, value in errors.items():
         axis = machine.error_joint(code).axis
         if machine.axis(axis).kind == "prismatic":
-            left.append((code, f"{value:.4g} {machine.error_joint(code).unit}: the orientation of linear axis "
+            unit = {"um": "µm", "urad": "µrad"}[machine.error_joint(code).unit]
+            left.append((code, f"{value:.4g} {unit}: the orientation of linear axis "
                                f"{axis} — in the geometry of the axes it carries, but its own squareness is for the "
                                f"controller's squareness compensation"))
     if any(e.axis in ("W", "T") for e in machine.error_joints):
