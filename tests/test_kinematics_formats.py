@@ -130,3 +130,40 @@ def test_a_machine_without_rotary_axes_gets_no_kinematics_files(tmp_path):
     m = load_machine(urdf_path("gantry_dual_y"))
     assert not any(a.kind == "revolute" for a in m.axes)
     assert {"sinumerik", "linuxcnc"} <= set(KINEMATICS_FORMATS)
+
+
+def test_more_than_two_rotary_axes_get_a_note_not_a_file():
+    from types import SimpleNamespace
+
+    from kinid.identification.compensation.rotary_geometry import kinematics_note
+
+    arm = SimpleNamespace(axes=[SimpleNamespace(name=n, kind="revolute") for n in ("J1", "J2", "J3")])
+    assert kinematics_note(arm) == ("no kinematics files: 3 rotary axes (J1, J2, J3); a controller's five-axis "
+                                    "kinematics holds one or two")
+    five = SimpleNamespace(axes=[SimpleNamespace(name=n, kind="revolute") for n in ("B", "C")])
+    assert kinematics_note(five) is None
+
+
+@pytest.mark.parametrize("name", sorted(ROTARY_ERRORS))
+def test_exact_location_errors_are_reproduced_by_the_swivel_data(name, tmp_path):
+    """Exact recovery: a fit holding the location errors exactly (σ 0.1), no noise, poses over the whole travel."""
+    from test_compensation_files import _fit_of
+    from kinid.identification.compensation.compensate import write_compensation
+
+    m = load_machine(urdf_path(name))
+    values = {**ROTARY_ERRORS[name], **SETUP}
+    out = write_compensation(_fit_of(m, values), tmp_path / "comp")
+    assert "KINID_CYCLE800.MPF" in out.files and out.geometry.kind == ("head-table" if "bhead" in name else
+                                                                       "table-table")
+    rng = np.random.default_rng(11)
+    names = m.axis_names
+    rows = np.column_stack([rng.uniform(-100, 100, len(rng.random(200))) if m.axis(a).kind == "prismatic" else
+                            rng.uniform(-90, 90, 200) for a in names])
+    readings = dict(zip(names, rows.T))
+    first, second = ORDER[name]
+    text = (tmp_path / "comp" / "KINID_CYCLE800.MPF").read_text()
+    fitted = _carried_mm(tmp_path / "comp" / "calibrated.urdf", names, rows)
+    nominal = _carried_mm(urdf_path(name), names, rows)
+    controller = cycle800_points(text, _coordinates(readings), readings[first], readings[second])
+    assert _rms_um(fitted - nominal) > 20.0
+    assert np.abs(controller - fitted).max() * 1e3 < 0.01  # µm: the file's 6 decimals of a mm, 9 of a unit vector

@@ -38,7 +38,7 @@ from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
 from .ranges import axis_range, turn_change
-from .rotary_geometry import kinematics_files, rotary_geometry
+from .rotary_geometry import kinematics_files
 from .table_check import TableCheck, check_positions, check_table
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
@@ -392,9 +392,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         written.append("setup.json")
     files["calibrated.urdf"] = calibrated_urdf(model)
     written.append("calibrated.urdf")
-    geometry = rotary_geometry(comp)
-    kinematics = None if geometry is None else kinematics_files(
-        geometry, kinematics_formats, comment=f"kinid {__version__}: rotary axes of {Path(machine.path).name}")
+    kinematics = kinematics_files(comp, kinematics_formats, f"kinid {__version__}: rotary axes of "
+                                                            f"{Path(machine.path).name}")
     if kinematics is not None:
         files.update(kinematics.files)
         written += list(kinematics.files)
@@ -434,7 +433,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     with staged_folder(folder, foreign=_not_earlier_compensation) as stage:
         for name, text in files.items():
             write_text(stage / name, text)
-    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome), geometry)
+    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome),
+                             None if kinematics is None else kinematics.geometry)
 
 
 def _not_one_turn(axis: str, names, cols_at, rng: AxisRange) -> dict | None:

@@ -19,13 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinid.errors import DataError
 from kinid.kinematics_formats import (LinearAxisMapping, RotaryAxisGeometry, RotaryGeometry,
                                       default_kinematics_formats, kinematics_format)
 from ..model import basis_of
 
-__all__ = ["rotary_geometry", "location_errors", "carried_points_mm", "kinematics_files", "KinematicsFiles",
-           "geometry_lines"]
+__all__ = ["rotary_geometry", "location_errors", "carried_points_mm", "kinematics_files", "kinematics_note",
+           "KinematicsFiles", "geometry_lines"]
 
 _KIND = {(0, 2): "table-table", (2, 0): "head-head", (1, 1): "head-table", (0, 1): "table", (1, 0): "head"}
 
@@ -81,12 +80,9 @@ def _joint_axes(machine) -> dict:
 
 
 def rotary_geometry(comp) -> RotaryGeometry | None:
-    """The rotary axes' geometry of a :class:`Compensation` (None where the machine has no rotary axis).
+    """The rotary axes' geometry of a :class:`Compensation`.
 
-    Raises
-    ------
-    DataError
-        If the machine has more than two rotary axes (a controller's five-axis kinematics holds two).
+    None where the machine has no rotary axis, or more than two (:func:`kinematics_note` says why).
     """
     from pathlib import Path
 
@@ -98,8 +94,7 @@ def rotary_geometry(comp) -> RotaryGeometry | None:
     tables = sorted((a for a in rotary if a.chain != "tool"), key=lambda a: machine.model.getJointId(a.joint))
     kind = _KIND.get((len(heads), len(tables)))
     if kind is None:
-        raise DataError(f"{len(rotary)} rotary axes ({', '.join(a.name for a in rotary)}): a controller's kinematics "
-                        f"holds one or two", path=machine.path)
+        return None
     errors = location_errors(comp)
     cal, t_cal = _home(machine, errors)
     nom, t_nom = _home(machine, {})
@@ -160,6 +155,15 @@ def carried_points_mm(machine, errors: dict, axes_user) -> np.ndarray:
     return np.array(out)
 
 
+def kinematics_note(machine) -> str | None:
+    """Why a machine with rotary axes gets no kinematics files (more than two of them), or None."""
+    rotary = [a.name for a in machine.axes if a.kind == "revolute"]
+    if len(rotary) <= 2:
+        return None
+    return (f"no kinematics files: {len(rotary)} rotary axes ({', '.join(rotary)}); a controller's five-axis "
+            f"kinematics holds one or two")
+
+
 @dataclass(frozen=True)
 class KinematicsFiles:
     """The kinematics files of one geometry.
@@ -172,15 +176,26 @@ class KinematicsFiles:
         What a format leaves out, or why it writes nothing for this machine.
     info : dict
         For compensation.json: the geometry, each file with its format and sha256.
+    geometry : RotaryGeometry or None
+        None where the machine has more than two rotary axes (no file, a note).
     """
 
     files: dict
     notes: tuple
     info: dict
+    geometry: RotaryGeometry | None = None
 
 
-def kinematics_files(geometry: RotaryGeometry, formats=None, comment: str = "") -> KinematicsFiles:
-    """Every kinematics format that applies (``formats``: names asked for; default: every default one)."""
+def kinematics_files(comp, formats=None, comment: str = "") -> KinematicsFiles | None:
+    """The rotary axes' geometry of a :class:`Compensation` in every kinematics format that applies (``formats``:
+    names asked for; default: every default one); None where the machine has no rotary axis."""
+    machine = comp.result.machine
+    if not any(a.kind == "revolute" for a in machine.axes):
+        return None
+    why = kinematics_note(machine)
+    if why is not None:
+        return KinematicsFiles({}, (why,), {"not_written": why})
+    geometry = rotary_geometry(comp)
     fmts = [kinematics_format(f) for f in (default_kinematics_formats() if formats is None else formats)]
     files, notes, entries = {}, [], []
     for fmt in fmts:
@@ -204,7 +219,7 @@ def kinematics_files(geometry: RotaryGeometry, formats=None, comment: str = "") 
             "location_errors": [{"effect": c, "value": v, "unit": u} for c, v, u in geometry.location_errors],
             "not_in_the_kinematics": [{"what": c, "why": w} for c, w in geometry.left_out],
             "files": entries}
-    return KinematicsFiles(files, tuple(notes), info)
+    return KinematicsFiles(files, tuple(notes), info, geometry)
 
 
 def geometry_lines(geometry: RotaryGeometry) -> list:
