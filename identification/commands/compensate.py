@@ -16,8 +16,10 @@ def register(sub) -> None:
                     "compensated error joint of the axis over its measured range), constants.json, setup.json "
                     "(the board's and the sensor's set-up, for the work and tool offsets), calibrated.urdf "
                     "(machine constants folded into the geometry, error joints kept at zero), compensation.json "
-                    "(provenance, what was left out and why, how closely each controller file follows the model) "
-                    "and the positioning-error tables in controller formats (docs/compensation.md). Only "
+                    "(provenance, what was left out and why, how closely each controller file follows the model), "
+                    "the positioning-error tables in controller formats and, on a machine with rotary axes, where "
+                    "they turn in the controllers' kinematics (KINID_CYCLE800.MPF, trt-kins.hal; "
+                    "docs/compensation.md). Only "
                     "significant machine errors are compensated: a term whose every parameter is within its "
                     "expanded uncertainty (k = 2) is left out, as are the set-up and drifts.")
     p.add_argument("--fit", required=True, help="FIT.json written by kinid identify")

@@ -232,8 +232,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     Files: ``<AXIS>.csv`` per motion axis with compensated errors, ``constants.json``,
     ``setup.json`` (the board's and the sensor's set-up, for the work and tool offsets),
     ``calibrated.urdf``, ``compensation.json`` (provenance, ranges, what was left out and why, how
-    closely each controller file follows the model) and, per controller format, one file per axis
-    with a positioning error.
+    closely each controller file follows the model), per controller format one file per axis with a
+    positioning error, and the rotary axes' geometry per kinematics format (:mod:`.rotary_geometry`).
 
     Parameters
     ----------

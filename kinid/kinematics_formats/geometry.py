@@ -1,4 +1,5 @@
-"""The rotary axes' geometry a controller's kinematics holds (docs/compensation.md#rotary-axes-into-the-controllers-kinematics).
+"""The rotary axes' geometry a controller's kinematics holds (docs/compensation.md, "Rotary axes into the
+controller's kinematics").
 
 Plain tuples of floats: the kinematics formats' registry loads without numpy.
 
@@ -115,12 +116,6 @@ class RotaryGeometry:
             if a.name == name:
                 return a
         raise KeyError(name)
-
-    def head_axes(self) -> tuple:
-        return tuple(a for a in self.axes if a.carrier == "head")
-
-    def table_axes(self) -> tuple:
-        return tuple(a for a in self.axes if a.carrier == "table")
 
     def mapping_words(self) -> str:
         """The linear axes' mapping in one line: ``X -> +X, Y -> -Y, Z -> +Z``."""

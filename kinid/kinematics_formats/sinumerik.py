@@ -70,7 +70,8 @@ def sinumerik_swivel_text(geometry, comment: str = "") -> str:
               f"rotary axes {' then '.join(s['axes'])}",
               "; vectors in mm in the machine frame with every axis at 0, the reference point at the tool point; "
               "axis vectors unit, + turning right-handed about them",
-              f"; linear axes: {geometry.mapping_words()} (the controller's coordinate of the tool relative to the part)"]
+              f"; linear axes: {geometry.mapping_words()} (the controller's coordinates of the tool relative to the "
+              f"part)"]
     slots = (("l1", 1), ("l2", 4), ("v1", 7), ("v2", 10), ("l3", 15), ("l4", 18))
     for key, first in slots:
         digits = 9 if key.startswith("v") else 6
