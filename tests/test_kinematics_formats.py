@@ -40,13 +40,14 @@ def _coordinates(readings: dict) -> np.ndarray:
     return np.stack([readings["X"], -readings["Y"], readings["Z"]], axis=1)
 
 
-def _carried_mm(urdf, names, rows) -> np.ndarray:
-    """Plain Pinocchio on ``urdf``: the tool point in the workpiece frame placed where the workpiece frame is at
-    home, from the tool point at home (mm): the part's point under the tool in the machine frame at home."""
-    pm = PlainMachine(urdf=urdf)
+def _carried_mm(urdf, names, rows, setup=None) -> np.ndarray:
+    """Plain Pinocchio on ``urdf`` with the offsets of ``setup`` (setup.json): the tool point in the workpiece
+    frame placed where the workpiece frame is at home, from the tool point at home (mm): the part's point under
+    the tool in the machine frame at home (the board's offset cancels; the sensor's is where the tool point is)."""
+    pm = PlainMachine(urdf=urdf, setup=setup)
     pm.tool_in_workpiece_mm(dict.fromkeys(names, 0.0))
-    oMw0 = pm.data.oMf[pm.model.getFrameId("workpiece")].copy()
-    t0 = pm.data.oMf[pm.model.getFrameId("tool")].translation.copy()
+    oMw0 = pm.data.oMf[pm.model.getFrameId("workpiece")] * pm.work_offset
+    t0 = (pm.data.oMf[pm.model.getFrameId("tool")] * pm.tool_offset).translation.copy()
     return np.array([oMw0.act(pm.tool_in_workpiece_mm(dict(zip(names, r))) * 1e-3) - t0 for r in rows]) * 1e3
 
 
@@ -68,8 +69,8 @@ def _compensated(tmp_path, name, errors, seed, *extra):
 def _compare(m, obs, out, points_of):
     names = m.axis_names
     readings = dict(zip(names, obs.axes.T))
-    fitted = _carried_mm(out / "calibrated.urdf", names, obs.axes)
-    nominal = _carried_mm(urdf_path(m.path.rsplit("/", 1)[-1][:-5]), names, obs.axes)
+    fitted = _carried_mm(out / "calibrated.urdf", names, obs.axes, out / "setup.json")
+    nominal = _carried_mm(urdf_path(m.path.rsplit("/", 1)[-1][:-5]), names, obs.axes, out / "setup.json")
     controller = points_of(_coordinates(readings), readings)
     return _rms_um(controller - fitted), _rms_um(fitted - nominal), 1e3 * float(np.abs(controller - fitted).max())
 
@@ -84,6 +85,19 @@ def test_cycle800_swivel_data_follow_the_fitted_machine(name, tmp_path, capsys):
     print(f"{name}: CYCLE800 leaves {left:.3g} µm RMS ({worst:.3g} µm max) of the location errors' {effect:.3g} µm")
     assert effect > 20.0  # the location errors move the part's point by tens of µm
     assert left <= 0.10 * effect
+    if name != "five_axis_bhead_c":  # against the true machine too (on the B head the patent plan leaves EY0C
+        # undetermined, σ 64 µm with EA0Z, so it is left out: the fit's limit, not the file's)
+        from test_compensation_files import _fit_of
+        from kinid.identification.compensation.compensate import write_compensation
+
+        write_compensation(_fit_of(m, {**ROTARY_ERRORS[name], **SETUP}), tmp_path / "truth")
+        truth = _carried_mm(tmp_path / "truth" / "calibrated.urdf", m.axis_names, obs.axes,
+                            tmp_path / "truth" / "setup.json")
+        nominal = _carried_mm(urdf_path(name), m.axis_names, obs.axes, tmp_path / "truth" / "setup.json")
+        readings = dict(zip(m.axis_names, obs.axes.T))
+        controller = cycle800_points(text, _coordinates(readings), readings[first], readings[second])
+        print(f"{name}: against the truth {_rms_um(controller - truth):.3g} µm of {_rms_um(truth - nominal):.3g} µm")
+        assert _rms_um(controller - truth) <= 0.10 * _rms_um(truth - nominal)
     carr = read_carr(text)
     assert carr[23] == ("M" if name == "five_axis_bhead_c" else "P") and (carr[21], carr[22]) == ORDER[name]
     # compensation.json names the file with its sha256, and the command says where the axes turn
@@ -162,8 +176,8 @@ def test_exact_location_errors_are_reproduced_by_the_swivel_data(name, tmp_path)
     readings = dict(zip(names, rows.T))
     first, second = ORDER[name]
     text = (tmp_path / "comp" / "KINID_CYCLE800.MPF").read_text()
-    fitted = _carried_mm(tmp_path / "comp" / "calibrated.urdf", names, rows)
-    nominal = _carried_mm(urdf_path(name), names, rows)
+    fitted = _carried_mm(tmp_path / "comp" / "calibrated.urdf", names, rows, tmp_path / "comp" / "setup.json")
+    nominal = _carried_mm(urdf_path(name), names, rows, tmp_path / "comp" / "setup.json")
     controller = cycle800_points(text, _coordinates(readings), readings[first], readings[second])
     assert _rms_um(fitted - nominal) > 20.0
     assert np.abs(controller - fitted).max() * 1e3 < 0.01  # µm: the file's 6 decimals of a mm, 9 of a unit vector

@@ -2,7 +2,9 @@
 
 - :func:`rotary_geometry` — where each rotary axis turns at the home position (its pivot point and its
   direction in the machine frame), nominal and with the significant location errors the compensation
-  keeps (the same filter as the constants); the set-up (board W, sensor T) is no part of it;
+  keeps (the same filter as the constants), from the sensor's point as the fit finds it (its set-up T
+  included: the data fix the pivots relative to the sensor that measured them); the board's set-up W
+  is no part of it;
 - :func:`carried_points_mm` — the tool point carried back by the table's motions into the machine frame
   at home (what a controller's kinematics computes from the axis readings), for a machine with
   given location errors;
@@ -29,16 +31,19 @@ __all__ = ["rotary_geometry", "location_errors", "carried_points_mm", "kinematic
 _KIND = {(0, 2): "table-table", (2, 0): "head-head", (1, 1): "head-table", (0, 1): "table", (1, 0): "head"}
 
 
-def location_errors(comp) -> dict:
+def location_errors(comp, *, sensor: bool = False) -> dict:
     """Error code -> value (µm / µrad) of the location errors a compensation keeps (a :class:`Compensation`):
-    identified, significant (or every term, as the compensation was made), not the set-up (W, T)."""
-    result, left = comp.result, dict(comp.left_out)
+    identified, significant (or every term, as the compensation was made), not the set-up (W, T); with
+    ``sensor`` also the sensor's set-up (T) as ``setup.json`` holds it (a term within its uncertainty as 0)."""
+    result, left = comp.fit, dict(comp.left_out)
+    zero = dict(comp.setup_left_out)
     machine = result.machine
     out, k = {}, 0
     for e in result.effects:
         joint = machine.error_joint(e.code)
-        if (basis_of(e).constant and joint.location and joint.axis not in ("W", "T") and e.name not in left
-                and bool(result.identifiable[k]) and result.values[k] != 0):
+        keep = (e.name not in left) if joint.axis not in ("W", "T") else (sensor and joint.axis == "T"
+                                                                            and e.name not in zero)
+        if basis_of(e).constant and joint.location and keep and bool(result.identifiable[k]) and result.values[k]:
             out[e.code] = out.get(e.code, 0.0) + float(result.values[k])
         k += e.n_params
     return out
@@ -96,7 +101,7 @@ def rotary_geometry(comp) -> RotaryGeometry | None:
     if kind is None:
         return None
     errors = location_errors(comp)
-    cal, t_cal = _home(machine, errors)
+    cal, t_cal = _home(machine, location_errors(comp, sensor=True))
     nom, t_nom = _home(machine, {})
     local = _joint_axes(machine)
     axes = []
@@ -125,7 +130,8 @@ def rotary_geometry(comp) -> RotaryGeometry | None:
                                f"{axis} — in the geometry of the axes it carries, but its own squareness is for the "
                                f"controller's squareness compensation"))
     if any(e.axis in ("W", "T") for e in machine.error_joints):
-        left.append(("set-up", "the board's (W) and the sensor's (T) set-up: work and tool offsets (setup.json)"))
+        left.append(("set-up", "the board's set-up (W): the work offset (setup.json); the vectors start from the "
+                               "sensor's point with its set-up (T)"))
     units = {code: machine.error_joint(code).unit for code in errors}
     return RotaryGeometry(Path(machine.path).stem, kind, tuple(axes), tuple(linear),
                           tuple((code, v, units[code]) for code, v in errors.items()), tuple(left))
@@ -136,7 +142,7 @@ def carried_points_mm(machine, errors: dict, axes_user) -> np.ndarray:
 
     For readings ``q``: ``F(0)·F(q)⁻¹·t(q) − t(0)`` with ``F`` the workpiece end's placement and ``t`` the
     tool point in the base, at the location ``errors`` (code -> µm / µrad; every other error joint and
-    the set-up at 0): the point of the table under the tool, in the machine frame at home, from the tool
+    the set-up at 0, or the sensor's included in ``errors``): the point of the table under the tool, in the machine frame at home, from the tool
     point at home — what a controller's kinematics computes from the readings.
     """
     import pinocchio as pin
