@@ -230,7 +230,7 @@ def kinematics_files(comp, formats=None, comment: str = "") -> KinematicsFiles |
 
 def geometry_lines(geometry: RotaryGeometry) -> list:
     """The geometry in plain words, one line per rotary axis and one for the linear axes' mapping."""
-    lines = [f"rotary axes ({geometry.kind}), at home in the machine frame:"]
+    lines = [f"rotary axes ({geometry.kind}), at home in the machine frame, from the sensor's point:"]
     for a in geometry.axes:
         s = a.pivot_shift_um
         lines.append(f"  {a.name} ({a.carrier}): pivot moved by {np.linalg.norm(s):.3g} µm (x {s[0]:+.3g}, y "
