@@ -1,4 +1,4 @@
-"""The rotary axes' geometry in the controllers' kinematics (issue 51): each file, read and applied as its
+"""The rotary axes' geometry in the controllers' kinematics: each file, read and applied as its
 controller applies it (tests/kinematics_consumers.py, plain numpy), puts the part's point under the tool where
 the fitted machine does (plain Pinocchio on calibrated.urdf), on every shipped five-axis layout."""
 from __future__ import annotations

@@ -491,9 +491,9 @@ def _not_earlier_compensation(folder) -> list:
         return names
     own = set(FIXED_FILES)
     tables, controller = info.get("tables"), info.get("controller_files")
-    kinematics = (info.get("kinematics") or {}).get("files") if isinstance(info.get("kinematics"), dict) else None
+    kin = info["kinematics"].get("files") if isinstance(info.get("kinematics"), dict) else None
     for entry in [*(tables.values() if isinstance(tables, dict) else ()),
-                  *(controller if isinstance(controller, list) else ()), *(kinematics or ())]:
+                  *(controller if isinstance(controller, list) else ()), *(kin if isinstance(kin, list) else ())]:
         if isinstance(entry, dict) and isinstance(entry.get("file"), str):
             own.add(entry["file"])
     return [n for n in names if n not in own or (folder / n).is_symlink() or not (folder / n).is_file()]
