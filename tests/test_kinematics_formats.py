@@ -141,9 +141,17 @@ def test_a_head_layout_gets_no_trunnion_file_and_a_one_line_reason(tmp_path, cap
 
 
 def test_a_machine_without_rotary_axes_gets_no_kinematics_files(tmp_path):
+    from test_compensation_files import _fit_of
+    from kinid.identification.compensation.compensate import write_compensation
+
     m = load_machine(urdf_path("gantry_dual_y"))
     assert not any(a.kind == "revolute" for a in m.axes)
     assert {"sinumerik", "linuxcnc"} <= set(KINEMATICS_FORMATS)
+    quiet = write_compensation(_fit_of(m, {}), tmp_path / "a")
+    asked = write_compensation(_fit_of(m, {}), tmp_path / "b", kinematics_formats=["sinumerik"])
+    assert quiet.geometry is None and not any("kinematics" in n for n in quiet.notes)
+    assert "no kinematics files: the machine has no rotary axis" in asked.notes
+    assert not list((tmp_path / "b").glob("*.MPF")) and not list((tmp_path / "b").glob("*.hal"))
 
 
 def test_more_than_two_rotary_axes_get_a_note_not_a_file():

@@ -194,10 +194,12 @@ class KinematicsFiles:
 
 def kinematics_files(comp, formats=None, comment: str = "") -> KinematicsFiles | None:
     """The rotary axes' geometry of a :class:`Compensation` in every kinematics format that applies (``formats``:
-    names asked for; default: every default one); None where the machine has no rotary axis."""
+    names asked for; default: every default one); None where the machine has no rotary axis and no format was
+    named."""
     machine = comp.result.machine
-    if not any(a.kind == "revolute" for a in machine.axes):
-        return None
+    if not any(a.kind == "revolute" for a in machine.axes):  # asked for by name: say why there is none
+        why = "no kinematics files: the machine has no rotary axis"
+        return None if formats is None else KinematicsFiles({}, (why,), {"not_written": why})
     why = kinematics_note(machine)
     if why is not None:
         return KinematicsFiles({}, (why,), {"not_written": why})
