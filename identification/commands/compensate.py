@@ -8,6 +8,7 @@ __all__ = ["register"]
 
 def register(sub) -> None:
     from kinid.axis_tables import CONTROLLER_FORMATS, default_formats
+    from kinid.kinematics_formats import KINEMATICS_FORMATS
 
     p = sub.add_parser(
         "compensate", help="axis error tables, constants, a calibrated URDF and controller files from a fit",
@@ -15,8 +16,10 @@ def register(sub) -> None:
                     "compensated error joint of the axis over its measured range), constants.json, setup.json "
                     "(the board's and the sensor's set-up, for the work and tool offsets), calibrated.urdf "
                     "(machine constants folded into the geometry, error joints kept at zero), compensation.json "
-                    "(provenance, what was left out and why, how closely each controller file follows the model) "
-                    "and the positioning-error tables in controller formats (docs/compensation.md). Only "
+                    "(provenance, what was left out and why, how closely each controller file follows the model), "
+                    "the positioning-error tables in controller formats and, on a machine with rotary axes, where "
+                    "they turn in the controllers' kinematics (KINID_CYCLE800.MPF, trt-kins.hal; "
+                    "docs/compensation.md). Only "
                     "significant machine errors are compensated: a term whose every parameter is within its "
                     "expanded uncertainty (k = 2) is left out, as are the set-up and drifts.")
     p.add_argument("--fit", required=True, help="FIT.json written by kinid identify")
@@ -26,6 +29,10 @@ def register(sub) -> None:
     p.add_argument("--format", dest="formats", nargs="+", choices=sorted(CONTROLLER_FORMATS),
                    default=None,
                    help=f"controller formats to write (default: {' '.join(default_formats())})")
+    p.add_argument("--kinematics-format", dest="kinematics_formats", nargs="+", choices=sorted(KINEMATICS_FORMATS),
+                   default=None, help="kinematics formats for the rotary axes' geometry (pivot points and directions): "
+                                      "sinumerik (CYCLE800 swivel data), linuxcnc (trunnion kinematics); default: "
+                                      "every one that has a layout for the machine")
     p.add_argument("--table-range", dest="range_policy", choices=("data", "travel"), default="data",
                    help="tables over the measured readings of each axis (default) or over the URDF travel (refused "
                         "where it is unbounded, or more than a turn the readings do not go round)")
@@ -86,8 +93,9 @@ def _compensate(args) -> int:
     numbers = _axis_numbers(args.axis_numbers)
     result = load_trusted_fit(args.fit)  # a fit that did not converge never reaches a controller
     out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,
-                             formats=None if args.formats is None else tuple(args.formats), fit_path=args.fit, range_policy=args.range_policy,
-                             beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers)
+                             formats=None if args.formats is None else tuple(args.formats), fit_path=args.fit,
+                             range_policy=args.range_policy, beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers,
+                             kinematics_formats=args.kinematics_formats)
     print(f"compensation of {Path(args.fit).name} written to {args.out}: {', '.join(out.files)}")
     if out.controller:
         print(out.axis_numbers.line())
@@ -98,6 +106,10 @@ def _compensate(args) -> int:
               f"RMS error")
     print(f"  checked: each of the {out.checked} tables, applied as its controller applies it, leaves no more error "
           f"than none anywhere in the measured range")
+    if out.geometry is not None:
+        from ..compensation import geometry_lines
+
+        print("\n".join(geometry_lines(out.geometry)))
     for line in out.notes:
         print(f"note: {line}")
     return 0

@@ -10,10 +10,10 @@ _SOURCES = {
     "write_compensation": "compensate", "K_MOVED": "history", "SCHEMES": "history",
     "add_calibration": "history", "database_path": "history", "machine_history": "history",
     "history_text": "history_report", "plot_history": "history_report", "verify": "verify",
-    "verification_report": "verify_report",
+    "verification_report": "verify_report", "geometry_lines": "rotary_geometry",
 }
 
-__all__ = ["K_MOVED", "SCHEMES", "add_calibration", "database_path", "history_text", "machine_history",
-           "plot_history", "verification_report", "verify", "write_compensation"]
+__all__ = ["K_MOVED", "SCHEMES", "add_calibration", "database_path", "geometry_lines", "history_text",
+           "machine_history", "plot_history", "verification_report", "verify", "write_compensation"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -37,8 +37,9 @@ from ..model import basis_of, basis_values
 from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
-from .ranges import axis_range, turn_change
-from .table_check import TableCheck, check_positions, check_table
+from .ranges import axis_range, not_one_turn
+from .rotary_geometry import kinematics_files
+from .table_check import TableCheck, check_positions, check_tables
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
 
 __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axis_error_columns",
@@ -47,8 +48,6 @@ __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axi
 
 #: A table's interpolation may depart from the model by at most this share of the error's RMS.
 BOUND_SHARE = 0.10
-#: A rotary axis's model repeats every turn when no column changes by more than this over one (µm / µrad).
-TURN_TOLERANCE = 1e-3
 #: Most points of a plain CSV table when its step is chosen by kinid.
 CSV_MAX_POINTS = 20001
 
@@ -190,12 +189,6 @@ def positioning_table(result: FitResult, axis: str, positions) -> AxisErrorTable
     return AxisErrorTable(axis, rotary, np.asarray(positions, float), fwd, rev)
 
 
-# --- URDF geometry ------------------------------------------------------------------------------
-
-
-# --- grids a controller's interpolation follows --------------------------------------------------
-
-
 # --- the compensation folder -------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -225,18 +218,20 @@ class CompensationFiles:
     controller: tuple = ()
     axis_numbers: AxisNumbers | None = None
     checked: int = 0
+    geometry: object = None  # the rotary axes' geometry (kinid.kinematics_formats.RotaryGeometry), or None
 
 
 def write_compensation(result: FitResult, folder, *, step_mm: float | None = None, step_deg: float | None = None,
                        formats=None, fit_path=None, range_policy: str = "data", beyond: str = "hold",
-                       all_terms: bool = False, axis_numbers: dict | None = None) -> CompensationFiles:
+                       all_terms: bool = False, axis_numbers: dict | None = None,
+                       kinematics_formats=None) -> CompensationFiles:
     """Write the compensation of ``result`` into ``folder``.
 
     Files: ``<AXIS>.csv`` per motion axis with compensated errors, ``constants.json``,
     ``setup.json`` (the board's and the sensor's set-up, for the work and tool offsets),
     ``calibrated.urdf``, ``compensation.json`` (provenance, ranges, what was left out and why, how
-    closely each controller file follows the model) and, per controller format, one file per axis
-    with a positioning error.
+    closely each controller file follows the model), per controller format one file per axis with a
+    positioning error, and the rotary axes' geometry per kinematics format (:mod:`.rotary_geometry`).
 
     Parameters
     ----------
@@ -254,6 +249,9 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     axis_numbers : dict axis -> int, optional
         The controller's axis numbers; an axis not given gets its place in the URDF's chain
         (:func:`controller_axis_numbers`).
+    kinematics_formats : sequence of str, optional
+        Kinematics formats (:data:`kinid.kinematics_formats.KINEMATICS_FORMATS`) for the rotary axes' geometry;
+        default: every default one that has a layout for the machine (:mod:`.rotary_geometry`).
     """
     from kinid import __version__
     from kinid.files import check_outputs, json_text, write_text
@@ -288,7 +286,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         step = step_mm if a.kind == "prismatic" else step_deg
         names = list(probe)
         stack = lambda q, f=cols_at: np.vstack(list(f(q).values()))  # noqa: E731
-        not_modulo = _not_one_turn(a.name, names, cols_at, rng) if rng.modulo else None
+        not_modulo = not_one_turn(a.name, names, cols_at, rng) if rng.modulo else None
         if not_modulo is not None:
             if range_policy == "travel":
                 raise DataError(f"travel: {not_modulo['reason']}, and {a.name}'s travel is more than a turn; give "
@@ -376,20 +374,12 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                              f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
                              f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
     # never worse than none: every table applied as its controller applies it, before anything is written
-    outcome, worse = {}, []
-    for check, at, ends in checks:
-        try:
-            outcome[check.file] = check_table(check, at, ends)
-        except DataError as exc:
-            if formats is not None or len(worse) + 1 == len(checks):  # asked for by name, or none would do
-                raise
-            worse.append((check.file, exc.message.split("; nothing written")[0].split(": ", 1)[-1]))
+    outcome, worse = check_tables(checks, by_name=formats is not None)
     for name, why in worse:  # a default format that cannot follow the error is left out, the others written
         del files[name]
         written.remove(name)
         notes[:] = [n for n in notes if not n.startswith(f"{name}: ")]
-        notes.append(f"{name}: left out — {why}; the other formats' tables are "
-                     f"written (--format names the formats to write, and refuses one that cannot follow)")
+        notes.append(f"{name}: left out — {why}")
     controller = [entry for entry in controller if entry["file"] in outcome]
     for entry in controller:
         entry["never_worse"] = outcome[entry["file"]]
@@ -406,6 +396,12 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         written.append("setup.json")
     files["calibrated.urdf"] = calibrated_urdf(model)
     written.append("calibrated.urdf")
+    kinematics = kinematics_files(comp, kinematics_formats, f"kinid {__version__}: rotary axes of "
+                                                            f"{Path(machine.path).name}")
+    if kinematics is not None:
+        files.update(kinematics.files)
+        written += list(kinematics.files)
+        notes += list(kinematics.notes)
     notes += [f"{n}: left out ({why})" for n, why in comp.left_out if not why.startswith("set-up")]
     notes += [f"{n}: written as 0 in setup.json ({why})" for n, why in comp.setup_left_out]
     info = {
@@ -430,6 +426,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                                f"written as 0"),
         "setup_written_as_zero": [{"effect": n, "reason": why} for n, why in comp.setup_left_out],
         "setup_file": "setup.json" if setup else None,
+        "kinematics": None if kinematics is None else kinematics.info,
         "never_worse": {"tables_checked": len(outcome), "rule": (
             "each table, read back and applied as its controller applies it, leaves at no measured position (the "
             "readings and 2001 points over the measured range) more than the error itself plus 10 % of its RMS (or "
@@ -440,28 +437,8 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     with staged_folder(folder, foreign=_not_earlier_compensation) as stage:
         for name, text in files.items():
             write_text(stage / name, text)
-    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome))
-
-
-def _not_one_turn(axis: str, names, cols_at, rng: AxisRange) -> dict | None:
-    """Why a one-turn (modulo) table cannot hold the model of rotary ``axis``, or None where it can: the columns
-    whose value after a turn differs from the value before by more than :data:`TURN_TOLERANCE`, and the scale
-    error of the positioning column (its mean change over a turn, ppm) — a modulo table would set it to zero."""
-    stack = lambda q: np.vstack([cols_at(q)[n] for n in names])  # noqa: E731
-    change = turn_change(stack, rng.low)
-    if not np.any(change > TURN_TOLERANCE):
-        return None
-    worst = int(np.argmax(change))
-    own = f"E{axis}{axis}_urad"
-    q = np.linspace(rng.low, rng.high, 361)
-    scale = float(np.mean(cols_at(q + 360.0)[own] - cols_at(q)[own])) / (2 * np.pi) if own in names else None
-    words = (f" (the axis's scale error alone is {scale:+.4g} ppm: a controller that takes the axis's scale in its "
-             f"machine data can hold that part there instead)" if scale is not None and abs(scale) > 0 else "")
-    return {"reason": f"the readings of {axis} go all the way round, but its model does not repeat every turn "
-                      f"({names[worst]} changes by {change[worst]:.3g} over one turn"
-                      + (f": a scale error of {scale:+.4g} ppm" if scale is not None and abs(scale) > 0 else "")
-                      + "), which a one-turn (modulo) table cannot hold",
-            "turn_change": {n: float(c) for n, c in zip(names, change)}, "scale_ppm": scale, "scale_words": words}
+    return CompensationFiles(tuple(written), tuple(notes), tuple(controller), numbers, len(outcome),
+                             None if kinematics is None else kinematics.geometry)
 
 
 def _sha256(path) -> str:
@@ -497,8 +474,9 @@ def _not_earlier_compensation(folder) -> list:
         return names
     own = set(FIXED_FILES)
     tables, controller = info.get("tables"), info.get("controller_files")
+    kin = info["kinematics"].get("files") if isinstance(info.get("kinematics"), dict) else None
     for entry in [*(tables.values() if isinstance(tables, dict) else ()),
-                  *(controller if isinstance(controller, list) else ())]:
+                  *(controller if isinstance(controller, list) else ()), *(kin if isinstance(kin, list) else ())]:
         if isinstance(entry, dict) and isinstance(entry.get("file"), str):
             own.add(entry["file"])
     return [n for n in names if n not in own or (folder / n).is_symlink() or not (folder / n).is_file()]

@@ -17,7 +17,8 @@ from ..fitting import FitResult
 from ..model import axis_limits
 from .table_grids import AxisRange
 
-__all__ = ["axis_range", "largest_gap_deg", "full_turn", "turn_change", "FULL_TURN_GAP_DEG"]
+__all__ = ["axis_range", "largest_gap_deg", "full_turn", "turn_change", "not_one_turn", "FULL_TURN_GAP_DEG",
+           "TURN_TOLERANCE"]
 
 #: A rotary axis's readings go all the way round when no stretch of the turn wider than this is without a
 #: reading, the seam from the last reading round to the first included (12 positions 30° apart qualify, a
@@ -93,3 +94,28 @@ def axis_range(result: FitResult, axis: str, policy: str = "data") -> AxisRange 
     if measured is None:
         return None
     return AxisRange(measured[0], measured[1], "measured readings", False, (lo, hi), measured)
+
+
+#: A rotary axis's model repeats every turn when no column changes by more than this over one (µm / µrad).
+TURN_TOLERANCE = 1e-3
+
+
+def not_one_turn(axis: str, names, cols_at, rng: AxisRange) -> dict | None:
+    """Why a one-turn (modulo) table cannot hold the model of rotary ``axis``, or None where it can: the columns
+    whose value after a turn differs from the value before by more than :data:`TURN_TOLERANCE`, and the scale
+    error of the positioning column (its mean change over a turn, ppm) — a modulo table would set it to zero."""
+    stack = lambda q: np.vstack([cols_at(q)[n] for n in names])  # noqa: E731
+    change = turn_change(stack, rng.low)
+    if not np.any(change > TURN_TOLERANCE):
+        return None
+    worst = int(np.argmax(change))
+    own = f"E{axis}{axis}_urad"
+    q = np.linspace(rng.low, rng.high, 361)
+    scale = float(np.mean(cols_at(q + 360.0)[own] - cols_at(q)[own])) / (2 * np.pi) if own in names else None
+    words = (f" (the axis's scale error alone is {scale:+.4g} ppm: a controller that takes the axis's scale in its "
+             f"machine data can hold that part there instead)" if scale is not None and abs(scale) > 0 else "")
+    return {"reason": f"the readings of {axis} go all the way round, but its model does not repeat every turn "
+                      f"({names[worst]} changes by {change[worst]:.3g} over one turn"
+                      + (f": a scale error of {scale:+.4g} ppm" if scale is not None and abs(scale) > 0 else "")
+                      + "), which a one-turn (modulo) table cannot hold",
+            "turn_change": {n: float(c) for n, c in zip(names, change)}, "scale_ppm": scale, "scale_words": words}

@@ -17,7 +17,7 @@ import numpy as np
 
 from kinid.errors import DataError
 
-__all__ = ["TableCheck", "check_table", "check_positions", "WORSE_SHARE"]
+__all__ = ["TableCheck", "check_table", "check_tables", "check_positions", "WORSE_SHARE"]
 
 #: At any measured position a table may leave more than the error itself by at most this share of the error's RMS
 #: over the measured range (a table's linear interpolation departs from the model by up to about that much).
@@ -97,3 +97,23 @@ def check_table(check: TableCheck, inside: np.ndarray, ends=()) -> dict:
                             f"data a table must hold its end values or return to zero; nothing written")
     return {"checked_positions": int(inside.size + ends.size), "error_max": largest,
             "left_max": float(np.max(left)) if left.size else 0.0}
+
+
+def check_tables(checks, *, by_name: bool) -> tuple:
+    """Each ``(check, inside, ends)`` by :func:`check_table`: ``({file: outcome}, [(file, why left out)])``.
+
+    A table that would leave more error than none is refused (DataError) where its format was asked for by name
+    (``by_name``) or where no table would do; otherwise its format is left out, the others written, and the reason
+    given for a note.
+    """
+    outcome, worse = {}, []
+    for check, inside, ends in checks:
+        try:
+            outcome[check.file] = check_table(check, inside, ends)
+        except DataError as exc:
+            if by_name or len(worse) + 1 == len(checks):
+                raise
+            why = exc.message.split("; nothing written")[0].split(": ", 1)[-1]
+            worse.append((check.file, f"{why}; the other formats' tables are written (--format names the formats to "
+                                      f"write, and refuses one that cannot follow)"))
+    return outcome, worse
