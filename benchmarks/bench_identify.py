@@ -17,7 +17,8 @@ Per problem, timed in CPU time (``time.process_time``), one BLAS thread (threadp
   the Jacobian; ``jac`` returns it) or "own pass" (``fun`` the residuals only, ``jac`` its own pass). Every
   configuration gets kinid's own analytic Jacobian, restricted to the parameters the fit identifies, on kinid's
   reduced machine (the error joints in use only, ``fit_pass.reduced``), on a prebuilt design, from the start the
-  fit iterates from (zero; on the hard problem kinid's closed-form start, not timed for scipy). Each configuration's
+  fit iterates from (zero; on the hard problem kinid's closed-form start, not timed for scipy; there also each
+  method and scale once from zero, not a peer: whether scipy gets there without the start). Each configuration's
   sum of squares is checked against kinid's; the fastest that reaches it (relative difference ≤ 1e-6) is the peer;
 - the floor: the ``forwardKinematics`` calls one kinid fit makes (counted during a fit, on the model it calls
   them on), made bare on the same configurations (``computeJointJacobians`` calls counted too: none).
@@ -193,6 +194,16 @@ def compare(title, m, obs, effects, rounds, *, noise_um=None, hard=False):
     if not same:
         print(f"  -> no scipy configuration reached kinid's optimum: no peer. kinid {floor_ratio:.2f}x its floor")
         return
+    if hard:  # the same configurations from zero, once each: does scipy get there without kinid's start?
+        r_zero, rJ_zero = scipy_problem(mr, dr, obs, free, np.zeros(d.n_params))
+        for c in CONFIGS[::2]:
+            t = time.process_time()
+            sol = scipy_run(c, r_zero, rJ_zero, np.zeros(free.sum()))
+            t = time.process_time() - t
+            rel = (float(np.sum(sol.fun ** 2)) - ss_kinid) / ss_kinid
+            print(f"  from zero: scipy method={c[0]!r:5} x_scale={c[1]!r:5} {c[2]}: {t * 1e3:7.2f} ms, {sol.nfev} "
+                  f"evaluations, sum of squares rel. diff. to kinid {rel:+.1e}"
+                  f"{'' if abs(rel) <= SAME_COST_RTOL else ' (NOT the same optimum)'}")
     peer = min(same, key=lambda c: med[c])
     ratio = med[peer] / med["kinid"]
     print(f"  -> peer (fastest reaching kinid's cost): method={peer[0]!r}, x_scale={peer[1]!r}, {peer[2]}, "
