@@ -1,44 +1,39 @@
-"""Benchmark: identification of the patent's plan (7 B x 12 C x 4 marks = 336 alignments, default model).
+"""Benchmark: kinid's fit against scipy's ``least_squares`` at its measured best, and against the Pinocchio calls
+the fit makes.
 
-Prints, side by side in one run, with one BLAS thread for everything
-(threadpoolctl ``threadpool_limits(1)``):
+Two problems, both fitted with the default model:
 
-- the in-process kinid fit (Pinocchio Jacobians + CasADi LM steps), median wall time;
-- the same problem with ``scipy.optimize.least_squares`` given the same residual
-  and the same analytic (Pinocchio) Jacobian, in all four configurations
-  ``method="lm"`` / ``"trf"``, each with ``x_scale="jac"`` and with
-  ``x_scale=1.0`` (passed explicitly: since scipy 1.16 ``lm``'s default *is*
-  ``"jac"``), scipy's default tolerances. Each configuration's sum of squares is
-  checked against kinid's (relative difference printed) and kinid is compared
-  with the FASTEST configuration that reaches kinid's cost; the chosen peer is
-  named beside the ratio. Timings are interleaved (one kinid fit, then one run of
-  each scipy configuration, repeated) so machine load hits all alike;
-- kinid's floor: the bare Pinocchio ``computeJointJacobians`` calls for the same
-  poses, one per pose for every pass of the model over the data the fit makes
-  (counted during the fit), timed in the same interleaved rounds; for reference
-  also the bare ``forwardKinematics`` calls, which is what kinid asks of
-  Pinocchio per pose (it forms the Jacobian columns it needs from the joint
-  placements, in numpy);
-- the same comparison at 3 360 alignments (the plan repeated 10 times with fresh
-  noise);
-- at 336 alignments, finite differences for reference, ``kinid identify``
-  through the command line (process start included) and Pinocchio evaluations
-  per second (with and without Jacobians).
+- **near-linear**: the README example (``examples/errors.json`` on the B/C five-axis machine, the patent's plan of
+  336 alignments, σ 1 µm), and the plan run 10 times (3 360 alignments, fresh noise);
+- **hard**: the arm measured from a frame metres away, turned tens of degrees, with 100 µm / µrad location errors
+  (``bench_arm_far_frame.py``'s draw 0, 60 poses): kinid starts from the measurement frame in closed form.
 
-kinid's timed fit includes work the scipy runs do not (building the design,
-the identifiability analysis, the covariance and observability at the
-solution); the scipy runs are timed on a prebuilt design.
+Per problem, timed in CPU time (``time.process_time``), one BLAS thread (threadpoolctl), in interleaved rounds
+(one run of each contender per round, so machine load hits all alike), medians printed:
 
-Run: ``python benchmarks/bench_identify.py``
+- kinid's ``fit`` (design, identifiability analysis, covariance and observability at the solution included);
+- scipy ``least_squares`` in every configuration of ``method`` (lm, trf), ``x_scale`` (1.0, "jac") and the
+  Jacobian's source: "one pass" (``fun`` computes the residuals and the Jacobian in one Pinocchio pass and keeps
+  the Jacobian; ``jac`` returns it) or "own pass" (``fun`` the residuals only, ``jac`` its own pass). Every
+  configuration gets kinid's own analytic Jacobian, restricted to the parameters the fit identifies, on kinid's
+  reduced machine (the error joints in use only, ``fit_pass.reduced``), on a prebuilt design, from the start the
+  fit iterates from (zero; on the hard problem kinid's closed-form start, not timed for scipy; there also each
+  method and scale once from zero, not a peer: whether scipy gets there without the start). Each configuration's
+  sum of squares is checked against kinid's; the fastest that reaches it (relative difference ≤ 1e-6) is the peer;
+- the floor: the ``forwardKinematics`` calls one kinid fit makes (counted during a fit, on the model it calls
+  them on), made bare on the same configurations (``computeJointJacobians`` calls counted too: none).
+
+Printed: every configuration with its time, evaluations and cost; kinid / peer and kinid / floor.
+
+Run: ``python benchmarks/bench_identify.py [ROUNDS]`` (default 7 rounds; about 2 minutes on a shared machine).
 """
 import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import json  # noqa: E402
 import statistics  # noqa: E402
-import subprocess  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -49,32 +44,23 @@ import scipy  # noqa: E402
 import scipy.optimize  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from kinid.identification.model.effects import default_model  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
 from kinid.identification.fitting.fit import fit  # noqa: E402
-from kinid.identification.model import machine as machine_module  # noqa: E402
-from kinid.identification.model.machine import _configurations, axes_to_si, evaluate, load_machine  # noqa: E402
-from kinid.identification.data.observations import write_observations  # noqa: E402
-from kinid.identification.fitting.residuals import design, residuals  # noqa: E402
+from kinid.identification.fitting.fit_pass import reduced  # noqa: E402
+from kinid.identification.fitting.residuals import design, effect_columns, joint_values  # noqa: E402
 from kinid.identification.fitting.simulate import SECONDS_PER_ALIGNMENT, errors_from_mapping, patent_plan, simulate  # noqa: E402
+from kinid.identification.fitting.start import closed_form_start  # noqa: E402
+from kinid.identification.fitting.identifiability import analyse  # noqa: E402
+from kinid.identification.fitting.fit_pass import model_pass_qr  # noqa: E402
+from kinid.identification.model.machine import _configurations, axes_to_si, errors_to_si, evaluate, load_machine  # noqa: E402
 from kinid.urdf import path  # noqa: E402
 
-#: (method, x_scale) of the scipy configurations measured.
-CONFIGS = (("lm", "jac"), ("lm", 1.0), ("trf", "jac"), ("trf", 1.0))
-#: A configuration counts as reaching kinid's optimum when its sum of squares is within this relative difference.
+#: (method, x_scale, Jacobian source) of the scipy configurations measured.
+CONFIGS = tuple((m, x, j) for m in ("lm", "trf") for x in (1.0, "jac") for j in ("one pass", "own pass"))
+#: A configuration reaches kinid's optimum when its sum of squares is within this relative difference.
 SAME_COST_RTOL = 1e-6
-
-
-def label(method, x_scale):
-    return f"method={method!r}, x_scale={x_scale!r}"
-
-
-def timed(f, repeat=5):
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = f()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times), min(times), out
 
 
 def repeated_plan(m, times):
@@ -85,152 +71,165 @@ def repeated_plan(m, times):
                    t_s=np.arange(n) * SECONDS_PER_ALIGNMENT, lines=tuple(range(1, n + 1)))
 
 
-def compare(m, obs, repeat):
-    """kinid's fit against the four scipy configurations on ``obs``; returns what the later sections need."""
-    print(f"\n== {len(obs)} alignments, {len(default_model(m))} default-model parameters, "
-          f"{3 * len(obs)} residuals; {repeat} interleaved rounds ==")
-    res = fit(m, obs, noise_um=1.0)  # warm-up, and the design/free set the scipy runs use
-    d = design(m, res.effects, obs)
-    free = res.identifiable
-    names = [n for n, ok in zip(res.param_names, free) if ok]
+class Counted:
+    """Counts the Pinocchio kinematics calls (by model) while active."""
 
-    def fun(x):
-        t = np.zeros(d.n_params)
-        t[free] = x
-        return residuals(m, d, obs, t, jacobian=False).ravel()
+    NAMES = ("forwardKinematics", "computeJointJacobians")
 
-    def jac(x):
-        t = np.zeros(d.n_params)
-        t[free] = x
-        _, J, _ = residuals(m, d, obs, t, jacobian=True)
-        return J.reshape(-1, d.n_params)[:, free]
+    def __enter__(self):
+        self.calls = {name: {} for name in self.NAMES}
+        self.models = {}
+        self.originals = {name: getattr(pin, name) for name in self.NAMES}
+        for name, f in self.originals.items():
+            setattr(pin, name, self._counting(name, f))
+        return self
 
-    x0 = np.zeros(free.sum())
-    passes = pinocchio_passes(m, obs)
-    qs = _configurations(m, axes_to_si(m, obs.axes), np.zeros((len(obs), len(m.error_joints))))
-    model, data = m.model, m.model.createData()
-
-    def floor(kinematics):
-        def run():
-            for _ in range(passes):
-                for q in qs:
-                    kinematics(model, data, q)
-        return run
-
-    floors = {"floor": floor(pin.computeJointJacobians), "floor_fk": floor(pin.forwardKinematics)}
-    runs = {"kinid": lambda: fit(m, obs, noise_um=1.0), **floors}
-    for method, xs in CONFIGS:
-        # scipy's default tolerances (1e-8): it stops as soon as the sum of squares settles, like kinid's LM
-        runs[(method, xs)] = (lambda method=method, xs=xs:
-                              scipy.optimize.least_squares(fun, x0, jac=jac, method=method, x_scale=xs))
-    for f in runs.values():  # warm-up of every path
-        f()
-    times = {k: [] for k in runs}
-    out = {}
-    for _ in range(repeat):
-        for k, f in runs.items():
-            t = time.perf_counter()
-            out[k] = f()
-            times[k].append(time.perf_counter() - t)
-    med = {k: statistics.median(v) for k, v in times.items()}
-    best = {k: min(v) for k, v in times.items()}
-
-    res = out["kinid"]
-    ss_kinid = float(np.sum(fun(res.values[free]) ** 2))
-    print(f"kinid fit (in-process):                      median {med['kinid']*1e3:8.1f} ms, best {best['kinid']*1e3:8.1f} ms, "
-          f"{res.iterations} iterations, sum of squares {ss_kinid:.9g} µm², RMS {res.rms_um:.4f} µm")
-    print(f"floor: {passes} passes x {len(obs)} bare computeJointJacobians calls: median {med['floor']*1e3:8.1f} ms, "
-          f"best {best['floor']*1e3:8.1f} ms -> kinid {med['kinid']/med['floor']:.2f}x its floor (median), "
-          f"{best['kinid']/best['floor']:.2f}x (best); the same count of forwardKinematics calls (what kinid calls): "
-          f"median {med['floor_fk']*1e3:.1f} ms")
-    same = []
-    for key in runs:
-        if key == "kinid" or key in floors:
-            continue
-        sol = out[key]
-        ss = float(np.sum(fun(sol.x) ** 2))
-        rel = (ss - ss_kinid) / ss_kinid
-        dx = np.abs(sol.x - res.values[free]) / res.std[free]
-        k = int(np.argmax(dx))
-        ok = abs(rel) <= SAME_COST_RTOL
-        if ok:
-            same.append(key)
-        print(f"scipy {label(*key):30s}         median {med[key]*1e3:8.1f} ms, best {best[key]*1e3:8.1f} ms, "
-              f"{sol.nfev:3d} evaluations, {sol.njev} Jacobians, sum of squares {ss:.9g} µm² "
-              f"(rel. diff. to kinid {rel:+.1e}{'' if ok else ', NOT the same optimum'}), "
-              f"largest |Δθ|/σ {dx[k]:.1e} ({names[k]}), status {sol.status}")
-    if not same:
-        print("  -> no scipy configuration reached kinid's sum of squares: no ratio given")
-        return res, fun, free
-    peer = min(same, key=lambda k: med[k])
-    ratio = med["kinid"] / med[peer]
-    verdict = "kinid faster" if ratio < 1 else "kinid SLOWER"
-    print(f"  -> fastest scipy configuration reaching kinid's cost: {label(*peer)} ({med[peer]*1e3:.1f} ms median); "
-          f"kinid / that peer time ratio {ratio:.2f} ({verdict}); "
-          f"kinid {med['kinid']*1e3:.1f} ms vs scipy " + ", ".join(f"{k[0]}/{k[1]} {med[k]*1e3:.1f}" for k in runs
-                                                                   if k != "kinid" and k not in floors)
-          + " ms")
-    return res, fun, free
-
-
-def pinocchio_passes(m, obs) -> int:
-    """How many passes of the model over ``obs`` one kinid fit makes (Pinocchio calls counted, / N)."""
-    calls = 0
-    originals = {name: getattr(pin, name) for name in ("forwardKinematics", "computeJointJacobians")}
-
-    def counting(f):
-        def wrapper(*args, **kwargs):
-            nonlocal calls
-            calls += 1
-            return f(*args, **kwargs)
+    def _counting(self, name, f):
+        def wrapper(model, *args, **kwargs):
+            self.calls[name][id(model)] = self.calls[name].get(id(model), 0) + 1
+            self.models[id(model)] = model
+            return f(model, *args, **kwargs)
         return wrapper
 
-    try:
-        for name, f in originals.items():
-            setattr(machine_module.pin, name, counting(f))
-        fit(m, obs, noise_um=1.0)
-    finally:
-        for name, f in originals.items():
-            setattr(machine_module.pin, name, f)
-    return max(1, round(calls / len(obs)))
+    def __exit__(self, *exc):
+        for name, f in self.originals.items():
+            setattr(pin, name, f)
 
 
-def main():
-    print(f"numpy {np.__version__}, scipy {scipy.__version__}; one BLAS thread (threadpool_limits(1))")
-    t_start = time.perf_counter()
+def scipy_problem(mr, dr, obs, free, theta0):
+    """(residuals only, residuals and Jacobian) of the free parameters on the reduced machine, at x (free values)."""
+    def point(x):
+        t = theta0.copy()
+        t[free] = x
+        return joint_values(mr, dr, t)
+
+    def r_only(x):
+        return ((evaluate(mr, obs.axes, point(x), jacobian=False, offsets_mm=obs.offsets_mm) - obs.w_mm) * 1e3).ravel()
+
+    def r_and_J(x):
+        p, G, _ = evaluate(mr, obs.axes, point(x), offsets_mm=obs.offsets_mm, axes_jacobian=False)
+        return ((p - obs.w_mm) * 1e3).ravel(), effect_columns(G, dr)[:, :, free].reshape(len(p) * 3, -1)
+
+    return r_only, r_and_J
+
+
+def scipy_run(config, r_only, r_and_J, x0):
+    method, x_scale, source = config
+    if source == "own pass":
+        return scipy.optimize.least_squares(r_only, x0, jac=lambda x: r_and_J(x)[1], method=method, x_scale=x_scale)
+    kept = {}
+
+    def fun(x):
+        r, J = r_and_J(x)
+        kept["x"], kept["J"] = x.copy(), J
+        return r
+
+    def jac(x):
+        return kept["J"] if "x" in kept and np.array_equal(kept["x"], x) else r_and_J(x)[1]
+
+    return scipy.optimize.least_squares(fun, x0, jac=jac, method=method, x_scale=x_scale)
+
+
+def compare(title, m, obs, effects, rounds, *, noise_um=None, hard=False):
+    """Time kinid, every scipy configuration and the floor on one problem; print the table."""
+    kw = {"noise_um": noise_um} if noise_um else {}
+    res = fit(m, obs, effects, **kw)
+    d = design(m, res.effects, obs)
+    mr, dr = reduced(m, d)
+    free = res.identifiable
+    theta0 = np.zeros(d.n_params)
+    if hard:  # scipy starts where kinid's iterations start: the closed-form frame (not timed for scipy)
+        ps = model_pass_qr(mr, dr, obs, theta0)
+        ident = analyse(ps.R, d.param_names(), rows=ps.r.size)
+        theta0 = closed_form_start(mr, dr, obs, theta0, free=ident.identifiable, aliases=ident.aliases).theta
+    r_only, r_and_J = scipy_problem(mr, dr, obs, free, theta0)
+    x0 = theta0[free].copy()
+    theta0 = np.where(free, 0.0, theta0)  # scipy moves the free ones; the held stay at 0, as in the fit
+
+    with Counted() as counted:
+        fit(m, obs, effects, **kw)
+    fk = counted.calls["forwardKinematics"]
+    jj = sum(counted.calls["computeJointJacobians"].values())
+    (model_id, n_calls), = fk.items()  # one model: the reduced one
+    model = counted.models[model_id]
+    qs = _configurations(mr, axes_to_si(mr, obs.axes), errors_to_si(mr, joint_values(mr, dr, np.where(free, res.values, 0))))
+    assert model.nq == qs.shape[1]
+    data = model.createData()
+    calls = [qs[i % len(qs)] for i in range(n_calls)]
+
+    def floor():
+        for q in calls:
+            pin.forwardKinematics(model, data, q)
+
+    runs = {"kinid": lambda: fit(m, obs, effects, **kw), "floor": floor}
+    for c in CONFIGS:
+        runs[c] = lambda c=c: scipy_run(c, r_only, r_and_J, x0)
+    out = {k: f() for k, f in runs.items()}  # warm-up of every path
+    times = {k: [] for k in runs}
+    for _ in range(rounds):
+        for k, f in runs.items():
+            t = time.process_time()
+            f()
+            times[k].append(time.process_time() - t)
+    med = {k: statistics.median(v) for k, v in times.items()}
+    ss_kinid = float(np.sum(r_only(res.values[free]) ** 2))
+    print(f"\n== {title}: {len(obs)} alignments, {len(free)} parameters ({int(free.sum())} identified), "
+          f"{rounds} interleaved rounds, CPU time, medians ==")
+    print(f"kinid fit                                     {med['kinid'] * 1e3:8.2f} ms  {res.iterations} iterations, "
+          f"sum of squares {ss_kinid:.9g} µm², {res.message}")
+    print(f"floor: {n_calls} forwardKinematics calls ({n_calls / len(obs):g} per alignment) on the model the fit "
+          f"calls (nq {model.nq}; the machine's {m.model.nq}); computeJointJacobians calls: {jj}: "
+          f"{med['floor'] * 1e3:.2f} ms")
+    same = []
+    for c in CONFIGS:
+        sol = out[c]
+        ss = float(np.sum(r_only(sol.x) ** 2))
+        rel = (ss - ss_kinid) / ss_kinid
+        ok = abs(rel) <= SAME_COST_RTOL
+        same += [c] if ok else []
+        print(f"scipy method={c[0]!r:5} x_scale={c[1]!r:5} {c[2]:8}     {med[c] * 1e3:8.2f} ms  {sol.nfev:3d} "
+              f"evaluations, {sol.njev} Jacobians, sum of squares {ss:.9g} µm² (rel. diff. to kinid {rel:+.1e}"
+              f"{'' if ok else ', NOT the same optimum'}), status {sol.status}")
+    floor_ratio = med["kinid"] / med["floor"]
+    if not same:
+        print(f"  -> no scipy configuration reached kinid's optimum: no peer. kinid {floor_ratio:.2f}x its floor")
+        return
+    if hard:  # the same configurations from zero, once each: does scipy get there without kinid's start?
+        r_zero, rJ_zero = scipy_problem(mr, dr, obs, free, np.zeros(d.n_params))
+        for c in CONFIGS[::2]:
+            t = time.process_time()
+            sol = scipy_run(c, r_zero, rJ_zero, np.zeros(free.sum()))
+            t = time.process_time() - t
+            rel = (float(np.sum(sol.fun ** 2)) - ss_kinid) / ss_kinid
+            print(f"  from zero: scipy method={c[0]!r:5} x_scale={c[1]!r:5} {c[2]}: {t * 1e3:7.2f} ms, {sol.nfev} "
+                  f"evaluations, sum of squares rel. diff. to kinid {rel:+.1e}"
+                  f"{'' if abs(rel) <= SAME_COST_RTOL else ' (NOT the same optimum)'}")
+    peer = min(same, key=lambda c: med[c])
+    ratio = med[peer] / med["kinid"]
+    print(f"  -> peer (fastest reaching kinid's cost): method={peer[0]!r}, x_scale={peer[1]!r}, {peer[2]}, "
+          f"{med[peer] * 1e3:.2f} ms: kinid {ratio:.2f}x {'faster' if ratio >= 1 else 'SLOWER'} than it; "
+          f"kinid {floor_ratio:.2f}x its floor, the peer {med[peer] / med['floor']:.2f}x")
+
+
+def main(rounds: int = 7):
+    import bench_arm_far_frame as far
+
+    print(f"numpy {np.__version__}, scipy {scipy.__version__}, pinocchio {pin.__version__}; one BLAS thread")
+    started = time.perf_counter()
     m = load_machine(path("five_axis_bc"))
+    effects, theta = errors_from_mapping(json.loads((ROOT / "examples" / "errors.json").read_text()), m)
     rng = np.random.default_rng(0)
-    truth = {e.code: float(rng.normal(0, 20)) for e in default_model(m)}
-    truth.update({"EX0W": 1200.0, "EY0W": -800.0, "EC0W": 8700.0})
-    effects, theta = errors_from_mapping(truth, m)
     obs = simulate(m, patent_plan(m), effects, theta, noise_um=1.0, rng=rng)
-    obs10 = simulate(m, repeated_plan(m, 10), effects, theta, noise_um=1.0, rng=rng)  # fresh noise on every row
-
+    obs10 = simulate(m, repeated_plan(m, 10), effects, theta, noise_um=1.0, rng=rng)
+    arm, tm, arm_effects, arm_free = far.arm()
+    train, _, _, _ = far.draw(arm, tm, arm_free, 0)
     with threadpool_limits(1):
-        res, fun, free = compare(m, obs, repeat=7)
-        med_f, best_f, sol_f = timed(lambda: scipy.optimize.least_squares(fun, np.zeros(free.sum()), jac="2-point", method="trf",
-                                                                          x_scale="jac", xtol=1e-12, ftol=1e-12), repeat=3)
-        print(f"scipy trf/jac, 2-point FD (tol 1e-12):       median {med_f*1e3:8.1f} ms, best {best_f*1e3:8.1f} ms, "
-              f"{sol_f.nfev} evaluations (reference only, not a peer)")
-
-        compare(m, obs10, repeat=5)
-
-        print("\n== 336 alignments: command line and Pinocchio throughput ==")
-        with tempfile.TemporaryDirectory() as tmp:
-            csv = Path(tmp) / "obs.csv"
-            write_observations(csv, obs, m)
-            cmd = [sys.executable, "-m", "kinid", "identify", "--machine", str(path("five_axis_bc")), "--data", str(csv),
-                   "--noise-um", "1", "--out", str(Path(tmp) / "fit.json")]
-            med_c, best_c, _ = timed(lambda: subprocess.run(cmd, check=True, capture_output=True), repeat=3)
-            print(f"kinid identify (command line):    median {med_c*1e3:7.1f} ms, best {best_c*1e3:7.1f} ms "
-                  f"(process start and imports included)")
-
-        errors = np.zeros(len(m.error_joints))
-        med_j, _, _ = timed(lambda: evaluate(m, obs.axes, errors), repeat=5)
-        med_p, _, _ = timed(lambda: evaluate(m, obs.axes, errors, jacobian=False), repeat=5)
-        print(f"Pinocchio evaluations: {len(obs)/med_j:,.0f}/s with Jacobians, {len(obs)/med_p:,.0f}/s without")
-    print(f"\ntotal benchmark time {time.perf_counter() - t_start:.1f} s")
+        compare("README example (near-linear), sigma 1 um given", m, obs, None, rounds, noise_um=1.0)
+        compare("README example x10 (near-linear), sigma 1 um given", m, obs10, None, max(3, rounds // 2), noise_um=1.0)
+        compare("arm, far turned frame, draw 0 (hard), sigma from the residuals", arm, train, arm_effects, rounds,
+                hard=True)
+    print(f"\ntotal benchmark time {time.perf_counter() - started:.1f} s")
 
 
 if __name__ == "__main__":
-    main()
+    main(*(int(a) for a in sys.argv[1:2]))

@@ -5,7 +5,10 @@ Jacobians (:mod:`identification.residuals`); each step is a small quadratic
 program — min ½‖J_s δ + r‖² + ½λ‖δ‖² on unit-scaled columns, with optional
 bounds — solved by CasADi's ``qrqp`` active-set solver. Parameters the data
 cannot separate are found first (:mod:`identification.identifiability`), held
-fixed at zero and reported by name.
+fixed at zero and reported by name. The passes run on the machine with only the error joints in use
+(:func:`~kinid.identification.fitting.fit_pass.reduced`); the iterations stop once the Gauss–Newton step left is
+below what the noise can tell (:func:`~kinid.identification.fitting.lm_step.below_noise`): that step is taken with
+a check of its residuals, without another Jacobian.
 
 Units: parameters in the effects' units (µm, µrad, µm/mm ...), residuals µm.
 """
@@ -21,9 +24,9 @@ from kinid.threads import blas_single_threaded
 
 from ..model import Machine, check_effects, check_machine, default_model, model_effects  # noqa: F401 (re-exported)
 from ..data import Observations, check_observations
-from .fit_pass import model_pass_qr
+from .fit_pass import model_pass_qr, reduced, residuals_chunked
 from .identifiability import RANK_TOL, analyse, identifiable_columns, observability
-from .lm_step import lm_step as _lm_step
+from .lm_step import below_noise, lm_step as _lm_step
 from .noise import Noise
 from .residuals import design, residuals
 from .start import TURN_RAD, closed_form_start, turn_rad
@@ -32,6 +35,8 @@ __all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "axis_
            "READING_DIGITS"]
 
 FIT_FORMAT = "kinid-fit/1"
+#: λ of the first step, and the largest at which a step is Gauss–Newton's (a larger λ shortens it).
+LAMBDA_START = 1e-9
 
 
 @dataclass(frozen=True)
@@ -267,8 +272,9 @@ def fit(
     check_machine(machine)
     check_observations(obs)
     effects = tuple(default_model(machine)) if effects is None else check_effects(machine, effects)
-    d = design(machine, effects, obs)
-    names = d.param_names()
+    d_full = design(machine, effects, obs)
+    names = d_full.param_names()
+    mr, d = reduced(machine, d_full)  # the passes' machine: the error joints in use only (fit_pass)
     P = d.n_params
     theta = np.zeros(P) if theta0 is None else np.asarray(theta0, float).copy()
     # the prior as extra residual rows w·θ (µm, like the data's): w = σ / s, 0 where there is none
@@ -281,7 +287,7 @@ def fit(
             raise DataError(f"must be {P} positive standard deviations (inf for none)", parameter="prior_std")
         w_prior = noise_um / s
     # the Jacobian is only ever held as the R factor of its QR (fit_pass): memory flat in the alignments
-    ps = model_pass_qr(machine, d, obs, theta)
+    ps = model_pass_qr(mr, d, obs, theta)
     r = ps.r
     M = r.size
     rows = M + int(np.sum(w_prior > 0))  # the analysis's per-row figures count the data's rows and the prior's
@@ -292,7 +298,7 @@ def fit(
         # a warm start that gives values to parameters these data cannot identify (another subset of the
         # data held others) is no start for these data: its aliased pairs would lose their sums. From zero.
         theta[:] = 0.0
-        ps = model_pass_qr(machine, d, obs, theta)
+        ps = model_pass_qr(mr, d, obs, theta)
         r = ps.r
         ident = analyse(_with_prior(ps.R, w_prior) / sigma0, names, tol=rank_tol, rows=rows)
         free = ident.identifiable
@@ -305,7 +311,7 @@ def fit(
     prior_cost = lambda th: 0.5 * float(np.sum((w_prior * th) ** 2))  # noqa: E731
     cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
     # the measurement frame in closed form first, where it turns far (start.py); kept only if it costs less
-    started = _frame_start(machine, d, obs, theta, ps, ident, lo, hi, prior_cost) if frame_start else None
+    started = _frame_start(mr, d, obs, theta, ps, ident, lo, hi, prior_cost) if frame_start else None
     start = None
     if started is not None:
         start, ps = started
@@ -313,7 +319,7 @@ def fit(
         cost = 0.5 * float(np.sum(r**2)) + prior_cost(theta)
     D = np.linalg.norm(_with_prior(ps.R, w_prior)[:, free], axis=0)
     wf = w_prior[free]
-    lam = 1e-9
+    lam = LAMBDA_START
     success, message, it = False, "", 0
     for it in range(1, max_iter + 1):
         Js = ps.R[:, free] / D  # ‖r + Jδ‖² = rest + ‖Qᵀr + Rδ‖²
@@ -330,9 +336,18 @@ def fit(
             break
         trial = theta.copy()
         trial[free] += delta / D
+        if lam <= LAMBDA_START and below_noise(predicted, cost, noise_um, rows - int(free.sum())):
+            # a Gauss–Newton step the noise cannot tell from zero: taken where it lowers the cost (the residuals
+            # checked, no Jacobian more: the covariance is the last pass's, a step of < 1 % σ away), and done
+            r_new = residuals_chunked(mr, d, obs, trial)
+            cost_new = 0.5 * float(np.sum(r_new**2)) + prior_cost(trial)
+            if cost_new <= cost:
+                theta, cost, r = trial, cost_new, r_new
+            success, message = True, f"converged in {it} iterations"
+            break
         # the residuals and the Jacobian at the trial point in one pass: most steps are taken, and the
         # Jacobian then is the next step's (a step not taken costs the Jacobian's share of one pass)
-        ps_new = model_pass_qr(machine, d, obs, trial)
+        ps_new = model_pass_qr(mr, d, obs, trial)
         cost_new = 0.5 * float(np.sum(ps_new.r**2)) + prior_cost(trial)
         if cost_new <= cost:
             small = np.linalg.norm(delta) <= xtol * (1 + np.linalg.norm(xs))
@@ -373,7 +388,7 @@ def fit(
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
     correlation = np.full((P, P), np.nan)
     correlation[np.ix_(free, free)] = cov_scaled / np.outer(std[free] * Df, std[free] * Df)
-    shared = _shared_std(machine, d, obs, theta, free)
+    shared = _shared_std(mr, d, obs, theta, free)
     std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
     # observability at the solution: the singular values just computed are those of the unit-column Jacobian
     # of the identifiable parameters (the analysis's), as long as the rank test at the solution keeps them

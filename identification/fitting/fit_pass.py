@@ -6,20 +6,23 @@ A least-squares step needs only JᵀJ and Jᵀr, and the identifiability analysi
 of :data:`CHUNK_ROWS` alignments is evaluated (Pinocchio) and folded into R by a QR of the stacked rows (TSQR), and
 memory stays flat in the number of alignments (the residuals, 3N numbers, are kept).
 
-Only the error joints the model's parameters sit on are differentiated, and the chunks are views of the design
-and of the observations' arrays.
+Only the error joints the model's parameters sit on are in the pass: the others, at zero, are locked into the
+placements of their neighbours (Pinocchio's ``buildReducedModel``, :func:`reduced`), so each ``forwardKinematics``
+walks 28 joints instead of 58 for the default model of the B/C five-axis machine (1.68x faster, 336 poses in 0.47
+against 0.80 ms); and the chunks are views of the design and of the observations' arrays.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
 import numpy as np
+import pinocchio as pin
 
 from ..model import Machine, evaluate
 from ..data import Observations
 from .residuals import Design, joint_values
 
-__all__ = ["Pass", "model_pass_qr", "residuals_chunked", "chunks", "CHUNK_ROWS"]
+__all__ = ["Pass", "model_pass_qr", "reduced", "residuals_chunked", "chunks", "CHUNK_ROWS"]
 
 #: Alignments evaluated at a time.
 CHUNK_ROWS = 10_000
@@ -70,9 +73,50 @@ def _slices(d: Design, obs: Observations, chunk: int):
         yield dc, obs.axes[lo:hi], obs.w_mm[lo:hi], None if obs.offsets_mm is None else obs.offsets_mm[lo:hi]
 
 
+#: Reduced machines kept per machine (one per set of error joints in use), at most.
+REDUCED_KEPT = 64
+
+
+def reduced(machine: Machine, d: Design) -> tuple:
+    """(machine, design) with only the error joints ``d``'s parameters sit on: the others, which a pass holds at
+    zero, locked at zero into the placements around them (``pinocchio.buildReducedModel``). The pair gives the
+    same tool points and Jacobian columns as the full one (to rounding: a locked joint's zero placement is folded
+    into its neighbours' once); the design's joint indices are the reduced machine's. A machine whose every
+    error joint is in use is returned as it is (a reduced one, again)."""
+    used, column = d.joints[:2]
+    if len(used) == len(machine.error_joints):
+        return machine, d
+    store = machine.__dict__.setdefault("_reduced", {})
+    key = tuple(int(u) for u in used)
+    small = store.get(key)  # one look-up: another thread may clear the store between two
+    if small is None:  # made once per set of joints: 3-4 ms (the model, its data and geometry), 0.3 ms saved a pass
+        if len(store) >= REDUCED_KEPT:  # the models of a selection past
+            store.clear()
+        small = store[key] = _reduced_machine(machine, key)
+    return small, replace(d, joint_index=column)
+
+
+def _reduced_machine(machine: Machine, used: tuple) -> Machine:
+    """The machine with the error joints not in ``used`` (indices into ``machine.error_joints``) locked at zero."""
+    model = machine.model
+    keep = set(used)
+    locked = [model.getJointId(e.code) for i, e in enumerate(machine.error_joints) if i not in keep]
+    small = pin.buildReducedModel(model, locked, machine.configuration_parts[0])
+
+    def moved(item, name):  # the same joint, at its places in the reduced model
+        jid = small.getJointId(name)
+        return replace(item, q_index=small.idx_qs[jid], v_index=small.idx_vs[jid])
+
+    return replace(machine, model=small, axes=tuple(moved(a, a.joint) for a in machine.axes),
+                   error_joints=tuple(moved(machine.error_joints[i], machine.error_joints[i].code) for i in used),
+                   workpiece_frame=small.getFrameId(model.frames[machine.workpiece_frame].name),
+                   tool_frame=small.getFrameId(model.frames[machine.tool_frame].name))
+
+
 def residuals_chunked(machine: Machine, d: Design, obs: Observations, theta, *, chunk: int = CHUNK_ROWS) -> np.ndarray:
     """Residuals (N, 3), µm, evaluated a chunk at a time."""
     theta = np.asarray(theta, float)
+    machine, d = reduced(machine, d)
     parts = [(evaluate(machine, axes, joint_values(machine, dc, theta), jacobian=False, offsets_mm=off) - w) * 1e3
              for dc, axes, w, off in _slices(d, obs, chunk)]
     return np.concatenate(parts) if parts else np.zeros((0, 3))
@@ -81,6 +125,7 @@ def residuals_chunked(machine: Machine, d: Design, obs: Observations, theta, *, 
 def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chunk: int = CHUNK_ROWS) -> Pass:
     """Residuals and the R factor of the Jacobian of ``d``'s parameters at ``theta``, chunk by chunk."""
     theta = np.asarray(theta, float)
+    machine, d = reduced(machine, d)
     P = d.n_params
     used, column = d.joints[:2]  # the joints the parameters sit on
     one_each = np.array_equal(column, np.arange(P))  # each parameter on its own joint, in order: no gather

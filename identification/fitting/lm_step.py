@@ -13,7 +13,11 @@ import threading
 import casadi as ca
 import numpy as np
 
-__all__ = ["lm_step"]
+__all__ = ["lm_step", "below_noise", "STOP_STEP_STD"]
+
+#: The iterations end where the Gauss–Newton step left moves the parameters by less than this share of their
+#: standard deviation (its length in the metric of their covariance): the data cannot tell the step from zero.
+STOP_STEP_STD = 1e-2
 
 
 @functools.lru_cache(maxsize=32)
@@ -55,3 +59,12 @@ def lm_step(Js, r, lam, lbx, ubx):
     np.concatenate([np.ravel(Js, order="F"), r, lbx, ubx, [lam]], out=packed)
     call()
     return delta.copy()
+
+
+def below_noise(predicted: float, cost: float, noise_um: float | None, dof: int) -> bool:
+    """Whether a Gauss–Newton step whose predicted decrease of the cost ½‖r‖² (µm²) is ``predicted`` is one the data
+    cannot tell from zero: ``predicted`` = ½‖J δ‖², so ‖J δ‖ / σ, the step's length in the metric of the
+    parameters' covariance, is below :data:`STOP_STEP_STD`. σ is ``noise_um``, or the residuals' (from ``cost``
+    over ``dof`` degrees of freedom) where it is None."""
+    sigma2 = noise_um**2 if noise_um else (2 * cost / dof if dof > 0 else 0.0)
+    return sigma2 > 0 and predicted <= 0.5 * STOP_STEP_STD**2 * sigma2
