@@ -27,7 +27,7 @@ from ..data import Observations, check_observations
 from .fit_pass import model_pass_qr, reduced, residuals_chunked
 from .identifiability import RANK_TOL, analyse, identifiable_columns, observability
 from .lm_step import below_noise, lm_step as _lm_step
-from .noise import Noise
+from .noise import Noise, shared_std
 from .residuals import design, residuals
 from .start import TURN_RAD, closed_form_start, turn_rad
 
@@ -388,7 +388,7 @@ def fit(
     std[free] = np.sqrt(np.diag(cov_scaled)) / Df
     correlation = np.full((P, P), np.nan)
     correlation[np.ix_(free, free)] = cov_scaled / np.outer(std[free] * Df, std[free] * Df)
-    shared = _shared_std(mr, d, obs, theta, free)
+    shared = shared_std(mr, d, obs, theta, free)
     std = np.sqrt(std**2 + sum((v**2 for v in shared.values()), np.zeros(P)))
     # observability at the solution: the singular values just computed are those of the unit-column Jacobian
     # of the identifiable parameters (the analysis's), as long as the rank test at the solution keeps them
@@ -454,26 +454,6 @@ def _frame_start(machine: Machine, d, obs: Observations, theta, ps, ident, lo, h
 def _with_prior(J, w_prior):
     """The Jacobian with the prior's rows (a parameter with a prior is identified by it where the data cannot)."""
     return np.vstack([J, np.diag(w_prior)[w_prior > 0]]) if np.any(w_prior > 0) else J
-
-
-def _shared_std(machine: Machine, d, obs: Observations, theta, free) -> dict:
-    """Each shared source's change of the parameters at one standard deviation: the least-squares answer to the
-    residuals' change when the offsets move by ``obs.shifts_mm[source]`` (the residual is affine in the offset)."""
-    from ..model import evaluate
-    from .residuals import joint_values
-
-    if not obs.shifts_mm:
-        return {}
-    J_free = residuals(machine, d, obs, theta)[1].reshape(-1, d.n_params)[:, free]  # observe's runs: small
-    values = joint_values(machine, d, theta)
-    base = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm)
-    out = {}
-    for source, shift in obs.shifts_mm.items():
-        moved = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm + shift)
-        change = np.full(len(theta), np.nan)
-        change[free] = -np.linalg.lstsq(J_free, ((moved - base) * 1e3).ravel(), rcond=None)[0]
-        out[source] = change
-    return out
 
 
 #: Decimals (of mm / deg) to which :func:`axis_readings` tells readings apart: 0.1 µm, 0.0001°.

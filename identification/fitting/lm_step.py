@@ -17,7 +17,7 @@ __all__ = ["lm_step", "below_noise", "STOP_STEP_STD"]
 
 #: The iterations end where the Gauss–Newton step left moves the parameters by less than this share of their
 #: standard deviation (its length in the metric of their covariance): the data cannot tell the step from zero.
-STOP_STEP_STD = 1e-2
+STOP_STEP_STD = 1e-3
 
 
 @functools.lru_cache(maxsize=32)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from kinid.errors import DataError
 
-__all__ = ["NOISE_RATIO_LIMIT", "Noise", "SOURCES", "noise_ratio", "resolve_noise"]
+__all__ = ["NOISE_RATIO_LIMIT", "Noise", "SOURCES", "noise_ratio", "resolve_noise", "shared_std"]
 
 SOURCES = ("given", "replicates", "fit", "residuals")
 
@@ -70,3 +70,25 @@ def noise_ratio(rms_um: float, noise: Noise) -> float:
     if noise.source != "given" or not (math.isfinite(rms_um) and noise.value_um > 0):
         return float("nan")
     return rms_um / noise.value_um
+
+
+def shared_std(machine, d, obs, theta, free) -> dict:
+    """Each shared source's change of the parameters at one standard deviation: the least-squares answer to the
+    residuals' change when the offsets move by ``obs.shifts_mm[source]`` (the residual is affine in the offset)."""
+    import numpy as np
+
+    from ..model import evaluate
+    from .residuals import joint_values, residuals
+
+    if not obs.shifts_mm:
+        return {}
+    J_free = residuals(machine, d, obs, theta)[1].reshape(-1, d.n_params)[:, free]  # observe's runs: small
+    values = joint_values(machine, d, theta)
+    base = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm)
+    out = {}
+    for source, shift in obs.shifts_mm.items():
+        moved = evaluate(machine, obs.axes, values, jacobian=False, offsets_mm=obs.offsets_mm + shift)
+        change = np.full(len(theta), np.nan)
+        change[free] = -np.linalg.lstsq(J_free, ((moved - base) * 1e3).ravel(), rcond=None)[0]
+        out[source] = change
+    return out
