@@ -69,12 +69,9 @@ class CsvColumns:
 
     def texts(self, column: str, what: str) -> list:
         """The stripped, non-empty texts of ``column``; DataError naming the line of an empty one."""
-        out = []
-        for line, cell in zip(self.lines, self.text[column]):
-            value = cell.strip()
-            if not value:
-                raise DataError(f"empty {what}", path=self.path, line=line, column=column)
-            out.append(value)
+        out = list(map(str.strip, self.text[column]))
+        if not all(out):
+            raise DataError(f"empty {what}", path=self.path, line=self.lines[out.index("")], column=column)
         return out
 
 
