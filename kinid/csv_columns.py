@@ -147,7 +147,9 @@ def _fast_columns(path, text, header_line, header, texts):
     width = len(header)
     numeric = [k for k, h in enumerate(header) if h not in texts]
     pieces = {h: [] for h in header}
-    bad, text_cells, line_parts = {}, {header[k]: [] for k, h in enumerate(header) if h in texts}, []
+    bad, text_cells = {}, {header[k]: [] for k, h in enumerate(header) if h in texts}
+    most = text.count("\n", start) + 1  # rows at most: the columns are filled in place, never concatenated
+    values, lines, filled = {h: np.empty(most) for h in header}, np.empty(most, int), 0
     line = header_line + 1
     while start < len(text):
         end = text.find("\n", start + FAST_CHUNK_CHARS)
@@ -155,20 +157,25 @@ def _fast_columns(path, text, header_line, header, texts):
         chunk = _fast_chunk(text[start:end], line, width)
         if chunk is None:
             return None
-        rows, numbers = chunk
-        line += numbers[1]
-        line_parts.append(numbers[0])
-        _chunk_numbers(path, header, numeric, rows, numbers[0], pieces, bad)
+        rows, (numbers, seen) = chunk
+        line += seen
+        _chunk_numbers(path, header, numeric, rows, numbers, pieces, bad)
         for k, h in enumerate(header):
             if h in texts:
                 cells = _cells(rows, k, width)
                 text_cells[h] += cells
                 if h not in bad:
-                    _column_numbers(path, h, k, cells, numbers[0], pieces, bad)
-        start = end
-    lines = np.concatenate(line_parts) if line_parts else np.zeros(0, int)
-    values = {h: np.full(len(lines), np.nan) if h in bad else
-              (np.concatenate(pieces[h]) if pieces[h] else np.zeros(0)) for h in header}
+                    _column_numbers(path, h, k, cells, numbers, pieces, bad)
+        stop = filled + len(rows)
+        lines[filled:stop] = numbers
+        for h, got in pieces.items():
+            if got:
+                values[h][filled:stop] = got.pop()
+        filled, start = stop, end
+    for h, v in [(None, lines), *values.items()]:
+        v.resize(filled, refcheck=False)  # in place: no copy of a million rows
+        if h in bad:
+            v[:] = np.nan
     return CsvColumns(path, header_line, header, tuple(lines.tolist()), values, bad, text_cells)
 
 
