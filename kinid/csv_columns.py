@@ -162,7 +162,7 @@ def _fast_columns(path, text, header_line, header, texts):
         _chunk_numbers(path, header, numeric, rows, numbers, pieces, bad)
         for k, h in enumerate(header):
             if h in texts:
-                cells = _cells(rows, k, width)
+                cells = _cells(rows, k)
                 text_cells[h] += cells
                 if h not in bad:
                     _column_numbers(path, h, k, cells, numbers, pieces, bad)
@@ -201,10 +201,10 @@ def _fast_chunk(chunk: str, line: int, width: int):
     return rows, (numbers, n)
 
 
-def _cells(rows, k: int, width: int) -> list:
-    """The cells of column ``k`` of ``rows`` (lines of ``width`` cells, no quotes)."""
-    if k == 0 and width > 1:
-        return [r[:r.find(",")] for r in rows]
+def _cells(rows, k: int) -> list:
+    """The cells of column ``k`` of ``rows`` (lines of the header's width, no quotes)."""
+    if k == 0:
+        return [r.partition(",")[0] for r in rows]
     return [r.split(",", k + 1)[k] for r in rows]
 
 
@@ -221,7 +221,7 @@ def _chunk_numbers(path, header, numeric, rows, lines, pieces, bad) -> None:
         if block is not None and np.isfinite(block[:, j]).all():
             pieces[header[k]].append(block[:, j])
         else:
-            _column_numbers(path, header[k], k, _cells(rows, k, len(header)), lines, pieces, bad)
+            _column_numbers(path, header[k], k, _cells(rows, k), lines, pieces, bad)
 
 
 def _column_numbers(path, column, k, cells, lines, pieces, bad) -> None:
