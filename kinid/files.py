@@ -13,7 +13,7 @@ from .images import MAX_IMAGE_BYTES, MAX_IMAGE_PIXELS, image_size, read_image  #
 from .untrusted import (MAX_JSON_BYTES, MAX_JSON_DEPTH, read_json, read_limited_text,  # noqa: F401 (re-exported)
                         read_untrusted_bytes, shown_path)
 
-__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "iter_csv_rows", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
+__all__ = ["atomic_write", "write_text", "write_json", "read_json", "read_csv_rows", "iter_csv_rows", "read_csv_text", "csv_number", "read_limited_text", "captured_stderr", "check_output_target", "check_outputs", "read_image",
            "image_size", "MAX_IMAGE_PIXELS", "MAX_IMAGE_BYTES", "json_text", "read_untrusted_bytes",
            "shown_path", "strict_json", "json_finite"]
 
@@ -177,6 +177,11 @@ def read_csv_rows(path, *, what: str = "CSV file") -> list:
     return list(iter_csv_rows(path, what=what))
 
 
+def read_csv_text(path, *, what: str = "CSV file") -> str:
+    """The whole text of a CSV file (UTF-8, at most ``MAX_CSV_BYTES``); DataError naming the file otherwise."""
+    return read_limited_text(path, what=what, max_bytes=MAX_CSV_BYTES)
+
+
 def _physical_lines(text: str):
     """The lines of ``text`` with their endings (CR LF, LF or CR), one at a time."""
     import re
@@ -185,14 +190,16 @@ def _physical_lines(text: str):
         yield m.group()
 
 
-def iter_csv_rows(path, *, what: str = "CSV file"):
-    """:func:`read_csv_rows` one row at a time (the file's text is read whole, its rows are not held)."""
+def iter_csv_rows(path, *, what: str = "CSV file", text: str | None = None):
+    """:func:`read_csv_rows` one row at a time (the file's text is read whole, its rows are not held); ``text``:
+    the file's text, already read (:func:`read_csv_text`)."""
     import csv
 
     from .errors import DataError
 
     path = Path(path)
-    text = read_limited_text(path, what=what, max_bytes=MAX_CSV_BYTES)
+    if text is None:
+        text = read_csv_text(path, what=what)
     reader = csv.reader(_physical_lines(text), strict=False)
     start = 1
     try:

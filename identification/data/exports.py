@@ -98,10 +98,23 @@ def is_observation_csv(path) -> bool:
         text = read_limited_text(path, what="CSV file", max_bytes=MAX_CSV_BYTES)
     except DataError:
         return True
-    for line in text.splitlines():
+    for line in _lines(text):
         if line.strip() and not line.lstrip().startswith("#"):
             return bool(_OWN_COLUMNS & {c.strip() for c in next(csv.reader([line]))})
     return True
+
+
+def _lines(text: str):
+    """The lines of ``text`` one at a time (ended by CR LF, CR or LF): a header found without splitting a
+    million-row file into a million strings."""
+    import re
+
+    start = 0
+    for end in re.finditer(r"\r\n|\r|\n", text):
+        yield text[start:end.start()]
+        start = end.end()
+    if start < len(text):
+        yield text[start:]
 
 
 def parse_point_columns(text: str) -> dict:

@@ -169,28 +169,63 @@ def exact_duplicates(obs: Observations) -> list:
     return [(int(i), int(first[group[i]])) for i in np.flatnonzero(first[group] != np.arange(len(obs)))]
 
 
+#: The multiplier of the rows' hash in :func:`row_groups` (the golden ratio's 64-bit fraction, Fibonacci hashing).
+ROW_HASH = 0x9E3779B97F4A7C15
+
+
 def row_groups(*columns) -> tuple:
     """(group (N,), first (groups,)): rows equal in every one of ``columns`` (each (N,) or (N, k), of numbers or
-    strings; an empty one is left out) share a group, ``first[g]`` is the first row of group ``g``. NaN equals NaN
-    and −0 equals 0, as values read from a file would."""
+    strings; an empty one is left out) share a group, ``first[g]`` is the first row of group ``g``; groups are
+    numbered in the order of their first rows. NaN equals NaN and −0 equals 0, as values read from a file would.
+
+    Rows are ordered by a 64-bit hash of their bits (one sort, not one per column); rows of one hash are then
+    compared whole, and a hash shared by rows that differ is sorted out by their values."""
     parts = []
     for c in columns:
+        if isinstance(c, (tuple, list)) and c and all(isinstance(v, str) for v in c[:1]):
+            c = _codes(c)  # marks as read: no array of texts made on the way
         c = np.asarray(c)
         if c.size == 0:
             continue
-        if c.dtype.kind not in "biuf":
-            c = np.unique(c.astype(str), return_inverse=True)[1]
-        c = c.reshape(len(c), -1).astype(float)
-        parts += [np.isnan(c), np.where(np.isnan(c), 0.0, c) + 0.0]  # + 0.0: −0 is 0
+        parts.append((_codes(c) if c.dtype.kind not in "biuf" else c).reshape(len(c), -1))
     if not parts:
         return np.zeros(0, int), np.zeros(0, int)
-    key = np.concatenate(parts, axis=1)
-    order = np.lexsort(key.T[::-1])  # stable: equal rows in the order they come
-    ordered = key[order]
-    starts = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
-    group = np.empty(len(key), int)
-    group[order] = np.cumsum(starts) - 1
-    return group, order[starts]
+    key = np.concatenate(parts, axis=1, dtype=float)
+    key += 0.0  # −0 is 0
+    key[np.isnan(key)] = np.nan  # one NaN
+    key = key.view(np.int64)
+    n = len(key)
+    h = np.zeros(n, np.uint64)
+    with np.errstate(over="ignore"):
+        for column in key.T:
+            h = (h ^ column.view(np.uint64)) * np.uint64(ROW_HASH)
+            h ^= h >> np.uint64(29)
+    order = np.argsort(h, kind="stable")  # equal rows in the order they come
+    ordered_h = h[order]
+    same_row = ordered_h[1:] == ordered_h[:-1]
+    pairs = np.flatnonzero(same_row)  # neighbours of one hash: compared whole
+    equal = np.all(key[order[pairs]] == key[order[pairs + 1]], axis=1)
+    same_row[pairs] = equal
+    if not equal.all():  # rows of one hash that differ (or come interleaved): sort those by value
+        order = np.lexsort(np.column_stack([key, h.view(np.int64)]).T[::-1])
+        ordered = key[order]
+        same_row = np.all(ordered[1:] == ordered[:-1], axis=1)
+    starts = np.r_[True, ~same_row]
+    label = np.empty(n, int)
+    label[order] = np.cumsum(starts) - 1
+    first_of_row = order[starts][label]
+    is_first = np.zeros(n, bool)
+    is_first[first_of_row] = True
+    number = np.cumsum(is_first) - 1
+    return number[first_of_row], np.flatnonzero(is_first)
+
+
+def _codes(texts) -> np.ndarray:
+    """An integer per text (an array, or a list or tuple of str), equal for equal texts."""
+    seen = {}
+    values = texts if isinstance(texts, (tuple, list)) else np.asarray(texts).astype(str).ravel().tolist()
+    codes = np.fromiter(map(seen.setdefault, values, range(len(values))), int, len(values))
+    return codes if isinstance(texts, (tuple, list)) else codes.reshape(np.shape(texts))
 
 
 def _ordered_axes(machine: Machine):
