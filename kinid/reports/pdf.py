@@ -113,6 +113,8 @@ class _Flow:
 
     # -- text -----------------------------------------------------------------------------------------
     def _width(self, s: str, size: float, weight="normal", family="sans-serif") -> float:
+        if family == "monospace" and len(s) > 1:  # every character as wide as one: the text output's lines
+            return len(s) * self._width("0", size, weight, family)
         key = (s, size, weight, family)
         if key not in self._widths:  # measuring shapes the text (libraqm): about 1 ms a string
             from matplotlib.font_manager import FontProperties
