@@ -264,6 +264,7 @@ def _identify(args) -> int:
         if args.report:
             from ..reporting import selection_report
 
+            _report_line(args.report)
             selection_report(steps, obs, args.report, fit_file=args.out)
     else:
         from dataclasses import replace
@@ -279,7 +280,9 @@ def _identify(args) -> int:
             from ..diagnosis import diagnose
             from ..reporting import diagnosis_report
 
-            diagnosis_report(diagnose(machine, obs, effects, noise_um=args.noise_um, result=result), obs, args.report)
+            diagnosis = diagnose(machine, obs, effects, noise_um=args.noise_um, result=result)
+            _report_line(args.report)
+            diagnosis_report(diagnosis, obs, args.report)
     warn_units(machine, read)
     save_fit(result, args.out)
     print(result.table())
@@ -386,6 +389,14 @@ def _simulate(args) -> int:
     return 0
 
 
+def _report_line(folder) -> None:
+    """One line on stderr before a report is written: its figures and PDF take seconds (never on stdout, where
+    --json prints)."""
+    from kinid.progress import as_progress
+
+    as_progress(sys.stderr).say(f"writing the report to {folder}: figures, HTML and PDF …")
+
+
 def _diagnose(args) -> int:
     import numpy as np
 
@@ -413,6 +424,7 @@ def _diagnose(args) -> int:
         from kinid.reports.html import file_provenance
         from ..reporting import diagnosis_report
 
+        _report_line(args.report)
         diagnosis_report(result, obs, args.report, provenance=[("fit", file_provenance(args.fit))])
     if args.json:
         print(strict_json(result.summary()))

@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinid.reports.figures import legend_below, new_figure, panel_grid, save_figure
+from kinid.reports.figures import fixed_layout, legend_below, new_figure, panel_grid, save_figure
 from ..model import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of
 
 __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram", "plot_singular_values",
-           "plot_selection", "plot_measured_vs_model", "plot_identified_errors", "plot_binned_residuals"]
+           "plot_selection", "plot_measured_vs_model", "plot_identified_errors", "plot_binned_residuals",
+           "lomb_scargle_power"]
 
 #: x, y, z residual components: the same colour in every figure.
 COMPONENT_COLOURS = ("tab:blue", "tab:orange", "tab:green")
@@ -52,9 +53,10 @@ def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against ax
     for ax in axs[::3]:
         ax.set_ylabel("residual (µm)")
     fig.suptitle(f"{title} (workpiece frame)")
-    fig.tight_layout()
-    legend_below(fig, axs[0], markerscale=2)
-    save_figure(fig, path)
+    rows = 2 if any(obs.directions.get(a.name) is not None for a in machine.axes[:1]) else 1  # 6 entries: 3 a row
+    fixed_layout(fig, bottom_in=0.7 + 0.25 * rows, top_in=0.45)  # the legend's rows below the x labels
+    legend_below(fig, axs[0], markerscale=2, inside=True, columns=3)
+    save_figure(fig, path, tight=False)
 
 
 def _position_label(axis) -> str:
@@ -74,17 +76,59 @@ def plot_time(obs, r_um, path) -> bool:
     ax.set_xlabel("time since the first alignment (s)")
     ax.set_ylabel("residual (µm)")
     ax.set_title("Residuals against time")
-    fig.tight_layout()
-    legend_below(fig, ax, markerscale=2)
-    save_figure(fig, path)
+    fixed_layout(fig, bottom_in=0.95, top_in=0.35)
+    legend_below(fig, ax, markerscale=2, inside=True)
+    save_figure(fig, path, tight=False)
     return True
+
+
+def lomb_scargle_power(x, y, freqs) -> np.ndarray:
+    """Lomb–Scargle power of each column of ``y`` sampled at ``x``, at the angular frequencies ``freqs``.
+
+    The classic periodogram (equal weights, no floating mean: centre ``y`` first), in the units of
+    ``scipy.signal.lombscargle(x, y, freqs, normalize=False)``: a harmonic of amplitude A over N samples has
+    power about A² N / 4. The sines and cosines, and the phase τ that decouples them, depend on ``x`` only:
+    they are computed once for every column.
+
+    Parameters
+    ----------
+    x : (N,) array
+        Sample positions (an axis reading, mm or deg).
+    y : (N, K) array
+        K signals (residual components, µm).
+    freqs : (F,) array
+        Angular frequencies, rad per unit of ``x``.
+
+    Returns
+    -------
+    (F, K) array
+        Power, units of ``y`` squared.
+
+    References
+    ----------
+    Zechmeister M., Kürster M. (2009), The generalised Lomb–Scargle periodogram, A&A 496, 577–584, eq. 5–20
+    (with equal weights and no offset; the form SciPy computes).
+    """
+    x, y = np.asarray(x, float), np.asarray(y, float).reshape(len(x), -1)
+    wt = np.multiply.outer(x, np.asarray(freqs, float))  # (N, F)
+    n = x.size
+    cc = np.mean(np.cos(wt) ** 2, axis=0)
+    cs = np.mean(np.cos(wt) * np.sin(wt), axis=0)
+    tau = 0.5 * np.arctan2(2.0 * cs, 2.0 * cc - 1.0)
+    cos_t, sin_t = np.cos(wt - tau), np.sin(wt - tau)
+    yc, ys = cos_t.T @ y / n, sin_t.T @ y / n  # (F, K)
+    tiny = np.finfo(float).epsneg
+    c2 = np.maximum(np.mean(cos_t ** 2, axis=0), tiny)[:, None]
+    s2 = np.maximum(1.0 - c2, tiny)
+    return 2.0 * (yc ** 2 / c2 + ys ** 2 / s2) * n / 4.0
 
 
 def plot_periodogram(machine, obs, r_um, path) -> None:
     """Lomb–Scargle power of the residuals against the spatial period of each axis."""
-    from scipy.signal import lombscargle
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
 
     fig, axs = panel_grid(len(machine.axes), sharey=False)
+    centred = r_um[:, :3] - r_um[:, :3].mean(axis=0)
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         span = np.ptp(q)
@@ -93,13 +137,10 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
             continue
         lo, hi = (1.0, min(60.0, span)) if a.kind == "prismatic" else (20.0, 400.0)
         periods = np.geomspace(lo, max(hi, lo * 2), 600)
-        w = 2 * np.pi / periods
-        power = sum(lombscargle(q, r_um[:, c] - r_um[:, c].mean(), w, normalize=False) for c in range(3))
+        power = lomb_scargle_power(q, centred, 2 * np.pi / periods).sum(axis=1)
         ax.semilogx(periods, power, lw=0.8)
         for p in LINEAR_PERIODS_MM if a.kind == "prismatic" else ROTARY_PERIODS_DEG:
             ax.axvline(p, color="tab:red", lw=0.5, alpha=0.5)
-        from matplotlib.ticker import NullFormatter, ScalarFormatter
-
         ticks = [1, 2, 5, 10, 20, 50] if a.kind == "prismatic" else [30, 90, 180, 360]
         ax.set_xticks([t for t in ticks if lo <= t <= periods[-1]])
         ax.xaxis.set_major_formatter(ScalarFormatter())
@@ -108,8 +149,8 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
     for ax in axs[::3]:
         ax.set_ylabel("Lomb–Scargle power (µm²)")
     fig.suptitle("Residual periodogram (red: candidate periods)")
-    fig.tight_layout()  # tick labels of one panel clear of the next
-    save_figure(fig, path)
+    fixed_layout(fig, wspace_in=0.55, top_in=0.45)  # each panel's own power tick labels clear of the next
+    save_figure(fig, path, tight=False)
 
 
 def plot_singular_values(fit_result, path) -> None:
@@ -124,10 +165,13 @@ def plot_singular_values(fit_result, path) -> None:
     ax.set_xlabel("index (largest first)")
     ax.set_ylabel("singular value (unit columns)")
     ax.set_title(f"Rank {fit_result.rank}/{len(fit_result.param_names)}, condition {fit_result.condition_number:.3g}")
-    if fit_result.aliases:
+    if fit_result.aliases:  # beside the axes, as wide as the messages: the saved figure is cropped to them
         text = "\n".join(a.message for a in fit_result.aliases[:8])
         ax.text(1.02, 1.0, "held fixed:\n" + text, transform=ax.transAxes, fontsize=8, va="top")
-    save_figure(fig, path)
+        save_figure(fig, path)
+        return
+    fixed_layout(fig, left_in=0.8, top_in=0.35, bottom_in=0.55)
+    save_figure(fig, path, tight=False)
 
 
 def plot_selection(steps, path) -> None:
@@ -144,7 +188,10 @@ def plot_selection(steps, path) -> None:
     ax.set_ylim(0, max(rms) * 1.15)
     ax.legend()
     ax.set_title("The error falls as effects are added")
-    save_figure(fig, path)
+    longest = max(len(t) for t in labels)  # the tick labels, 8 pt, turned 20°: room below and left of the axes
+    fixed_layout(fig, left_in=max(0.75, 0.06 * longest * 0.94 + 0.1), top_in=0.35,
+                 bottom_in=0.3 + 0.06 * longest * 0.34 + 0.1)
+    save_figure(fig, path, tight=False)
 
 
 def plot_measured_vs_model(diagnosis, obs, path) -> None:
@@ -284,7 +331,7 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
 
         ax.set_title(f"{code}: {plain_name(code, axis_directions(machine))}\n"
                      f"{' + '.join(e.name for e, _ in parts)}, band ±2σ (k = 2)", fontsize=10)
-    fig.tight_layout()
+    fixed_layout(fig, left_in=0.85, top_in=0.5, bottom_in=0.5, hspace_in=1.05)  # two-line titles above each panel
     save_figure(fig, path, tight=False)
     return True
 
@@ -322,6 +369,6 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y
         ax.set_ylabel("mean per bin (µm)")
     fig.suptitle(f"{what[0].upper() + what[1:]}, binned by axis position\n(grey: where the mean of noise "
                  f"σ = {sigma_um:.3g} µm falls)")
-    fig.tight_layout()
-    legend_below(fig, axs[0])
-    save_figure(fig, path)
+    fixed_layout(fig, bottom_in=0.95, top_in=0.7)  # a two-line title; one legend row below the x labels
+    legend_below(fig, axs[0], inside=True)
+    save_figure(fig, path, tight=False)

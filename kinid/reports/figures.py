@@ -16,7 +16,7 @@ import io
 
 from ..files import atomic_write
 
-__all__ = ["new_figure", "save_figure", "panel_grid", "legend_below", "SHOWN_WIDTH_IN"]
+__all__ = ["new_figure", "save_figure", "panel_grid", "fixed_layout", "legend_below", "SHOWN_WIDTH_IN"]
 
 
 def new_figure(figsize=(7.0, 4.0)):
@@ -35,7 +35,9 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = True) -> None:
     path : str or Path
     dpi : int
     tight : bool
-        Crop to the drawn content (``bbox_inches="tight"``).
+        Crop to the drawn content (``bbox_inches="tight"``): matplotlib then draws the figure twice, once to
+        measure it. A figure laid out by :func:`fixed_layout` has everything inside it: save it with
+        ``tight=False``, drawn once.
     """
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight" if tight else None)
@@ -67,10 +69,36 @@ def panel_grid(n: int, *, panel_in=(3.0, 2.7), most_per_row: int = 3, sharey: bo
     return fig, list(axs[:n])
 
 
-def legend_below(fig, ax=None, *, columns: int | None = None, fontsize: float = 9, **kwargs):
+def fixed_layout(fig, *, left_in: float = 0.75, right_in: float = 0.2, top_in: float = 0.5,
+                 bottom_in: float = 0.6, wspace_in: float = 0.25, hspace_in: float = 0.75) -> None:
+    """Place the figure's grid of axes with margins and gaps in inches, without measuring its text.
+
+    ``fig.tight_layout()`` and ``save_figure(..., tight=True)`` each draw the whole figure once to measure it
+    (tick labels, titles, legends), and matplotlib's text shaping makes a draw costly: a report's figures took
+    most of ``kinid demo``'s time. A figure whose text is known (labels of a few characters, a title of one or
+    two lines) is laid out here in one step and drawn once.
+
+    Parameters
+    ----------
+    left_in, right_in, top_in, bottom_in : float
+        Margins, inches: the y label and its tick labels (left), the title (top), the x label and its tick
+        labels, and a legend placed below by :func:`legend_below` with ``inside=True`` (bottom).
+    wspace_in, hspace_in : float
+        Gaps between columns and rows of axes, inches (their tick labels and labels).
+    """
+    w, h = fig.get_size_inches()
+    rows, cols = fig.axes[0].get_subplotspec().get_gridspec().get_geometry() if fig.axes else (1, 1)
+    axes_w = (w - left_in - right_in - (cols - 1) * wspace_in) / cols
+    axes_h = (h - top_in - bottom_in - (rows - 1) * hspace_in) / rows
+    fig.subplots_adjust(left=left_in / w, right=1 - right_in / w, top=1 - top_in / h, bottom=bottom_in / h,
+                        wspace=wspace_in / axes_w, hspace=hspace_in / axes_h)
+
+
+def legend_below(fig, ax=None, *, columns: int | None = None, fontsize: float = 9, inside: bool = False, **kwargs):
     """One legend under the figure's panels, where it never covers data: the entries of ``ax`` (an axes or a
     sequence of them; default the figure's first), each label once. Draw it after the layout
-    (``fig.tight_layout()``); :func:`save_figure` keeps it."""
+    (``fig.tight_layout()``; :func:`save_figure` keeps it), or ``inside`` the figure's bottom edge, in the
+    margin :func:`fixed_layout` left for it (``bottom_in``)."""
     axes = [fig.axes[0]] if ax is None else list(ax) if isinstance(ax, (list, tuple)) else [ax]
     entries = {}
     for a in axes:
@@ -79,5 +107,7 @@ def legend_below(fig, ax=None, *, columns: int | None = None, fontsize: float = 
     if not entries:
         return None
     labels, handles = list(entries), list(entries.values())
-    return fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), frameon=False,
-                      ncol=columns or min(len(labels), 6), fontsize=fontsize, **kwargs)
+    where = dict(loc="lower center", bbox_to_anchor=(0.5, 0.0)) if inside else dict(loc="upper center",
+                                                                                     bbox_to_anchor=(0.5, 0.0))
+    return fig.legend(handles, labels, **where, frameon=False, ncol=columns or min(len(labels), 6), fontsize=fontsize,
+                      **kwargs)

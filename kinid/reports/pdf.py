@@ -78,6 +78,7 @@ class _Flow:
         self.pages = []
         self.y = self.bottom  # no page yet: the first draw opens one
         self._measure = RendererAgg(1, 1, 72)
+        self._widths = {}  # (text, size, weight, family) -> width, pt: a table measures each cell twice
 
     # -- geometry -------------------------------------------------------------------------------------
     def _new_page(self):
@@ -116,10 +117,15 @@ class _Flow:
 
     # -- text -----------------------------------------------------------------------------------------
     def _width(self, s: str, size: float, weight="normal", family="sans-serif") -> float:
-        from matplotlib.font_manager import FontProperties
+        if family == "monospace" and len(s) > 1:  # every character as wide as one: the text output's lines
+            return len(s) * self._width("0", size, weight, family)
+        key = (s, size, weight, family)
+        if key not in self._widths:  # measuring shapes the text (libraqm): about 1 ms a string
+            from matplotlib.font_manager import FontProperties
 
-        prop = FontProperties(size=size, weight=weight, family=family)
-        return self._measure.get_text_width_height_descent(s, prop, ismath=False)[0]
+            prop = FontProperties(size=size, weight=weight, family=family)
+            self._widths[key] = self._measure.get_text_width_height_descent(s, prop, ismath=False)[0]
+        return self._widths[key]
 
     def wrap(self, text: str, size: float, width_pt: float, weight="normal", family="sans-serif") -> list:
         """Lines of ``text`` no wider than ``width_pt`` (words kept whole unless one alone is wider)."""
@@ -257,11 +263,8 @@ class _Flow:
         self.y += 8
 
     def figure(self, png: Path, caption: str) -> None:
-        from matplotlib.image import imread
-
-        try:
-            image = imread(png)
-        except (OSError, ValueError, SyntaxError):
+        image = _opaque_pixels(png)
+        if image is None:
             return
         h_px, w_px = image.shape[:2]
         width = min(self.right - self.left, w_px / 110 * 72)  # never larger than drawn (110 dpi)
@@ -277,6 +280,20 @@ class _Flow:
         ax.set_axis_off()
         self.y += height + 3
         self.text(caption, 7.5, color=_GREY, after=10)
+
+
+def _opaque_pixels(png: Path):
+    """The PNG's pixels as 8-bit RGB when it is opaque (a report's figure: the PDF then holds one image, without
+    a transparency mask to compress beside it), else RGBA; None if it cannot be read."""
+    import numpy as np
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(png) as im:
+            pixels = np.asarray(im.convert("RGBA"))
+    except (OSError, ValueError, SyntaxError, UnidentifiedImageError):
+        return None
+    return pixels[:, :, :3] if np.all(pixels[:, :, 3] == 255) else pixels
 
 
 def _fit_widths(natural, total) -> list:
