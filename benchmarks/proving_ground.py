@@ -624,18 +624,29 @@ def main(argv=None):
         seeds = sorted({rec["seed"] // 100003 for rec in records})
         title = f"seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}"
     else:
-        records = [record(sc) for sc in _run_all(args.scenarios, args.seed, args.kinds)]
+        def keep(records):  # the records so far, written whole after every scenario: a run stopped early keeps them
+            if args.json:
+                _write_json(args.json, records)
+
+        records = [record(sc) for sc in _run_all(args.scenarios, args.seed, args.kinds, keep)]
         title = f"seed {args.seed}"
     summary = summarise(records)
     print_table(summary)
     print_findings(records)
     if args.json:
-        Path(args.json).write_text(json.dumps({"summary": summary, "scenarios": records}, indent=1))
+        _write_json(args.json, records)
     if args.figure:
         _figure(records, summary, title, args.figure)
 
 
-def _run_all(count: int, seed: int, kinds=None) -> list:
+def _write_json(path, records) -> None:
+    """The run's summary and records, written whole (to a temporary file, then renamed)."""
+    tmp = Path(f"{path}.partial")
+    tmp.write_text(json.dumps({"summary": summarise(records), "scenarios": records}, indent=1))
+    tmp.replace(path)
+
+
+def _run_all(count: int, seed: int, kinds=None, each=None) -> list:
     from threadpoolctl import threadpool_limits
 
     scenarios = []
@@ -644,6 +655,8 @@ def _run_all(count: int, seed: int, kinds=None) -> list:
         for k in range(count):
             sc = run(seed * 100003 + k, kinds=None if not kinds else [kinds[k % len(kinds)]])
             scenarios.append(sc)
+            if each is not None:
+                each([record(s) for s in scenarios])
             v = verdict_of(sc)
             r = sc.result
             print(f"{k:4d} {sc.layout:<18} {sc.plan:<18} {sc.order:<11} {sc.kinds:<28} σ {sc.sigma_declared!s:<6.5} "

@@ -586,3 +586,78 @@ def test_a_crash_is_a_failed_scenario_in_the_table(monkeypatch):
     summary = pg.summarise([sc])["all"]
     assert summary["n"] == 1 and summary["pass"] == 0.0 and summary["worse_than_default"] == 1.0
     assert summary["pass_floor"] == 0.0
+
+
+# -- the families of hidden effects nobody named (benchmarks/proving_families.py, issue 45) ---------------------------
+import proving_families as families  # noqa: E402
+
+
+def test_the_instrument_reads_offsets_in_the_tool_frame_as_kinid_places_them():
+    """The families' truth of an offset (numpy: the tool frame's rotation on the URDF text) and kinid's model of
+    the offset columns (the mark at the tool point plus the offset in the tool frame) agree to 1e-9 mm."""
+    from kinid.identification.model.machine import evaluate, machine_from_urdf
+
+    rng = np.random.default_rng(1)
+    for layout in pg.LAYOUTS:
+        text = pg.urdf_text(layout)
+        km, tm = machine_from_urdf(text, f"{layout}.urdf"), truth.read_urdf(text)
+        readings = {a.name: rng.uniform(-50, 50, 30) for a in km.axes}
+        errors = {e.code: rng.uniform(-50, 50, 30) for e in km.error_joints}
+        offsets = rng.uniform(-5, 5, (30, 3))
+        ours = evaluate(km, np.column_stack([readings[a.name] for a in km.axes]),
+                        np.column_stack([errors[e.code] for e in km.error_joints]), jacobian=False, offsets_mm=offsets)
+        R, p = truth.tool_pose_mm(tm, readings, errors, 30)
+        assert np.abs(ours - (p + np.einsum("nij,nj->ni", R, offsets))).max() < 1e-9, layout
+        marks = p + np.einsum("nij,nj->ni", R, offsets)
+        assert np.abs(families.offsets_true_mm(tm, readings, errors, marks) - offsets).max() < 1e-9, layout
+
+
+@pytest.mark.parametrize("family", ["smooth-1", "smooth-2", "step"])
+def test_each_family_moves_the_tool_point_5_to_40_um_on_every_layout(family):
+    """Every layout has a place for each family; the effect drawn moves the tool point 5–40 µm RMS about its mean
+    over the plan (measured here by the truth's chain, with and without it), and what a right verdict may name is
+    the machine's axes or time."""
+    for k, layout in enumerate(pg.LAYOUTS):
+        sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(900 + k, layout, [family], misread_share=0.0)
+        assert len(sc.hidden) == 1 and sc.kinds == family, layout
+        h = sc.hidden[0]
+        n = len(t_s)
+        moved = (truth.tool_point_mm(tm, readings, {**errors, h.joint: errors.get(h.joint, 0.0) + h(readings, t_s)}, n)
+                 - truth.tool_point_mm(tm, readings, errors, n)) * 1e3
+        rms = np.sqrt(np.mean(np.sum((moved - moved.mean(axis=0)) ** 2, axis=1)))
+        assert 4.9 < rms < 40.5, (layout, h.joint, h.how, rms)  # (second order of the set-up errors: < 1 %)
+        assert h.axes and set(h.axes) <= set(tm.motion) | {"time"}, (layout, h.axes)
+
+
+def test_an_instruments_scale_acts_on_the_offsets_not_on_the_machine():
+    """The camera's scale changes only the offsets read: the oracle, which reads them true, fits to the noise,
+    while the default model fitted on the offsets read keeps the scale's share (the 'tool-offset' error of the
+    instrument is the tool point a user knows, so the held-out truth is where the instrument reads 0)."""
+    sc = pg.run(7 * 100003 + 3, kinds=["instrument"])
+    assert sc.hidden[0].joint == "camera-scale" and sc.layout == "five_axis_ac"
+    r = sc.result
+    assert r["oracle_um"] < 1.5 * r["floor_um"] and r["default_um"] > 5 * r["oracle_um"], _line(sc)
+    sc = pg.run(7 * 100003 + 7, kinds=["instrument"])
+    assert sc.hidden[0].joint == "tool-offset" and pg.verdict_of(sc)["pass"], _line(sc)
+    assert sc.result["default_um"] < 1.5 * sc.result["oracle_um"], _line(sc)
+
+
+@pytest.mark.parametrize("seed, family, named", [
+    (7 * 100003 + 0, "smooth-1", "J1"),  # an arm's J2 tilt with J1's angle: named on J1, not modelled
+    (7 * 100003 + 5, "smooth-2", "C"),  # a B-head's workpiece tilt with Z × C: named on C
+    (7 * 100003 + 6, "step", "V"),  # a gantry's yaw stepping along V: a local error of V, named
+])
+def test_a_shape_nobody_named_is_named_on_its_axis(seed, family, named):
+    """Seeded scenarios of the families that pass by the verdict: kinid does not model the shape within 1.5× the
+    oracle's error but its missing-effect verdict names an axis the shape is a function of."""
+    sc = pg.run(seed, kinds=[family])
+    v = pg.verdict_of(sc)
+    assert sc.result["verdict"] == "missing-effect" and named in sc.result["named"], _line(sc)
+    assert named in sc.hidden[0].axes and v["pass"], _line(sc)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 45's baseline: nothing in kinid's vocabulary is the camera's scale; "
+                                       "the selection adds a lead of X in its place and ends worse than the default")
+def test_the_cameras_scale_is_named_not_replaced_by_a_machine_error():
+    sc = pg.run(7 * 100003 + 3, kinds=["instrument"])
+    assert pg.verdict_of(sc)["pass"] and not pg.verdict_of(sc)["worse_than_default"], _line(sc)
