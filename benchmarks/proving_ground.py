@@ -271,6 +271,7 @@ class Scenario:
     jitter_um: float = 0.0
     result: dict = field(default_factory=dict)
     marks_mm: object = None  # (N, 3) where the marks are, when the machine stops near them and offsets are read
+    fixed_kinds: list | None = None  # the kinds asked for (None: drawn)
 
     @property
     def kinds(self) -> str:
@@ -305,6 +306,7 @@ def draw(seed: int, layout: str | None = None, kinds=None, *, plan_kind=None, or
         if "0" in code[2:3] or layout == "arm6":
             big = code.endswith("W") or code.endswith("T")
             errors[code] = np.full(n, rng.uniform(-1, 1) * (500.0 if big else 30.0))
+    fixed_kinds = None if kinds is None else [str(k) for k in kinds]
     if kinds is None:
         count = rng.choice([0, 1, 1, 1, 2, 3])
         pool = [k for k in KINDS if k != "none"]
@@ -325,7 +327,8 @@ def draw(seed: int, layout: str | None = None, kinds=None, *, plan_kind=None, or
     declared = NOISE_UM if sig < 0.4 else (None if sig < 0.7 else float(NOISE_UM * np.exp(rng.uniform(np.log(0.3), np.log(3)))))
     share = share if misread_share is None else misread_share
     declared = declared if sigma == "draw" else sigma
-    sc = Scenario(seed, layout, name, order, hidden, share, quantised, declared, jitter_um, marks_mm=marks_mm)
+    sc = Scenario(seed, layout, name, order, hidden, share, quantised, declared, jitter_um, marks_mm=marks_mm,
+                  fixed_kinds=fixed_kinds)
     return sc, text, tm, readings, labels, t_s, errors, rng
 
 
@@ -438,6 +441,8 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
             named |= _named_axes(dg.inseparable.split(" and ", 1)[1].split(" ", 1)[0], machine)
     else:
         named = {dg.structure.axis} if dg.structure is not None and dg.structure.axis else set()
+    # the instrument's errors the selection stopped for (rows with offsets): the camera's, the laser's
+    named |= {term.split("-")[0] for term in getattr(final, "instrument", ())}
     wanted = {a for h in sc.hidden for a in h.axes}
     # how surely the final model is more than 5 % worse than the default one on these held-out poses: the paired
     # difference of their squared errors pose by pose (final − 1.05² × default) in its standard errors — a dozen
@@ -541,6 +546,7 @@ def record(sc: Scenario) -> dict:
     return {"seed": sc.seed, "layout": sc.layout, "plan": sc.plan, "order": sc.order,
             "hidden": [f"{h.kind} {h.joint}" + (f" ({h.how})" if getattr(h, "how", "") else "") for h in sc.hidden], "misread_share": sc.misread_share,
             "quantised": sc.quantised, "sigma_declared": sc.sigma_declared, "jitter_um": sc.jitter_um,
+            "kinds": sc.fixed_kinds,
             **sc.result, **verdict_of(sc)}
 
 
@@ -614,12 +620,21 @@ def main(argv=None):
     ap.add_argument("--kinds", nargs="+", choices=[k for k in KINDS if k != "none"] + list(families.FAMILIES),
                     help="one hidden effect per scenario, of these kinds in turn (default: drawn, 0–3 of the listed "
                          "classes); the families of benchmarks/proving_families.py are drawn only when named here")
+    ap.add_argument("--rerun", metavar="JSON",
+                    help="run again the scenarios this JSON recorded (of the classes --kinds names, or all), as drawn "
+                         "then: the same scenarios before and after a change to kinid")
     ap.add_argument("--json", help="write every scenario's record here")
     ap.add_argument("--figure", help="write the held-out/oracle ratios per class as a PNG")
     ap.add_argument("--merge", nargs="+", metavar="JSON",
                     help="run nothing: the table, the findings and the figure of the runs these JSONs recorded")
     args = ap.parse_args(argv)
-    if args.merge:
+    if args.rerun:
+        recorded = json.loads(Path(args.rerun).read_text())["scenarios"]
+        chosen = [rec for rec in recorded if not args.kinds or class_of(rec) in args.kinds]
+        records = [record(sc) for sc in _run_all(0, 0, each=lambda recs: args.json and _write_json(args.json, recs),
+                                                 again=chosen)]
+        title = f"{len(records)} scenarios of {args.rerun} again"
+    elif args.merge:
         records = [rec for f in args.merge for rec in json.loads(Path(f).read_text())["scenarios"]]
         seeds = sorted({rec["seed"] // 100003 for rec in records})
         title = f"seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}"
@@ -646,14 +661,22 @@ def _write_json(path, records) -> None:
     tmp.replace(path)
 
 
-def _run_all(count: int, seed: int, kinds=None, each=None) -> list:
+def _drawn_kinds(rec: dict):
+    """The kinds a recorded scenario was drawn with: fixed for the families (drawn only when named), else drawn."""
+    kind = class_of(rec)
+    return rec.get("kinds", [kind] if kind in families.FAMILIES else None)
+
+
+def _run_all(count: int, seed: int, kinds=None, each=None, again=()) -> list:
     from threadpoolctl import threadpool_limits
 
     scenarios = []
     started = time.perf_counter()
     with threadpool_limits(1):
-        for k in range(count):
-            sc = run(seed * 100003 + k, kinds=None if not kinds else [kinds[k % len(kinds)]])
+        todo = [(rec["seed"], _drawn_kinds(rec)) for rec in again] or [
+            (seed * 100003 + k, None if not kinds else [kinds[k % len(kinds)]]) for k in range(count)]
+        for k, (scenario_seed, drawn) in enumerate(todo):
+            sc = run(scenario_seed, kinds=drawn)
             scenarios.append(sc)
             if each is not None:
                 each([record(s) for s in scenarios])
@@ -664,7 +687,8 @@ def _run_all(count: int, seed: int, kinds=None, each=None) -> list:
                   f"oracle {r['oracle_um']:6.3f} floor {r['floor_um']:6.3f} default {r['default_um']:7.3f} "
                   f"plan {r['plan_um']:6.3f}/{r['default_plan_um']:6.3f} {'PASS' if v['pass'] else 'FAIL'} "
                   f"added {r['added']}", flush=True)
-    print(f"\n{len(scenarios)} scenarios in {time.perf_counter() - started:.0f} s (seed {seed})\n")
+    print(f"\n{len(scenarios)} scenarios in {time.perf_counter() - started:.0f} s"
+          f"{'' if again else f' (seed {seed})'}\n")
     return scenarios
 
 
