@@ -1,7 +1,12 @@
 """Proving ground of the diagnosis: how often ``identify --auto`` ends right on machines nobody described.
 
-Run: ``python benchmarks/proving_ground.py [--scenarios N] [--seed S] [--json OUT] [--figure PNG]``; the table and
-figure of several runs together: ``python benchmarks/proving_ground.py --merge A.json B.json ... [--figure PNG]``.
+Run: ``python benchmarks/proving_ground.py [--scenarios N] [--seed S] [--kinds K ...] [--json OUT] [--figure PNG]``;
+the table and figure of several runs together: ``python benchmarks/proving_ground.py --merge A.json B.json ...
+[--figure PNG]``; the scenarios a run recorded, again (before and after a change to kinid):
+``python benchmarks/proving_ground.py --rerun A.json [--kinds K ...] --json B.json``. With ``--kinds``, each
+scenario has one hidden effect of the kinds named, in turn; the families of shapes nobody named
+(benchmarks/proving_families.py: ``smooth-1``, ``smooth-2``, ``step``, ``instrument``) are drawn only so, and
+each is its own class in the table.
 
 Each scenario is drawn from a seeded generator (:func:`draw`):
 
