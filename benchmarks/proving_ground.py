@@ -1,7 +1,12 @@
 """Proving ground of the diagnosis: how often ``identify --auto`` ends right on machines nobody described.
 
-Run: ``python benchmarks/proving_ground.py [--scenarios N] [--seed S] [--json OUT] [--figure PNG]``; the table and
-figure of several runs together: ``python benchmarks/proving_ground.py --merge A.json B.json ... [--figure PNG]``.
+Run: ``python benchmarks/proving_ground.py [--scenarios N] [--seed S] [--kinds K ...] [--json OUT] [--figure PNG]``;
+the table and figure of several runs together: ``python benchmarks/proving_ground.py --merge A.json B.json ...
+[--figure PNG]``; the scenarios a run recorded, again (before and after a change to kinid):
+``python benchmarks/proving_ground.py --rerun A.json [--kinds K ...] --json B.json``. With ``--kinds``, each
+scenario has one hidden effect of the kinds named, in turn; the families of shapes nobody named
+(benchmarks/proving_families.py: ``smooth-1``, ``smooth-2``, ``step``, ``instrument``) are drawn only so, and
+each is its own class in the table.
 
 Each scenario is drawn from a seeded generator (:func:`draw`):
 
@@ -52,6 +57,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import proving_families as families  # noqa: E402
 import proving_truth as truth  # noqa: E402
 
 NOISE_UM = 1.0
@@ -97,6 +103,7 @@ class Hidden:
     joint: str
     axes: tuple  # the axes (or "time") a right diagnosis names
     value: object  # callable(readings dict, t_s) -> array (N,) in µm / µrad
+    how: str = ""  # the shape drawn, for the record (the families of random shapes)
 
     def __call__(self, r, t):
         return self.value(r, t)
@@ -268,6 +275,8 @@ class Scenario:
     sigma_declared: float | None
     jitter_um: float = 0.0
     result: dict = field(default_factory=dict)
+    marks_mm: object = None  # (N, 3) where the marks are, when the machine stops near them and offsets are read
+    fixed_kinds: list | None = None  # the kinds asked for (None: drawn)
 
     @property
     def kinds(self) -> str:
@@ -302,20 +311,29 @@ def draw(seed: int, layout: str | None = None, kinds=None, *, plan_kind=None, or
         if "0" in code[2:3] or layout == "arm6":
             big = code.endswith("W") or code.endswith("T")
             errors[code] = np.full(n, rng.uniform(-1, 1) * (500.0 if big else 30.0))
+    fixed_kinds = None if kinds is None else [str(k) for k in kinds]
     if kinds is None:
         count = rng.choice([0, 1, 1, 1, 2, 3])
         pool = [k for k in KINDS if k != "none"]
         kinds = list(rng.choice(pool, count, replace=False)) if count else []
     hidden = []
     for k in kinds:
-        hidden += hidden_effects(tm, k, rng, ranges)
+        hidden += (families.family_effects(tm, k, rng, readings, t_s) if k in families.FAMILIES
+                   else hidden_effects(tm, k, rng, ranges))
+    marks_mm = None
+    instruments = [h for h in hidden if isinstance(h, families.Instrument)]
+    if instruments:  # the machine stops near each mark, the instrument reads the offset (a generator of its own)
+        marks_mm = truth.tool_point_mm(tm, readings, {}, n)
+        readings = families.stop_near(tm, readings, max(h.spread_mm for h in instruments),
+                                      np.random.default_rng([seed, 2]))
     share = float(rng.choice([0.0, 0.0, 0.01, 0.03, 0.05]))
     quantised = bool(rng.random() < 0.3)
     sig = rng.random()
     declared = NOISE_UM if sig < 0.4 else (None if sig < 0.7 else float(NOISE_UM * np.exp(rng.uniform(np.log(0.3), np.log(3)))))
     share = share if misread_share is None else misread_share
     declared = declared if sigma == "draw" else sigma
-    sc = Scenario(seed, layout, name, order, hidden, share, quantised, declared, jitter_um)
+    sc = Scenario(seed, layout, name, order, hidden, share, quantised, declared, jitter_um, marks_mm=marks_mm,
+                  fixed_kinds=fixed_kinds)
     return sc, text, tm, readings, labels, t_s, errors, rng
 
 
@@ -328,12 +346,15 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     sc, text, tm, readings, labels, t_s, errors, rng = draw(seed, layout, kinds, **fixed)
     n = len(t_s)
     hidden_vals = {}
-    for h in sc.hidden:
+    instruments = [h for h in sc.hidden if isinstance(h, families.Instrument)]
+    machine_hidden = [h for h in sc.hidden if h not in instruments]
+    for h in machine_hidden:
         hidden_vals[h.joint] = hidden_vals.get(h.joint, 0.0) + h(readings, t_s)
     all_errors = {k: v + hidden_vals.get(k, 0.0) for k, v in errors.items()}
     for k, v in hidden_vals.items():
         all_errors.setdefault(k, v)
-    true_p = truth.tool_point_mm(tm, readings, all_errors, n)
+    # (an instrument's own offset moves the tool point a user can know: where it reads 0)
+    true_p = families.zero_point_mm(tm, readings, all_errors, instruments)
     base_p = truth.tool_point_mm(tm, readings, errors, n)  # the same machine without the hidden effects
     noise = rng.normal(0.0, NOISE_UM, (n, 3)) * 1e-3  # mm
     held = np.zeros(n, bool)
@@ -353,12 +374,23 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     else:
         axes_seen = axes
 
-    def rows(index, w):
+    def rows(index, w, offsets=None):
         return Observations(tuple(f"M{labels[i]}" for i in index), w[index], axes_seen[index], t_s[index], {},
-                            tuple(int(i) + 2 for i in index), "<proving ground>")
+                            tuple(int(i) + 2 for i in index), "<proving ground>",
+                            None if offsets is None else offsets[index])
 
+    # where the marks are for the user: on the tool point (an alignment), or near it with the offset read
+    seen_p, offsets_true, offsets_read = true_p, None, None
+    if instruments:
+        seen_p = sc.marks_mm
+        offsets_read = families.offsets_true_mm(tm, readings, all_errors, seen_p)
+        for h in instruments:
+            offsets_read = h.read(offsets_read)
+        # the oracle reads the offsets from the instrument's zero, its shape undone (known exactly)
+        offsets_true = families.offsets_true_mm(tm, readings, all_errors, seen_p) - np.sum(
+            [np.asarray(h.zero_mm, float) for h in instruments], axis=0)
     fit_rows = np.flatnonzero(~held)
-    data = rows(fit_rows, true_p + noise + misread)
+    data = rows(fit_rows, seen_p + noise + misread, offsets_read)
     default = list(default_model(machine))
     started = time.perf_counter()
     try:
@@ -397,9 +429,10 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
     floor = float(np.sqrt(np.mean(np.sum(r**2, axis=1))))
     # the oracle: the true structure (the default model and each hidden effect's exact shape, its size free)
     # fitted on the rows the user has, the misreads known and left out
-    truth_effects = default + _truth_effects(machine, sc.hidden, readings, t_s)
+    # (an error of the instrument: the offsets read as they truly are)
+    truth_effects = default + _truth_effects(machine, machine_hidden, readings, t_s)
     clean = np.setdiff1d(fit_rows, bad)
-    oracle_fit = fit(machine, rows(clean, true_p + noise), truth_effects, noise_um=NOISE_UM)
+    oracle_fit = fit(machine, rows(clean, seen_p + noise, offsets_true), truth_effects, noise_um=NOISE_UM)
     oracle = held_out_um(oracle_fit, truth_effects)
     added = [s.added for s in steps[1:] if s.added]
     dg = final.diagnosis
@@ -413,6 +446,8 @@ def run(seed: int, layout: str | None = None, kinds=None, *, max_steps: int = 6,
             named |= _named_axes(dg.inseparable.split(" and ", 1)[1].split(" ", 1)[0], machine)
     else:
         named = {dg.structure.axis} if dg.structure is not None and dg.structure.axis else set()
+    # the instrument's errors the selection stopped for (rows with offsets): the camera's, the laser's
+    named |= {term.split("-")[0] for term in getattr(final, "instrument", ())}
     wanted = {a for h in sc.hidden for a in h.axes}
     # how surely the final model is more than 5 % worse than the default one on these held-out poses: the paired
     # difference of their squared errors pose by pose (final − 1.05² × default) in its standard errors — a dozen
@@ -514,8 +549,9 @@ def verdict_of(sc: Scenario) -> dict:
 def record(sc: Scenario) -> dict:
     """One scenario as the JSON keeps it: what was drawn, what kinid did and how it is judged."""
     return {"seed": sc.seed, "layout": sc.layout, "plan": sc.plan, "order": sc.order,
-            "hidden": [h.kind + " " + h.joint for h in sc.hidden], "misread_share": sc.misread_share,
+            "hidden": [f"{h.kind} {h.joint}" + (f" ({h.how})" if getattr(h, "how", "") else "") for h in sc.hidden], "misread_share": sc.misread_share,
             "quantised": sc.quantised, "sigma_declared": sc.sigma_declared, "jitter_um": sc.jitter_um,
+            "kinds": sc.fixed_kinds,
             **sc.result, **verdict_of(sc)}
 
 
@@ -586,36 +622,69 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--kinds", nargs="+", choices=[k for k in KINDS if k != "none"] + list(families.FAMILIES),
+                    help="one hidden effect per scenario, of these kinds in turn (default: drawn, 0–3 of the listed "
+                         "classes); the families of benchmarks/proving_families.py are drawn only when named here")
+    ap.add_argument("--rerun", metavar="JSON",
+                    help="run again the scenarios this JSON recorded (of the classes --kinds names, or all), as drawn "
+                         "then: the same scenarios before and after a change to kinid")
     ap.add_argument("--json", help="write every scenario's record here")
     ap.add_argument("--figure", help="write the held-out/oracle ratios per class as a PNG")
     ap.add_argument("--merge", nargs="+", metavar="JSON",
                     help="run nothing: the table, the findings and the figure of the runs these JSONs recorded")
     args = ap.parse_args(argv)
-    if args.merge:
+    if args.rerun:
+        recorded = json.loads(Path(args.rerun).read_text())["scenarios"]
+        chosen = [rec for rec in recorded if not args.kinds or class_of(rec) in args.kinds]
+        records = [record(sc) for sc in _run_all(0, 0, each=lambda recs: args.json and _write_json(args.json, recs),
+                                                 again=chosen)]
+        title = f"{len(records)} scenarios of {args.rerun} again"
+    elif args.merge:
         records = [rec for f in args.merge for rec in json.loads(Path(f).read_text())["scenarios"]]
         seeds = sorted({rec["seed"] // 100003 for rec in records})
         title = f"seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}"
     else:
-        records = [record(sc) for sc in _run_all(args.scenarios, args.seed)]
+        def keep(records):  # the records so far, written whole after every scenario: a run stopped early keeps them
+            if args.json:
+                _write_json(args.json, records)
+
+        records = [record(sc) for sc in _run_all(args.scenarios, args.seed, args.kinds, keep)]
         title = f"seed {args.seed}"
     summary = summarise(records)
     print_table(summary)
     print_findings(records)
     if args.json:
-        Path(args.json).write_text(json.dumps({"summary": summary, "scenarios": records}, indent=1))
+        _write_json(args.json, records)
     if args.figure:
         _figure(records, summary, title, args.figure)
 
 
-def _run_all(count: int, seed: int) -> list:
+def _write_json(path, records) -> None:
+    """The run's summary and records, written whole (to a temporary file, then renamed)."""
+    tmp = Path(f"{path}.partial")
+    tmp.write_text(json.dumps({"summary": summarise(records), "scenarios": records}, indent=1))
+    tmp.replace(path)
+
+
+def _drawn_kinds(rec: dict):
+    """The kinds a recorded scenario was drawn with: fixed for the families (drawn only when named), else drawn."""
+    kind = class_of(rec)
+    return rec.get("kinds", [kind] if kind in families.FAMILIES else None)
+
+
+def _run_all(count: int, seed: int, kinds=None, each=None, again=()) -> list:
     from threadpoolctl import threadpool_limits
 
     scenarios = []
     started = time.perf_counter()
     with threadpool_limits(1):
-        for k in range(count):
-            sc = run(seed * 100003 + k)
+        todo = [(rec["seed"], _drawn_kinds(rec)) for rec in again] or [
+            (seed * 100003 + k, None if not kinds else [kinds[k % len(kinds)]]) for k in range(count)]
+        for k, (scenario_seed, drawn) in enumerate(todo):
+            sc = run(scenario_seed, kinds=drawn)
             scenarios.append(sc)
+            if each is not None:
+                each([record(s) for s in scenarios])
             v = verdict_of(sc)
             r = sc.result
             print(f"{k:4d} {sc.layout:<18} {sc.plan:<18} {sc.order:<11} {sc.kinds:<28} σ {sc.sigma_declared!s:<6.5} "
@@ -623,7 +692,8 @@ def _run_all(count: int, seed: int) -> list:
                   f"oracle {r['oracle_um']:6.3f} floor {r['floor_um']:6.3f} default {r['default_um']:7.3f} "
                   f"plan {r['plan_um']:6.3f}/{r['default_plan_um']:6.3f} {'PASS' if v['pass'] else 'FAIL'} "
                   f"added {r['added']}", flush=True)
-    print(f"\n{len(scenarios)} scenarios in {time.perf_counter() - started:.0f} s (seed {seed})\n")
+    print(f"\n{len(scenarios)} scenarios in {time.perf_counter() - started:.0f} s"
+          f"{'' if again else f' (seed {seed})'}\n")
     return scenarios
 
 

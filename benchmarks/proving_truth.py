@@ -128,10 +128,15 @@ def joint_values(m: TrueMachine, readings: dict, errors: dict) -> dict:
 
 def tool_point_mm(m: TrueMachine, readings: dict, errors: dict, n: int) -> np.ndarray:
     """The tool point in the workpiece frame, mm (N, 3)."""
+    return tool_pose_mm(m, readings, errors, n)[1]
+
+
+def tool_pose_mm(m: TrueMachine, readings: dict, errors: dict, n: int):
+    """The tool frame in the workpiece frame: its rotation (N, 3, 3) and its origin, mm (N, 3)."""
     values = joint_values(m, readings, errors)
     Rw, pw = _pose(m, "workpiece", values, n)
-    _, pt = _pose(m, "tool", values, n)
-    return np.einsum("nji,nj->ni", Rw, pt - pw) * 1e3
+    Rt, pt = _pose(m, "tool", values, n)
+    return np.einsum("nji,njk->nik", Rw, Rt), np.einsum("nji,nj->ni", Rw, pt - pw) * 1e3
 
 
 def align_linear(m: TrueMachine, presets: dict, marks_mm: np.ndarray, pull: float = 1e-3, iterations: int = 30) -> dict:

@@ -53,7 +53,10 @@ class SelectionStep:
     ``undetermined`` (last step): the error joints whose periodic error was added at
     a period the positions measured do not determine; the model is then not
     determined between those positions, and the last step's verdict is
-    ``missing-effect`` even where its residual is noise.
+    ``missing-effect`` even where its residual is noise. ``instrument`` (last step): the instrument's errors
+    (``camera-scale``, ``camera-rotation``, ``laser-scale``) the residual follows more than any machine error
+    explains it, when the selection stopped for them (rows with offsets only); the verdict is then
+    ``missing-effect``, its note naming them.
     """
 
     added: str | None
@@ -63,6 +66,7 @@ class SelectionStep:
     data: Observations | None = None
     held_out: object = None
     undetermined: tuple = ()
+    instrument: tuple = ()
 
 
 @blas_single_threaded
@@ -221,6 +225,7 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         what = "start" if added is None else f"+ {added}"
         progress.say(f"  {what:<28} RMS {dg.rms_um:8.3f} µm   σ {dg.noise_um:.3f} µm   {dg.verdict}")
         best, passed, pending = _first_determined(dg)
+        instrument = _instrument_first(machine, obs, dg, best)
         # time follows an axis and the best candidate explains the data no better than one of the other kind: the
         # plan cannot tell which it is, and a model of either would compensate the wrong cause
         inseparable = bool(dg.inseparable) and best is not None and best.effect == dg.advised[0].effect
@@ -241,6 +246,11 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
                     f"threshold {dg.threshold:.2g}" + (f"; {dg.note}" if dg.note else ""))
         elif inseparable:
             stop = f"the best candidate, {best.effect} (p = {best.p_value:.2g}), is not added: {dg.inseparable}"
+        elif instrument is not None:
+            stop = (f"the residual follows the offsets read more than any machine error explains it (χ² drop "
+                    f"{instrument.statistic:.1f}, the best candidate {best.effect}'s {best.statistic:.1f}): "
+                    f"{instrument.describe()}; an error of the instrument is not added as a machine error — "
+                    f"calibrate the instrument (or correct the offsets) and measure again")
         elif len(steps) > max_steps:
             stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
         elif folds:
@@ -276,7 +286,13 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
                     f"the period of the periodic error added for {' and '.join(periods)} is not determined by the "
                     f"positions measured: the model is not determined between them (measure "
                     f"{' and '.join(sorted({machine.error_joint(c).axis for c in periods}))} at more positions)"))
-            steps[-1] = replace(steps[-1], fit=dg.fit, diagnosis=dg, stopped=stop, data=obs, undetermined=periods)
+            named = instrument.named if instrument is not None and stop.startswith("the residual follows") else ()
+            if named:
+                dg = replace(dg, verdict="missing-effect", note=(
+                    f"the residual follows the offsets read: {instrument.describe()} (an error of the instrument, "
+                    f"not of the machine: calibrate it and measure again)"))
+            steps[-1] = replace(steps[-1], fit=dg.fit, diagnosis=dg, stopped=stop, data=obs, undetermined=periods,
+                                instrument=named)
             progress.say(f"  stopped: {stop}")
             break
         from ..model import parse_effect
@@ -293,6 +309,19 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         added = name
         carried = dg.noise if dg.noise.known else None
     return steps
+
+
+def _instrument_first(machine, obs, dg, best):
+    """The instrument's errors when they explain the residual at least as well as the best significant candidate
+    and are significant themselves (:func:`~.instrument.instrument_errors`); None otherwise, and for alignments."""
+    if obs.offsets_mm is None or best is None or best.p_value >= dg.threshold:
+        return None
+    from .instrument import instrument_errors
+
+    found = instrument_errors(machine, obs, dg.fit, dg.noise_um)
+    if found is None or not found.named or found.p_value >= dg.threshold or found.statistic < best.statistic:
+        return None
+    return found
 
 
 def _chosen_again(machine, obs, name: str, result, start: str | None = None, sigma: float = 1.0):
