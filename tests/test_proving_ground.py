@@ -648,8 +648,8 @@ def test_an_instruments_scale_acts_on_the_offsets_not_on_the_machine():
     (7 * 100003 + 6, "step", "V"),  # a gantry's yaw stepping along V: a local error of V, named
 ])
 def test_a_shape_nobody_named_is_named_on_its_axis(seed, family, named):
-    """Seeded scenarios of the families that pass by the verdict: kinid does not model the shape within 1.5× the
-    oracle's error but its missing-effect verdict names an axis the shape is a function of."""
+    """Seeded scenarios of the families that pass by the verdict: whatever the model it ends with, its
+    missing-effect verdict names an axis the shape is a function of."""
     sc = pg.run(seed, kinds=[family])
     v = pg.verdict_of(sc)
     assert sc.result["verdict"] == "missing-effect" and named in sc.result["named"], _line(sc)
