@@ -47,6 +47,7 @@ FILE_OPTIONS = {
     "dual-axis": ("data",),
     "contour": ("frames", "board", "camera", "path_file"),
     "iso230-2": ("runs",),
+    "certificate": ("fit", "verify", "iso", "meta"),
 }
 #: What a verb needs beside its files to reach them.
 COMPANIONS = {"contour": ["--out", "OUT/track"], "dual-axis": ["--pixel-to-mm", "1", "0", "0", "1"]}
@@ -98,6 +99,15 @@ def _argv(verb, bad_path, tmp_path):
     return argv + extra + positional
 
 
+def _unchanged(path, content) -> bool:
+    """The bad input as it was: the same bytes, the folder still an empty folder, the missing file still missing."""
+    if content is None:
+        return path.is_dir() and not any(path.iterdir())
+    if content == "missing":
+        return not path.exists()
+    return path.read_bytes() == content
+
+
 def _written(tmp_path, before):
     return sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*") if p not in before)
 
@@ -121,6 +131,7 @@ def test_a_bad_file_is_refused_at_the_door(verb, bad, tmp_path, capsys, monkeypa
     assert lines and lines[-1].startswith("kinid"), err
     assert path.name in lines[-1], (argv, err)
     assert _written(tmp_path, before) == [], (argv, _written(tmp_path, before))
+    assert _unchanged(path, BAD_FILES[bad]), path
 
 
 #: A good file for each file option of the five-axis verbs (``FIT``/``OBS``: made by the fixture below), so that one
@@ -173,3 +184,4 @@ def test_one_bad_file_among_good_ones_is_named(verb, dest, bad, made, tmp_path, 
     assert "Traceback" not in err, err
     assert lines and lines[-1].startswith("kinid") and path.name in lines[-1], (argv, err)
     assert _written(tmp_path, before) == [], (argv, _written(tmp_path, before))
+    assert _unchanged(path, BAD_FILES[bad]), path
