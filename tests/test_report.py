@@ -208,3 +208,26 @@ def test_the_periodogram_is_scipys_lomb_scargle_for_every_component_at_once():
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * want.max())
     assert periods[np.argmax(got[:, 1])] == pytest.approx(10.0, rel=0.01)
     assert got[:, 1].max() == pytest.approx(2.5 ** 2 * 336 / 4, rel=0.1)
+
+
+def test_the_next_step_of_a_missing_effect_runs_as_written_from_where_the_user_stands(report, monkeypatch, capsys):
+    """The summary's next command names the machine and the data as a command typed in the working folder takes
+    them (relative paths, no '...'), and it runs: the fit it writes holds the effect advised."""
+    import shlex
+
+    d, _ = report
+    monkeypatch.chdir(d)
+    assert main(["identify", "--machine", MACHINE, "--data", "obs.csv", "--noise-um", "1", "--out", "fit0.json"]) == 0
+    assert main(["diagnose", "--fit", "fit0.json", "--data", "obs.csv", "--report", "rep0"]) == 0
+    text = _text((d / "rep0" / "index.html").read_text())
+    command = re.search(r"next: (kinid identify .*? --out \S+\.json)\.", text)
+    assert command, text[:2000]
+    argv = shlex.split(command.group(1))
+    assert "..." not in argv and argv[argv.index("--data") + 1] == "obs.csv"
+    assert argv[argv.index("--noise-um") + 1] == "1"  # the σ the fit was made with, carried
+    capsys.readouterr()
+    assert main(argv[1:]) == 0
+    from kinid.identification import load_fit
+
+    added = argv[argv.index("--add") + 1]
+    assert added in load_fit(d / argv[argv.index("--out") + 1]).effect_names

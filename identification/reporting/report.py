@@ -209,6 +209,22 @@ def _provenance(fit_result, obs, extra=()) -> list:
     return rows
 
 
+def _runnable(path, placeholder: str) -> str:
+    """``path`` as a command typed where the user stands takes it: relative to the working folder when inside it,
+    quoted for the shell; ``placeholder`` where there is no such file (a machine known only from a FIT.json)."""
+    import os
+    import shlex
+
+    if not path or str(path).startswith("<") or not Path(path).is_file():
+        return placeholder
+    full = Path(path).resolve()
+    try:
+        shown = str(full.relative_to(Path.cwd().resolve()))
+    except ValueError:
+        shown = os.fspath(full)
+    return shlex.quote(shown)
+
+
 def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
     """The summary's first two sentences: what the errors do, and what to do next (``selected``: the diagnosis is a
     selection's last, whose best candidate the selection did not add — it says why — so it is not advised)."""
@@ -234,8 +250,11 @@ def _summary(diagnosis, obs, fit_file=None, selected: bool = False) -> list:
             second = (f"{lacks}; its most likely cause, {best.effect}, was not added, for the reason above: measure "
                       f"more where it acts (kinid plan --detect {best.effect}=SIZE) and identify again.")
         elif best is not None and best.p_value < diagnosis.threshold:
-            second = (f"{lacks}, most likely {best.effect} (p = {best.p_value:.2g}); next: kinid identify ... "
-                      f"--add {best.effect}.")
+            machine = _runnable(getattr(diagnosis.fit.machine, "path", None), "URDF")
+            data = _runnable(getattr(obs, "source", None), "OBS.csv")
+            noise = "" if diagnosis.noise_source == "residuals" else f" --noise-um {diagnosis.noise_um:.3g}"
+            second = (f"{lacks}, most likely {best.effect} (p = {best.p_value:.2g}); next: kinid identify --machine "
+                      f"{machine} --data {data} --add {best.effect}{noise} --out fit_added.json.")
         else:
             second = (f"The residual ({diagnosis.rms_um:.3g} µm per coordinate) exceeds the noise "
                       f"(σ {diagnosis.noise_um:.3g} µm) but no candidate explains it"
