@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..disk_fit import _det2, _inv2, fit_disk_model, weighted_centroid
+from ..disk_fit import _det2, _inv2, _median, fit_disk_model, weighted_centroid
 
 __all__ = ["Marker", "canonical_code", "decode_from_segments", "read_ring"]
 
@@ -321,8 +321,8 @@ def _local_levels(img, X, Y, M, sign):
     xi = np.clip(np.rint(X + _LEVEL_RADII[:, None] * d[0]).astype(int), 0, w - 1)
     yi = np.clip(np.rint(Y + _LEVEL_RADII[:, None] * d[1]).astype(int), 0, h - 1)
     v = img[yi, xi]
-    ink = float(np.median(v[:3]))
-    bg = float(np.median(v[3:]))
+    ink = float(_median(v[:3].ravel()))
+    bg = float(_median(v[3:].ravel()))
     if R < 1 or (ink - bg) * sign <= 0:
         return None
     return bg, ink
