@@ -1,6 +1,6 @@
 """Benchmark of the ring-coded mark detector and the circle-centre locators (prints figures).
 
-Run: ``python benchmarks/bench_markers.py`` (about a minute).
+Run: ``python benchmarks/bench_markers.py`` (a few minutes; ``--timing``: section 2 alone, about 2 minutes).
 
 1. Locator accuracy against noise, side by side: blurred-disk model fit, background-subtracted
    weighted centroid, plain binary centroid, ellipse fitted to a threshold contour, OpenCV's
@@ -64,8 +64,9 @@ BLOB_FILTERS = {"minCircularity": 0.8, "minInertiaRatio": 0.6, "minConvexity": 0
 #: The detector's settings tried in section 2: (thresholdStep, minThreshold, maxThreshold, minRepeatability).
 #: OpenCV's defaults are (10, 50, 220, 2); a narrower band of thresholds around the mid-grey of the marks
 #: is faster (fewer binarisations), a finer step averages more contours.
-BLOB_SETTINGS = [(step, lo, hi, rep) for lo, hi in ((10, 220), (50, 220), (70, 180), (100, 150))
-                 for step in (5, 10, 20) for rep in (1, 2) if (hi - lo) / step >= rep]
+BLOB_SETTINGS = ([(step, lo, hi, rep) for lo, hi in ((10, 220), (50, 220), (70, 180), (100, 150))
+                  for step in (5, 10, 20) for rep in (1, 2) if (hi - lo) / step >= rep]
+                 + [(step, 10, 220, 2) for step in (4, 3, 2.5)] + [(2.5, 50, 220, 2)])  # finer: more accurate, slower
 
 
 def blob_detector(threshold_step=10.0, min_threshold=10.0, max_threshold=220.0, min_repeatability=2,
@@ -167,13 +168,13 @@ def timing(rng, repeats=7):
         kin_n, kin_rms = acc["kinid"]
         print(f"  {n_mk} marks (centre radius {2.5 / pix:.0f} px): kinid detect_markers (find, decode, refine by "
               f"the model fit): {kin_n} of {n_mk} decoded, CPU min {ms['kinid'][0]:.1f} ms (median "
-              f"{ms['kinid'][1]:.1f}), centre RMS {kin_rms:.4f} px")
+              f"{ms['kinid'][1]:.1f}), centre RMS {kin_rms:.5f} px")
         print("    SimpleBlobDetector (filters on: " + ", ".join(f"{k}={v}" for k, v in BLOB_FILTERS.items())
               + f", minArea={min_area:.0f}; finds centres, does not decode):")
         for st in BLOB_SETTINGS:
             n, rms = acc[st]
             print(f"    {blob_label(*st):<78} found {n:3d}, CPU min {ms[st][0]:7.1f} ms (median {ms[st][1]:7.1f}),"
-                  f" RMS {rms:.4f} px")
+                  f" RMS {rms:.5f} px")
         complete = [st for st in BLOB_SETTINGS if acc[st][0] == n_mk]
         equal = [st for st in complete if acc[st][1] <= kin_rms]
         if equal:
@@ -182,7 +183,7 @@ def timing(rng, repeats=7):
         else:
             peer = min(complete or BLOB_SETTINGS, key=lambda st: acc[st][1])
             how = "no setting reaches kinid's accuracy: the most accurate one"
-        print(f"    peer ({how}): {blob_label(*peer)}, {ms[peer][0]:.1f} ms, {acc[peer][1]:.4f} px -> kinid "
+        print(f"    peer ({how}): {blob_label(*peer)}, {ms[peer][0]:.1f} ms, {acc[peer][1]:.5f} px -> kinid "
               f"{ms[peer][0] / ms['kinid'][0]:.2f}x its speed (by the minimum; "
               f"{ms[peer][1] / ms['kinid'][1]:.2f}x by the median)")
 
