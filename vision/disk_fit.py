@@ -21,6 +21,26 @@ def _det2(M):
     return float(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0])
 
 
+def _median(v):
+    """``np.median`` of a 1-D array, the same value (the mean of the two middle values in the array's
+    dtype for an even count) without its general-purpose overhead (some 40 us a call)."""
+    n = v.size
+    k = n // 2
+    if n % 2:
+        return np.partition(v, k)[k]
+    part = np.partition(v, (k - 1, k))
+    return (part[k - 1] + part[k]) / 2
+
+
+def _solve_spd(A, b):
+    """Solution of ``A x = b`` for a symmetric positive definite A by Cholesky (LAPACK ``dposv``, called
+    directly: a tenth of ``np.linalg.solve``'s overhead on a 10 x 10 system), or None if A is not."""
+    from scipy.linalg.lapack import dposv
+
+    _c, x, info = dposv(A, b)
+    return x if info == 0 else None
+
+
 def _inv2(M):
     """Inverse of a 2 x 2 matrix with a non-zero determinant (closed form)."""
     return np.array([[M[1, 1], -M[0, 1]], [-M[1, 0], M[0, 0]]]) / _det2(M)
@@ -88,8 +108,8 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     outer = I[rs > 1.0 + 0.6 * (rho_out - 1.0)]
     if inner.size < 1 or outer.size < 4:
         return {"ok": False, "message": "window too small"}
-    bg0 = float(np.median(outer))
-    amp0 = float(np.median(inner)) - bg0
+    bg0 = float(_median(outer))
+    amp0 = float(_median(inner)) - bg0
     sq2 = np.sqrt(2.0)
     rsqpi = 1.0 / np.sqrt(np.pi)
     if gradient is None:
@@ -180,11 +200,11 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     message = "iteration limit reached"
     for _ in range(int(max_nfev)):
         D = np.diag(np.maximum(np.diag(A), 1e-12))
-        try:
-            step = -np.linalg.solve(A + lam * D, gv)
-        except np.linalg.LinAlgError:
+        step = _solve_spd(A + lam * D, gv)  # A + lam D: positive definite unless the model is degenerate
+        if step is None:
             lam *= 10.0
             continue
+        step = -step
         p_new = p.copy()
         p_new[:npar] += step
         if lam <= 1e-2 and abs(step[0]) < tol_px and abs(step[1]) < tol_px:
