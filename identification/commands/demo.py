@@ -136,12 +136,14 @@ def run_demo(out=None, *, seed: int = 7, stream=None, case: str = "library") -> 
         a, b = last.fit.values[start : start + 2]
         sa, sb = last.fit.std[start : start + 2]
         say(f"  identified: sin {a:.3f} ± {sa:.3f} µm, cos {b:.3f} ± {sb:.3f} µm (± 1σ; truth {truth[hidden][0]}, {truth[hidden][1]})")
-    from kinid.progress import as_progress
+    from kinid.progress import Progress
 
     from ..fitting import save_fit
 
     # the report takes seconds (its figures and PDF): one line on stderr says what the wait is for
-    as_progress(sys.stderr).say("writing the report: figures, HTML and PDF …")
+    progress = Progress(stream=sys.stderr)  # on a terminal, as every progress line: a script's stderr keeps its errors
+    if progress.enabled:
+        progress.say("writing the report: figures, HTML and PDF …")
     # the run's files, written whole into a new folder that replaces ``folder`` at the end
     with listed_folder(folder, written_by="kinid demo") as stage:
         write_observations(stage / "observations.csv", obs, machine)

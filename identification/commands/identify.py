@@ -390,11 +390,13 @@ def _simulate(args) -> int:
 
 
 def _report_line(folder) -> None:
-    """One line on stderr before a report is written: its figures and PDF take seconds (never on stdout, where
-    --json prints)."""
-    from kinid.progress import as_progress
+    """One line on stderr (a terminal) before a report is written: its figures and PDF take seconds (never on stdout,
+    where --json prints)."""
+    from kinid.progress import Progress
 
-    as_progress(sys.stderr).say(f"writing the report to {folder}: figures, HTML and PDF …")
+    progress = Progress(stream=sys.stderr)  # on a terminal, as every progress line: a script's stderr keeps its errors
+    if progress.enabled:
+        progress.say(f"writing the report to {folder}: figures, HTML and PDF …")
 
 
 def _diagnose(args) -> int:
