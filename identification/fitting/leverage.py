@@ -81,8 +81,6 @@ def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
     J = QR). R is the fit's own (``result.jacobian_r``, from its last pass), else one pass more makes it; then one
     pass gives the rows, a chunk of :data:`LEVERAGE_CHUNK` alignments at a time, each a triangular solve: memory
     flat in the alignments."""
-    from scipy.linalg import solve_triangular
-
     from .fit_pass import jacobian_chunks, model_pass_qr
 
     d0 = design(machine, result.effects, obs)
@@ -95,7 +93,7 @@ def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
     Rf = np.linalg.qr(R[:, free], mode="r")[: int(free.sum())]
     out = []
     for J in jacobian_chunks(machine, d0, obs, result.theta, chunk=LEVERAGE_CHUNK):
-        rows = solve_triangular(Rf, J.reshape(-1, d0.n_params)[:, free].T, trans="T")  # (J_i R⁻¹)ᵀ: columns of Qᵀ
+        rows = np.linalg.solve(Rf.T, J.reshape(-1, d0.n_params)[:, free].T)  # (J_i R⁻¹)ᵀ (no scipy import: 0.5 s)
         out.append(np.einsum("ij,ij->j", rows, rows).reshape(-1, 3))
     return np.concatenate(out) if out else np.zeros((0, 3))
 
