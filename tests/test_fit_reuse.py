@@ -83,12 +83,12 @@ def test_the_set_aside_returns_the_fit_identify_would_make_again():
 
 def test_the_advice_takes_the_first_marks_np_unique_would():
     """The pool's marks: the first distinct rows in x, y, z order, as ``np.unique(axis=0)`` gives them, on marks
-    all distinct, few marks repeated, ties in x, and none."""
+    all distinct, few or more than 50 marks repeated, ties in x, and none."""
     from kinid.identification.planning.advice import _first_marks
 
     rng = np.random.default_rng(1)
     cases = [rng.normal(0, 50, (20_000, 3)), np.round(rng.normal(0, 50, (20_000, 3))),
-             np.repeat(rng.normal(0, 5, (7, 3)), 300, axis=0),
+             np.repeat(rng.normal(0, 5, (7, 3)), 300, axis=0), np.repeat(rng.normal(0, 5, (80, 3)), 200, axis=0),
              np.column_stack([np.zeros(5000), rng.integers(0, 9, (5000, 2))]).astype(float), np.zeros((0, 3))]
     for w in cases:
         assert np.array_equal(_first_marks(w, 50), np.unique(np.round(w, 6), axis=0)[:50])

@@ -166,11 +166,14 @@ ADVICE_MARKS = 50
 
 def _first_marks(w_mm: np.ndarray, count: int) -> np.ndarray:
     """The first ``count`` distinct marks (rows of ``w_mm`` rounded to the nm) in x, y, z order: those of
-    ``np.unique(axis=0)``, which sorts every row (0.2 s a 100 000 rows), from the rows whose x is among the first
-    ``count`` distinct x (each distinct x is at least one distinct mark)."""
+    ``np.unique(axis=0)``, which sorts the rows as records (1.9 s a 10⁶ rows), from one integer key per row (the
+    ranks of its x, y and z: their order is the rows')."""
     w = np.round(w_mm, 6)
-    xs = np.unique(w[:, 0])[:count]
-    return np.unique(w[w[:, 0] <= xs[-1]], axis=0)[:count] if xs.size else w[:0]
+    if not len(w):
+        return w[:0]
+    (ux, ix), (uy, iy), (uz, iz) = (np.unique(w[:, k], return_inverse=True) for k in range(3))
+    key = np.unique((ix.astype(np.int64) * len(uy) + iy) * len(uz) + iz)[:count]
+    return np.column_stack([ux[key // (len(uy) * len(uz))], uy[key // len(uz) % len(uy)], uz[key % len(uz)]])
 
 
 def data_advice(machine: Machine, result, obs: Observations) -> list:
