@@ -220,17 +220,20 @@ def test_what_the_diagnosis_computes_once_is_what_it_would_compute_each_time(bc,
 
 
 def test_the_leverages_are_the_hat_matrix_in_one_pass_or_in_chunks(bc, monkeypatch):
-    """The hat matrix's diagonal from the Jacobian held in one pass, from two passes in chunks (data too large to
-    hold it), and the diagnosis's (what the set-aside of gross errors reuses when the selection stops) agree, and
-    are the diagonal of J (JᵀJ)⁻¹ Jᵀ formed directly."""
+    """The hat matrix's diagonal from the fit's own R factor, from an R of its own pass (a fit without one: loaded
+    from its file), in chunks of a few alignments, and the diagnosis's (what the set-aside of gross errors reuses
+    when the selection stops) agree, and are the diagonal of J (JᵀJ)⁻¹ Jᵀ formed directly."""
+    from dataclasses import replace
+
     from kinid.identification.fitting import leverage
     from kinid.identification.fitting.residuals import design, residuals
 
     obs = _data(bc, None, seed=8)
     result = fit(bc, obs, default_model(bc), noise_um=SIGMA)
+    assert result.jacobian_r is not None
     held = leverage.leverages(bc, obs, result)
-    monkeypatch.setattr(leverage, "HELD_JACOBIAN_VALUES", 0)
-    chunked = leverage.leverages(bc, obs, result)
+    monkeypatch.setattr(leverage, "LEVERAGE_CHUNK", 7)
+    chunked = leverage.leverages(bc, obs, replace(result, jacobian_r=None))
     d = design(bc, result.effects, obs)
     J = residuals(bc, d, obs, result.theta)[1].reshape(-1, d.n_params)[:, result.identifiable]
     direct = np.einsum("ij,jk,ik->i", J, np.linalg.inv(J.T @ J), J).reshape(-1, 3)

@@ -269,12 +269,14 @@ def _identify(args) -> int:
     else:
         from dataclasses import replace
 
-        aside = ()
+        aside, kept_fit = (), None
         if not args.no_robust:
-            from ..fitting import set_aside_outliers
+            from ..fitting import set_aside_with_fit
 
-            obs, aside = set_aside_outliers(machine, obs, effects, noise_um=args.noise_um)
-        result = replace(fit(machine, obs, effects, noise_um=args.noise_um), set_aside=aside)
+            # its fit of the rows kept, when it has one (no row set aside in its last round), is the fit: not twice
+            obs, aside, kept_fit = set_aside_with_fit(machine, obs, effects, noise_um=args.noise_um)
+        result = replace(kept_fit if kept_fit is not None else fit(machine, obs, effects, noise_um=args.noise_um),
+                         set_aside=aside)
         _refuse_untrusted(machine, read, result, args.data)
         if args.report:
             from ..diagnosis import diagnose

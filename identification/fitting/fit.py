@@ -101,6 +101,11 @@ class FitResult:
     start : str
         How the iterations started where not from the values given: the measurement frame fitted in closed form
         (:mod:`~kinid.identification.fitting.start`), in words; empty otherwise.
+    jacobian_r : array (P, P) or None
+        R of ``J = QR``, J the data's (3N × P) Jacobian at the fit (µm per parameter unit, the prior's rows left out)
+        from its last pass: the leverages and the pose advice use it instead of a pass of their own. None for a
+        loaded or evaluated fit. ``jacobian_r_zero``: the same at every parameter zero (the nominal machine, what
+        the pose advice judges), from the fit's first pass when it started there; else None.
     """
 
     machine: Machine
@@ -132,6 +137,8 @@ class FitResult:
     prior_std: np.ndarray | None = None
     correlation: np.ndarray | None = None
     start: str = ""
+    jacobian_r: np.ndarray | None = None
+    jacobian_r_zero: np.ndarray | None = None
 
     @property
     def noise_um(self) -> float:
@@ -302,6 +309,7 @@ def fit(
         r = ps.r
         ident = analyse(_with_prior(ps.R, w_prior) / sigma0, names, tol=rank_tol, rows=rows)
         free = ident.identifiable
+    r_zero = None if np.any(theta) else ps.R
     lo = np.full(P, -np.inf)
     hi = np.full(P, np.inf)
     for name, (a, b) in (bounds or {}).items():
@@ -407,7 +415,8 @@ def fit(
         iterations=it, success=success, message=message, singular_values=singular_values,
         axis_ranges=_axis_ranges(machine, obs), axis_readings=axis_readings(machine, obs), shared_std=shared,
         prior_std=None if prior_std is None else np.asarray(prior_std, float), correlation=correlation,
-        start="" if start is None else start.describe(),
+        start="" if start is None else start.describe(), jacobian_r=ps.R,
+        jacobian_r_zero=r_zero,
     )
 
 

@@ -22,7 +22,7 @@ from ..model import Machine, evaluate
 from ..data import Observations
 from .residuals import Design, joint_values
 
-__all__ = ["Pass", "model_pass_qr", "reduced", "residuals_chunked", "chunks", "CHUNK_ROWS"]
+__all__ = ["Pass", "model_pass_qr", "reduced", "residuals_chunked", "jacobian_chunks", "chunks", "CHUNK_ROWS"]
 
 #: Alignments evaluated at a time.
 CHUNK_ROWS = 10_000
@@ -120,6 +120,20 @@ def residuals_chunked(machine: Machine, d: Design, obs: Observations, theta, *, 
     parts = [(evaluate(machine, axes, joint_values(machine, dc, theta), jacobian=False, offsets_mm=off) - w) * 1e3
              for dc, axes, w, off in _slices(d, obs, chunk)]
     return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
+def jacobian_chunks(machine: Machine, d: Design, obs: Observations, theta, *, chunk: int = CHUNK_ROWS):
+    """The Jacobian (n, 3, P) of ``d``'s parameters at ``theta``, µm per parameter unit, for consecutive chunks of at
+    most ``chunk`` alignments: the pass of :func:`model_pass_qr` (the reduced machine, only the error joints in use),
+    the rows given instead of folded into R."""
+    theta = np.asarray(theta, float)
+    machine, d = reduced(machine, d)
+    used, column = d.joints[:2]
+    one_each = np.array_equal(column, np.arange(d.n_params))
+    for dc, axes, _, off in _slices(d, obs, chunk):
+        _, G, _ = evaluate(machine, axes, joint_values(machine, dc, theta), offsets_mm=off, error_columns=used,
+                           axes_jacobian=False)
+        yield (G if one_each else G[:, :, column]) * dc.basis[:, None, :]
 
 
 def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chunk: int = CHUNK_ROWS) -> Pass:

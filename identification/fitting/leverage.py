@@ -72,33 +72,30 @@ def studentized(result, q0, sigma, *, h=None):
     return stud, h.sum(axis=1)
 
 
-#: Above this many numbers (3N × P: 16 MB, its QR three times that), :func:`leverages` does not hold the Jacobian:
-#: two passes, memory flat in the alignments (`kinid identify` on 10⁵ alignments and more).
-HELD_JACOBIAN_VALUES = 2e6
+#: Alignments whose Jacobian rows :func:`leverages` holds at a time (a chunk's rows, not the data's: memory flat).
+LEVERAGE_CHUNK = 4096
 
 
 def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
     """The hat matrix's diagonal (N, 3) of the identifiable Jacobian at the fit: each row's ‖J_i R⁻¹‖² (R of
-    J = QR). One pass holding the Jacobian; beyond HELD_JACOBIAN_VALUES numbers a chunk of alignments at a time
-    (two passes: the R factor, then the rows), memory flat in the alignments."""
-    from .fit_pass import CHUNK_ROWS, chunks, model_pass_qr
-    from .residuals import residuals
+    J = QR). R is the fit's own (``result.jacobian_r``, from its last pass), else one pass more makes it; then one
+    pass gives the rows, a chunk of :data:`LEVERAGE_CHUNK` alignments at a time, each a triangular solve: memory
+    flat in the alignments."""
+    from .fit_pass import jacobian_chunks, model_pass_qr
 
     d0 = design(machine, result.effects, obs)
     free = result.identifiable
     if not free.any():
         return np.zeros((len(obs), 3))
-    if 3 * len(obs) * d0.n_params <= HELD_JACOBIAN_VALUES:
-        J = residuals(machine, d0, obs, result.theta)[1].reshape(-1, d0.n_params)[:, free]
-        return hat_diagonal(np.linalg.qr(J, mode="reduced")[0])
-    R = model_pass_qr(machine, d0, obs, result.theta).R[:, free]
-    Rf = np.linalg.qr(R, mode="r")[: int(free.sum())]
+    R = getattr(result, "jacobian_r", None)
+    if R is None or R.shape != (d0.n_params, d0.n_params) or result.n_observations != len(obs):
+        R = model_pass_qr(machine, d0, obs, result.theta).R  # a fit loaded from its file, or of other rows
+    Rf = np.linalg.qr(R[:, free], mode="r")[: int(free.sum())]
     out = []
-    for dc, part in chunks(d0, obs, CHUNK_ROWS):
-        J = residuals(machine, dc, part, result.theta)[1].reshape(-1, d0.n_params)[:, free]
-        rows = np.linalg.solve(Rf.T, J.T).T  # J_i R⁻¹: rows of Q
-        out.append(np.sum(rows**2, axis=1).reshape(-1, 3))
-    return np.concatenate(out)
+    for J in jacobian_chunks(machine, d0, obs, result.theta, chunk=LEVERAGE_CHUNK):
+        rows = np.linalg.solve(Rf.T, J.reshape(-1, d0.n_params)[:, free].T)  # (J_i R⁻¹)ᵀ (no scipy import: 0.5 s)
+        out.append(np.einsum("ij,ij->j", rows, rows).reshape(-1, 3))
+    return np.concatenate(out) if out else np.zeros((0, 3))
 
 
 def axis_residuals(machine: Machine, obs: Observations, result, *, d_axes=None):
