@@ -1,4 +1,4 @@
-"""The leverages and the pose advice from the fit's own R factor (issue 52) are those of a pass of their own.
+"""The leverages and the pose advice from the fit's own R factor are those of a pass of their own.
 
 ``kinid identify`` on large files: the misread check's leverages and the pose advice took the R factor of the data's
 Jacobian from the fit (``FitResult.jacobian_r`` at the fit, ``jacobian_r_zero`` at zero) instead of a pass more.

@@ -588,7 +588,7 @@ def test_a_crash_is_a_failed_scenario_in_the_table(monkeypatch):
     assert summary["pass_floor"] == 0.0
 
 
-# -- the families of hidden effects nobody named (benchmarks/proving_families.py, issue 45) ---------------------------
+# -- the families of hidden effects nobody named (benchmarks/proving_families.py) ---------------------------
 import proving_families as families  # noqa: E402
 
 
@@ -657,7 +657,7 @@ def test_a_shape_nobody_named_is_named_on_its_axis(seed, family, named):
 
 
 def test_the_cameras_scale_is_named_not_replaced_by_a_machine_error():
-    """Issue 45: a camera whose scale is off made the selection add a lead of X in its place (held-out 9.66 µm
+    """A camera whose scale is off made the selection add a lead of X in its place (held-out 9.66 µm
     against the default model's 5.96). The instrument's errors are now scored against the residual: they explain
     it more than the lead does, so nothing is added and the verdict names the camera's scale."""
     sc = pg.run(7 * 100003 + 3, kinds=["instrument"])
