@@ -38,6 +38,10 @@ import signal
 import sys
 import time
 
+# Ctrl-C as at a terminal, even where the suite was started with SIGINT ignored (a shell's background job:
+# Python then installs no KeyboardInterrupt handler, and the SIGINT cases would exit 0)
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
 import kinid.folders as kd
 import kinid.reports.html as kr
 
