@@ -23,13 +23,15 @@ from __future__ import annotations
 
 import os
 import resource
-import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_startup import kinid_command  # noqa: E402 (the installed script, as users run it: one definition)
 
 PARTS = r'''
 import sys, time, json
@@ -73,15 +75,6 @@ w, c = spent.pop("_report")
 spent["figures"] = (w - spent["HTML"][0] - spent["PDF"][0], c - spent["HTML"][1] - spent["PDF"][1])
 print(json.dumps(spent))
 '''
-
-
-def kinid_command() -> list[str]:
-    """The installed ``kinid`` script beside this Python, as users run it; else ``python -m kinid``."""
-    script = Path(sys.executable).with_name("kinid")
-    if script.exists():
-        return [str(script)]
-    found = shutil.which("kinid")
-    return [found] if found else [sys.executable, "-m", "kinid"]
 
 
 def run(cmd, env, cwd) -> tuple:
