@@ -42,3 +42,21 @@ def test_simulate_measures_against_the_radius_given(tmp_path, capsys):
     capsys.readouterr()
     assert main(["contour", "--simulate", "--path", "line"]) == 2
     assert "--simulate renders a circular run" in capsys.readouterr().err
+
+
+def test_simulate_leaves_no_temporary_folder_however_it_ends(tmp_path, monkeypatch, capsys):
+    """Without --keep the frames are rendered in a temporary folder: removed after a run that succeeds and after one
+    that fails once the frames are rendered (an output that cannot be written); such folders were left behind."""
+    import tempfile
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))  # (multiprocessing's own pymp-* folder may appear)
+    assert main(["contour", "--simulate", "--sim-frames", "8", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["frames"] == 8
+    assert list(scratch.glob("kinid-*")) == []
+    blocked = tmp_path / "a_file"
+    blocked.write_text("not a folder")
+    assert main(["contour", "--simulate", "--sim-frames", "8", "--out", str(blocked / "track.csv")]) == 2
+    assert "track.csv" in capsys.readouterr().err
+    assert list(scratch.glob("kinid-*")) == []

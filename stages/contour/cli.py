@@ -101,9 +101,24 @@ def _path_from_args(args):
 
 
 def _simulate(args) -> int:
-    """Render a run of a simulated machine, measure it like real frames, print measured against true."""
-    import contextlib
+    """Render a run of a simulated machine, measure it like real frames, print measured against true. Without
+    ``--keep`` the frames go to a temporary folder, removed however the run ends (an error, Ctrl-C)."""
+    import shutil
     import tempfile
+    from pathlib import Path
+
+    if args.keep:
+        return _simulate_in(args, None)
+    scratch = Path(tempfile.mkdtemp(prefix="kinid-contour-"))
+    try:
+        return _simulate_in(args, scratch)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _simulate_in(args, scratch) -> int:
+    """:func:`_simulate` with its folder: ``scratch``, or ``--keep``'s listed folder when None."""
+    import contextlib
     from pathlib import Path
 
     import numpy as np
@@ -131,7 +146,7 @@ def _simulate(args) -> int:
         check_listed_folder(args.keep)
         kept = listed_folder(args.keep, written_by="kinid contour --simulate --keep")
     else:
-        kept = contextlib.nullcontext(Path(tempfile.mkdtemp(prefix="kinid-contour-")))
+        kept = contextlib.nullcontext(scratch)
     with kept as folder:  # --keep DIR: rendered and measured in a new folder that replaces DIR whole at the end
         frames = folder / "frames"
         frames.mkdir()
@@ -176,10 +191,6 @@ def _simulate(args) -> int:
         if args.keep:
             print(f"measure them as real frames: kinid contour --data {frames} --board {folder / 'board.json'} "
                   f"--camera {folder / 'camera.json'} --out TRACK.csv")
-    if not args.keep:
-        import shutil
-
-        shutil.rmtree(folder, ignore_errors=True)
     return 0
 
 
