@@ -33,6 +33,7 @@ from typing import Callable
 import numpy as np
 
 from kinid.errors import DataError
+from kinid.registry import Registry
 
 from .bsplines import _bsplines, local_grid
 
@@ -181,18 +182,15 @@ class Basis:
 
 
 #: Basis kind -> :class:`Basis`, in the order names are tried and candidates listed.
-BASES: dict = {}
+BASES = Registry("effect basis", Basis, key="kind", parameter="kind", variant_parameter="basis")
 
 
 def register_basis(basis: Basis) -> Basis:
     """Add ``basis`` to :data:`BASES` (replacing one of the same kind) and return it."""
-    if not isinstance(basis, Basis):
-        raise DataError(f"must be a Basis, got {type(basis).__name__}", parameter="basis")
-    if basis.driver not in ("none", "position", "direction", "time", "positions"):
+    if isinstance(basis, Basis) and basis.driver not in ("none", "position", "direction", "time", "positions"):
         raise DataError(f"must be none, position, direction, time or positions, got {basis.driver!r}",
                         parameter="driver")
-    BASES[basis.kind] = basis
-    return basis
+    return BASES.register(basis)
 
 
 def basis_of_name(name: str):
@@ -214,11 +212,7 @@ def chosen_of(name: str) -> str:
 
 def basis_of(effect) -> Basis:
     """The registered basis of ``effect`` (an Effect or a kind)."""
-    kind = effect if isinstance(effect, str) else effect.basis
-    try:
-        return BASES[kind]
-    except KeyError:
-        raise DataError(f"no basis of kind {kind!r} is registered; known: {', '.join(BASES)}") from None
+    return BASES.look_up(effect if isinstance(effect, str) else effect.basis)
 
 
 def _one(effect):

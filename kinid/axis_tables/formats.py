@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Callable
 
 from .readers import linuxcnc_table, sinumerik_table, twincat_table
 from ..errors import DataError
+from ..registry import Registry
 
 if TYPE_CHECKING:  # numpy is imported by the functions that compute: the format registry loads without it
     import numpy as np
@@ -183,30 +184,22 @@ class ControllerFormat:
 
 
 #: Controller format name -> :class:`ControllerFormat`.
-CONTROLLER_FORMATS: dict = {}
+CONTROLLER_FORMATS = Registry("controller format", ControllerFormat, parameter="fmt", variant_parameter="fmt")
 
 
 def register_format(fmt: ControllerFormat) -> ControllerFormat:
     """Add ``fmt`` to :data:`CONTROLLER_FORMATS` (replacing one of the same name) and return it."""
-    if not isinstance(fmt, ControllerFormat):
-        raise DataError(f"must be a ControllerFormat, got {type(fmt).__name__}", parameter="fmt")
-    CONTROLLER_FORMATS[fmt.name] = fmt
-    return fmt
+    return CONTROLLER_FORMATS.register(fmt)
 
 
 def controller_format(name) -> ControllerFormat:
     """The registered format ``name`` (or ``name`` itself when it is a :class:`ControllerFormat`)."""
-    if isinstance(name, ControllerFormat):
-        return name
-    if name not in CONTROLLER_FORMATS:
-        raise DataError(f"unknown controller format {name!r}; known: {', '.join(sorted(CONTROLLER_FORMATS))}",
-                        parameter="fmt")
-    return CONTROLLER_FORMATS[name]
+    return CONTROLLER_FORMATS.look_up(name)
 
 
 def default_formats() -> tuple:
     """Names of the formats written when none is asked for."""
-    return tuple(sorted(n for n, f in CONTROLLER_FORMATS.items() if f.default))
+    return CONTROLLER_FORMATS.defaults()
 
 
 def neutral_csv_text(position_column: str, positions, columns: dict) -> str:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..errors import DataError
+from ..registry import Registry
 from .geometry import RotaryGeometry
 
 __all__ = ["KinematicsFormat", "KinematicsFit", "KINEMATICS_FORMATS", "register_kinematics_format",
@@ -64,30 +65,23 @@ class KinematicsFormat:
 
 
 #: Kinematics format name -> :class:`KinematicsFormat`.
-KINEMATICS_FORMATS: dict = {}
+KINEMATICS_FORMATS = Registry("kinematics format", KinematicsFormat, parameter="kinematics_format",
+                              variant_parameter="fmt")
 
 
 def register_kinematics_format(fmt: KinematicsFormat) -> KinematicsFormat:
     """Add ``fmt`` to :data:`KINEMATICS_FORMATS` (replacing one of the same name) and return it."""
-    if not isinstance(fmt, KinematicsFormat):
-        raise DataError(f"must be a KinematicsFormat, got {type(fmt).__name__}", parameter="fmt")
-    KINEMATICS_FORMATS[fmt.name] = fmt
-    return fmt
+    return KINEMATICS_FORMATS.register(fmt)
 
 
 def kinematics_format(name) -> KinematicsFormat:
     """The registered format ``name`` (or ``name`` itself when it is a :class:`KinematicsFormat`)."""
-    if isinstance(name, KinematicsFormat):
-        return name
-    if name not in KINEMATICS_FORMATS:
-        raise DataError(f"unknown kinematics format {name!r}; known: {', '.join(sorted(KINEMATICS_FORMATS))}",
-                        parameter="kinematics_format")
-    return KINEMATICS_FORMATS[name]
+    return KINEMATICS_FORMATS.look_up(name)
 
 
 def default_kinematics_formats() -> tuple:
     """Names of the formats written when none is asked for."""
-    return tuple(sorted(n for n, f in KINEMATICS_FORMATS.items() if f.default))
+    return KINEMATICS_FORMATS.defaults()
 
 
 def check_geometry(geometry) -> RotaryGeometry:
