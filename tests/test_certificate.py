@@ -193,3 +193,35 @@ def test_calibration_date_warns_on_stderr_and_on_the_page(inputs, tmp_path, caps
     assert status == 0
     assert "kinid certificate: warning:" in err and words in err
     assert words in " ".join(_text(tmp_path / "c" / "certificate.pdf").split())
+
+
+def test_a_verification_of_another_machine_is_refused(inputs, tmp_path, capsys):
+    """kinid verify records the SHA-256 of its machine's URDF; the certificate refuses a verification whose machine
+    is not the fit's (exit 2, one line, nothing written) and warns when the verification does not record it."""
+    from kinid.identification.fitting import load_trusted_fit
+
+    v = json.loads((inputs / "v" / "verify.json").read_text())
+    assert v["machine_sha256"] == load_trusted_fit(inputs / "fit.json").machine.urdf_sha256
+    other = dict(v, machine_sha256="0" * 64)
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    status, _, err = _run(["certificate", "--fit", inputs / "fit.json", "--verify", tmp_path / "other.json", "--meta",
+                           META, "--out", tmp_path / "c"], capsys)
+    assert status == 2 and "was made with another machine than fit.json" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "c").exists()
+    older = {k: x for k, x in v.items() if k != "machine_sha256"}
+    (tmp_path / "older.json").write_text(json.dumps(older))
+    status, _, err = _run(["certificate", "--fit", inputs / "fit.json", "--verify", tmp_path / "older.json", "--meta",
+                           META, "--out", tmp_path / "c"], capsys)
+    assert status == 0 and "does not record its machine" in err
+
+
+def test_an_iso_result_of_an_axis_the_machine_lacks_is_warned_on_the_page(inputs, tmp_path, capsys):
+    iso = json.loads((inputs / "iso_x.json").read_text())
+    (tmp_path / "iso_u.json").write_text(json.dumps(dict(iso, axis="U")))
+    status, out, _ = _run(["certificate", "--fit", inputs / "fit.json", "--iso", tmp_path / "iso_u.json", "--meta",
+                           META, "--out", tmp_path / "c"], capsys)
+    assert status == 0 and "warning (on the page): The ISO 230-2 result iso_u.json is of an axis U" in out
+    assert "which the fitted machine does not have" in (tmp_path / "c" / "certificate.html").read_text()
+    status, out, _ = _run(["certificate", "--fit", inputs / "fit.json", "--iso", inputs / "iso_x.json", "--meta",
+                           META, "--out", tmp_path / "c2"], capsys)
+    assert status == 0 and "warning" not in out

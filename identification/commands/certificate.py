@@ -45,7 +45,7 @@ def _certificate(args) -> int:
         print(strict_json({"files": [str(Path(args.out) / f) for f in ("certificate.pdf", "certificate.html")],
                            **asdict(cert)}))
         return 0
-    for w in meta.warnings:
+    for w in cert.warnings:
         print(f"warning (on the page): {w}")
     print(f"certificate written to {pdf} and {pdf.with_suffix('.html')}")
     return 0

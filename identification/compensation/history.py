@@ -185,7 +185,7 @@ def add_calibration(db, machine_id: str, fit_path, *, verify_path=None, date=Non
     result = load_trusted_fit(fit_path)
     verify_json, figures = _verify_figures(verify_path) if verify_path is not None else (None, None)
     sha = hashlib.sha256(raw).hexdigest()
-    machine_sha = hashlib.sha256(result.machine.urdf.encode()).hexdigest()
+    machine_sha = result.machine.urdf_sha256
     rows, k = [], 0
     for e in result.effects:
         kind = "setup" if result.machine.error_joint(e.code).axis in ("W", "T") else "machine"

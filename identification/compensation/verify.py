@@ -129,6 +129,7 @@ class Verification:
                 "chi2_p": None if not np.isfinite(self.chi2_p) else float(self.chi2_p),
                 "at_noise_level": self.at_noise_level, "made_worse": self.made_worse, "grew_most": self.grew_most,
                 "remaining_verdict": self.diagnosis.verdict,
+                "machine_sha256": self.setup_fit.machine.urdf_sha256,
                 "remaining_best_candidate": None if best is None else
                 {"effect": best.effect, "p_value": float(best.p_value), "rms_after_um": float(best.rms_after_um)}}
 

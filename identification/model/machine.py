@@ -133,6 +133,14 @@ class Machine:
     def error_codes(self) -> tuple:
         return tuple(e.code for e in self.error_joints)
 
+    @functools.cached_property
+    def urdf_sha256(self) -> str:
+        """SHA-256 of the machine's URDF text: what tells two results of the same machine (a fit, a verification,
+        a calibration in the history) from results of different ones."""
+        import hashlib
+
+        return hashlib.sha256(self.urdf.encode()).hexdigest()
+
     @functools.cached_property  # every pass of a fit asks
     def velocity_columns(self) -> tuple:
         """(error joints' velocity indices, axes' velocity indices, the axes' scale from the SI derivative (m per m,

@@ -100,8 +100,12 @@ def build_certificate(meta: CertificateMeta, *, fit_path=None, verify_path=None,
     if fit_path is None and verify_path is None and not iso_paths:
         raise DataError("nothing to certify: give --fit FIT.json, --verify VERIFY.json or --iso ISO.json (one at least)")
     results, tables, uncertainty, trace = [], [], [], []
+    fit = load_trusted_fit(fit_path) if fit_path is not None else None
+    warnings = list(meta.warnings)
     if iso_paths:
         isos = [(p, read_iso(p)) for p in iso_paths]
+        if fit is not None:
+            warnings += _other_axes(isos, fit.machine)
         r, t, u = _iso_part(isos)
         results += r
         tables.append(t)
@@ -110,14 +114,15 @@ def build_certificate(meta: CertificateMeta, *, fit_path=None, verify_path=None,
                   for p, d in isos]
     if verify_path is not None:
         v = read_verify(verify_path)
+        if fit is not None:
+            _same_machine(v, verify_path, fit, fit_path)
         r, t, u = _verify_part(v)
         results += r
         tables.append(t)
         uncertainty.append(u)
         vfile = Path(verify_path) / "verify.json" if Path(verify_path).is_dir() else Path(verify_path)
         trace.append(("verification", f"{vfile.name} SHA-256 {_sha256(vfile)}"))
-    if fit_path is not None:
-        fit = load_trusted_fit(fit_path)
+    if fit is not None:
         r, t, u = _fit_part(fit)
         results += r
         tables.append(t)
@@ -145,7 +150,33 @@ def build_certificate(meta: CertificateMeta, *, fit_path=None, verify_path=None,
     return Certificate(title="Calibration certificate: geometric accuracy",
                        number=m.get("certificate_number", ""), identification=identification, conditions=conditions,
                        results=tuple(results), tables=tuple(tables), uncertainty=tuple(uncertainty),
-                       traceability=tuple(trace), warnings=tuple(meta.warnings), issued_by=m.get("issued_by", ""))
+                       traceability=tuple(trace), warnings=tuple(warnings), issued_by=m.get("issued_by", ""))
+
+
+def _same_machine(v: dict, verify_path, fit, fit_path) -> None:
+    """Refuses a verification made with another machine's fit than ``fit`` (``kinid verify`` records the SHA-256 of
+    its machine's URDF); one made by a kinid that did not record it cannot be checked, and is warned about."""
+    import warnings
+
+    recorded = v.get("machine_sha256")
+    if recorded is None:
+        warnings.warn(f"{verify_path}: does not record its machine (made by an earlier kinid): that it verifies the "
+                      f"machine of {Path(fit_path).name} is not checked", stacklevel=3)
+    elif recorded != fit.machine.urdf_sha256:
+        raise DataError(f"was made with another machine than {Path(fit_path).name}'s ({fit.machine.path}): its "
+                        f"machine's URDF has SHA-256 {recorded[:12]}…, the fit's {fit.machine.urdf_sha256[:12]}…; "
+                        f"give the verification of this fit's compensation", path=verify_path)
+
+
+def _other_axes(isos, machine) -> list:
+    """A sentence for the page per ISO 230-2 result whose axis is none of the fit's machine's axes."""
+    out = []
+    for path, d in isos:
+        axis = d.get("axis")
+        if axis and axis not in machine.axis_names:
+            out.append(f"The ISO 230-2 result {Path(path).name} is of an axis {axis}, which the fitted machine does "
+                       f"not have (its axes: {', '.join(machine.axis_names)}): check that it is of this machine.")
+    return out
 
 
 def _iso_part(isos):
