@@ -79,7 +79,8 @@ class StdCheck:
             out = (f"{said} are {factor:.2g}× {word} than the residuals show (RMS of residual/std {self.ratio:.3g}): "
                    f"the fit's σ comes from the residuals, not from them")
         if self.tracks:
-            out += f"; rows with larger stated std scatter more ({binned})"
+            out += (f"; rows with larger stated std scatter more ({binned}), though the fit takes one σ for every "
+                    f"coordinate")
         return out
 
     def summary(self) -> dict:
