@@ -150,6 +150,24 @@ def test_a_negative_stated_std_is_one_line_naming_line_and_column(arm):
         read_export(_export(d / "negative.csv", noisy, sigma_mm), machine)
 
 
+def test_the_std_of_several_targets_in_metres_are_read_in_mm_and_kept_with_their_target(arm):
+    d, _, machine, tm, free = arm
+    _, sigma_mm, noisy = _noisy(machine, tm, free, 8, 5)
+    header = ["frame", *JOINTS, "x1", "y1", "z1", "x1_std", "y1_std", "z1_std", "x2", "y2", "z2", "x2_std",
+              "y2_std", "z2_std"]
+    rows = [",".join(header)]
+    for i in range(5):
+        cells = [i, *np.radians(noisy.axes[i]), *(noisy.w_mm[i] / 1e3), *(sigma_mm[i] / 1e3),
+                 *((noisy.w_mm[i] + 10.0) / 1e3), *(2 * sigma_mm[i] / 1e3)]
+        rows.append(",".join(f"{v:.12g}" for v in cells))
+    path = d / "mocap_std.csv"
+    path.write_text("\n".join(rows) + "\n")
+    export = read_export(path, machine)
+    assert export.observations.marks[:2] == ("T1", "T2")
+    assert np.allclose(export.std_mm[0::2], sigma_mm, rtol=1e-9) and np.allclose(export.std_mm[1::2], 2 * sigma_mm)
+    assert export.std_columns == ("x1_std", "y1_std", "z1_std", "x2_std", "y2_std", "z2_std")
+
+
 # ---- verify and predict on an export -----------------------------------------------------------------------------
 
 def test_verify_on_an_export_gives_what_verify_on_the_same_rows_as_kinid_csv_gives(arm, capsys):
