@@ -6,6 +6,7 @@ from pathlib import Path
 
 from kinid.errors import DataError
 from kinid.options import add_json_option, csv_rows, json_file
+from .data_input import add_export_options, is_observation_file, read_data, refuse_export, stated_std_of
 
 # NumPy and the modules that do the work are imported inside the function that runs the verb:
 # building the parsers (``kinid identify --help``) imports none of them.
@@ -24,7 +25,7 @@ def register(sub) -> None:
     p.add_argument("--data", required=True,
                    help="observation CSV, or an instrument export (a tracker's or motion capture's table; "
                         "docs/formats.md, 'Instrument exports')")
-    _export_options(p)
+    add_export_options(p)
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT", help="effects to add, e.g. EXX:periodic:10")
     p.add_argument("--noise-um", type=float, default=None, help="σ of one residual coordinate, µm (default: from the residuals)")
     p.add_argument("--auto", action="store_true", help="add effects one by one from the candidate library while the data ask for them")
@@ -96,7 +97,7 @@ def register(sub) -> None:
     p.add_argument("--top", type=int, default=10, help="candidates to show in the readable report")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
-    _export_options(p)
+    add_export_options(p)
     p.set_defaults(run=_diagnose)
 
     p = sub.add_parser("demo", help="the whole story on the built-in five-axis machine with a hidden effect",
@@ -109,56 +110,6 @@ def register(sub) -> None:
                    help="hidden effect: 'library' (a 10 mm lead, a listed period) or 'lead' (a 12.7 mm lead the "
                         "library does not list: the period search finds it)")
     p.set_defaults(run=_demo, outputs={"out": "replaced folder"})
-
-
-def _export_options(p) -> None:
-    g = p.add_argument_group("instrument exports (docs/formats.md)")
-    g.add_argument("--point", default=None, metavar="x=COL,y=COL,z=COL",
-                   help="the measured point's columns (default: measurement_x/_y/_z in mm, x1/y1/z1 … in m)")
-    g.add_argument("--point-unit", choices=("mm", "m"), default=None, help="the measured point's unit")
-    g.add_argument("--joint-unit", choices=("rad", "deg"), default=None,
-                   help="the unit of reading columns without a _rad/_deg suffix (default: the URDF's, rad)")
-    g.add_argument("--target", default=None, metavar="LABEL",
-                   help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one fitted, T1, T2 …")
-
-
-def _is_observation_file(path) -> bool:
-    from pathlib import Path
-
-    from ..data import is_observation_csv
-
-    return Path(path).is_file() and is_observation_csv(path)
-
-
-def _read_data(args, machine, *, check_units: bool = True):
-    """The observations of ``--data``: kinid's observation CSV, or an instrument export read with the export
-    options (its mapping printed on standard error); one target of several chosen by ``--target``."""
-    import numpy as np
-
-    from ..data import is_observation_csv, parse_point_columns, read_export, read_observations
-
-    check_limits = not args.allow_outside_limits
-    given = [o for o in ("point", "point_unit", "joint_unit", "target") if getattr(args, o) is not None]
-    if is_observation_csv(args.data):
-        if given:
-            raise DataError(f"--{given[0].replace('_', '-')} is for an instrument export; {args.data} is an "
-                            f"observation CSV (its header has mark or wx_mm)")
-        return read_observations(args.data, machine, check_limits=check_limits, check_units=check_units)
-    point = parse_point_columns(args.point) if args.point is not None else None
-    export = read_export(args.data, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
-                         check_limits=check_limits)
-    print("\n".join(export.notes()), file=sys.stderr)
-    obs = export.observations
-    labels = [label for label, *_ in export.targets]
-    if args.target is not None:
-        if args.target not in labels:
-            raise DataError(f"--target {args.target!r}: the file's targets are {', '.join(labels)}")
-        return obs.subset(np.array([m == args.target for m in obs.marks]))
-    if len(labels) > 1:
-        raise DataError(f"{len(labels)} targets per pose ({', '.join(labels)}) and the machine has one tool point: "
-                        f"fit one with --target {labels[0]} (several tool points, each with its own set-up, are "
-                        f"not yet supported)", path=args.data)
-    return obs
 
 
 def _positive(value, name):
@@ -226,7 +177,8 @@ def _identify(args) -> int:
     _positive(args.target_um, "--target-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
-    read = _without_duplicates(_read_data(args, machine, check_units=False))
+    read, stated = read_data(args.data, machine, args, check_units=False)
+    read = _without_duplicates(read)
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
     effects = model_effects(machine, args.add)
@@ -286,8 +238,11 @@ def _identify(args) -> int:
             _report_line(args.report)
             diagnosis_report(diagnosis, obs, args.report)
     warn_units(machine, read)
+    result = _check_stated_std(result, obs, stated)
     save_fit(result, args.out)
     print(result.table())
+    if result.stated_std:
+        print(result.stated_std["line"])
     if result.aliases:
         from ..planning import data_advice
 
@@ -300,10 +255,24 @@ def _identify(args) -> int:
     print(f"fit written to {args.out}")
     from .observe import board_pose_hint
 
-    hint = board_pose_hint(args.data, machine, result, obs) if _is_observation_file(args.data) else None
+    hint = board_pose_hint(args.data, machine, result, obs) if is_observation_file(args.data) else None
     if hint:
         print(hint.replace("FIT.json", str(args.out)))
     return 0
+
+
+def _check_stated_std(result, obs, stated):
+    """``result`` with the instrument's stated std of the rows fitted checked against its residuals
+    (:func:`~kinid.identification.diagnosis.check_stated_std`), when the data stated them."""
+    from dataclasses import replace
+
+    from ..diagnosis import check_stated_std
+
+    std_mm = stated_std_of(obs, stated)
+    if std_mm is None or result.residuals_um is None or len(result.residuals_um) != len(obs):
+        return result
+    check = check_stated_std(result.residuals_um, std_mm * 1e3, result.dof)
+    return result if check is None else replace(result, stated_std=check.summary())
 
 
 def _target_line(result, obs, args) -> None:
@@ -333,6 +302,9 @@ def _predict(args) -> int:
     machine = loaded.machine
     solve = _axes_list(args.solve, machine)
     solve_names = solve or [a.name for a in machine.axes if a.kind == "prismatic"]
+    refuse_export(args.poses, "--poses", "predict solves the axes that put the tool point on each pose's mark, "
+                  "given in kinid's observation CSV (docs/formats.md); an export holds the points measured with "
+                  "every axis read, nothing left to solve")
     poses = read_observations(args.poses, machine, optional_axes=solve_names, check_limits=not args.allow_outside_limits)
     out = solve_axes(machine, loaded.effects, loaded.theta, poses, solve_names)
     _warn_outside_travel(machine, out, solve_names, args.poses)
@@ -413,7 +385,7 @@ def _diagnose(args) -> int:
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
-    obs = _without_duplicates(_read_data(args, loaded.machine))
+    obs = _without_duplicates(read_data(args.data, loaded.machine, args)[0])
     check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside

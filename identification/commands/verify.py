@@ -1,6 +1,8 @@
 """``kinid verify``: the run after the compensation -> did it work, and what is left."""
 from __future__ import annotations
 
+from .data_input import add_export_options, read_data
+
 __all__ = ["register"]
 
 
@@ -17,15 +19,19 @@ def register(sub) -> None:
     src.add_argument("--fit", help="FIT.json the compensation was made from")
     src.add_argument("--compensation", metavar="DIR",
                      help="the folder kinid compensate wrote (its compensation.json names the fit and its SHA-256)")
-    p.add_argument("--data", required=True, help="observation CSV of the run made with the compensation loaded")
+    p.add_argument("--data", required=True,
+                   help="observation CSV of the run made with the compensation loaded, or an instrument export read "
+                        "as identify reads it (docs/formats.md, 'Instrument exports')")
     p.add_argument("--before", default=None, metavar="CSV",
-                   help="observation CSV of the first run (default: the error before is the fit's prediction)")
+                   help="observation CSV or instrument export of the first run (default: the error before is the "
+                        "fit's prediction)")
     p.add_argument("--noise-um", type=float, default=None,
                    help="σ of one residual coordinate, µm (default: the fit's, where it was known)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     p.add_argument("--json", action="store_true", help="print one JSON object (docs/cli.md)")
     p.add_argument("--report", default=None, metavar="DIR", help="write the verification report (HTML, figure) to DIR")
+    add_export_options(p)
     p.set_defaults(run=_verify, outputs={"report": "replaced folder"})
 
 
@@ -65,7 +71,7 @@ def _verify(args) -> int:
     from kinid.checks import check_plausible, check_positive
     from kinid.files import strict_json
     from ..fitting import load_trusted_fit
-    from ..data import check_row_count, read_observations
+    from ..data import check_row_count
     from ..compensation import verify
 
     if args.noise_um is not None:
@@ -77,10 +83,10 @@ def _verify(args) -> int:
         check_report_folder(args.report)
     fit_path = args.fit or _fit_of_compensation(args.compensation)
     result = load_trusted_fit(fit_path)
-    after = read_observations(args.data, result.machine, check_limits=not args.allow_outside_limits)
+    files = [f for f in (args.data, args.before) if f is not None]
+    after, _ = read_data(args.data, result.machine, args, others=files)
     check_row_count(after, "a verification")
-    before = None if args.before is None else read_observations(args.before, result.machine,
-                                                                check_limits=not args.allow_outside_limits)
+    before = None if args.before is None else read_data(args.before, result.machine, args, others=files)[0]
     if before is not None:
         check_row_count(before, "a verification")
     out = verify(result, after, before=before, noise_um=args.noise_um)

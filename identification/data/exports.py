@@ -12,8 +12,9 @@ One rule, in this order:
   of :data:`POINT_PATTERNS` — ``measurement_x/_y/_z`` (mm, a tracker's export), ``x1/y1/z1``, ``x2/y2/z2`` … (m,
   one target each, motion capture); ``point_unit`` overrides the unit;
 - several targets per pose give one row per target, its mark the target's label (``T1``, ``T2`` …);
-- standard deviations of the point (``measurement_std_x``, ``x1_std``) are noted, not used: the fit takes one σ
-  for every coordinate; every other column is ignored, with a note naming it.
+- standard deviations of the point (``measurement_std_x``, ``x1_std``) are read (``Export.std_mm``), not used as
+  weights: the fit takes one σ for every coordinate, and ``kinid identify`` checks them against its residuals
+  (:mod:`~kinid.identification.diagnosis.stated_std`); every other column is ignored, with a note naming it.
 """
 from __future__ import annotations
 
@@ -61,9 +62,12 @@ class Export:
     axes : tuple of (column, axis name, unit)
     targets : tuple of (label, (x, y, z columns), unit)
     std_columns : tuple of str
-        The point's standard deviations found (noted, not used).
+        The point's standard deviations found (not used as weights).
     ignored : tuple of str
         Columns read neither as axes nor as the point.
+    std_mm : array (N, 3) or None
+        The point's stated standard deviations of each row of ``observations``, mm; None unless every target has
+        the three columns.
     """
 
     observations: Observations
@@ -73,6 +77,7 @@ class Export:
     targets: tuple
     std_columns: tuple
     ignored: tuple
+    std_mm: np.ndarray | None = None
 
     def notes(self) -> list:
         """Lines saying how the file was read: delimiter, the axes' mapping, the point, what was left out."""
@@ -83,8 +88,8 @@ class Export:
                "  axes: " + ", ".join(f"{c} [{u}] -> {a}" for c, a, u in self.axes)]
         out += [f"  point {label}: {', '.join(cols)} [{unit}]" for label, cols, unit in self.targets]
         if self.std_columns:
-            out.append(f"  not used as weights (the fit takes one σ for every coordinate, --noise-um): "
-                       f"{', '.join(self.std_columns)}")
+            out.append(f"  stated std, not used as weights (the fit takes one σ for every coordinate, --noise-um; "
+                       f"identify checks them against its residuals): {', '.join(self.std_columns)}")
         if self.ignored:
             out.append(f"  ignored: {', '.join(self.ignored)}")
         return out
@@ -289,7 +294,15 @@ def read_export(path, machine: Machine, *, point: dict | None = None, point_unit
     marks = tuple(label for _ in range(n) for label, *_ in targets)
     obs = Observations(marks, points.reshape(n * m, 3), np.repeat(axes, m, axis=0), None, {},
                        tuple(np.repeat(lines, m).tolist()), str(path))
+    std_mm = None
+    if all(len(t[3]) == 3 for t in targets):
+        std_mm = np.stack([np.column_stack([_numbers(path, rows, header.index(c), c, decimal_comma) for c in stds])
+                           * _TO_KINID[unit] for _, _, unit, stds in targets], axis=1).reshape(n * m, 3)
+        if np.any(std_mm < 0):
+            line, k = np.argwhere(std_mm.reshape(n, m * 3) < 0)[0]
+            raise DataError("a standard deviation cannot be negative", path=path, line=lines[line],
+                            column=[s for t in targets for s in t[3]][k])
     comma = decimal_comma and any("," in cells[k] for _, cells in rows for k in range(len(header)) if header[k] in used)
     return Export(obs, delimiter, bool(comma), tuple((c, machine.axes[j].name, u) for _, c, j, u in axis_cols),
                   tuple((label, cols, unit) for label, cols, unit, _ in targets), stds,
-                  tuple(h for h in header if h not in used and h not in stds))
+                  tuple(h for h in header if h not in used and h not in stds), std_mm)

@@ -106,6 +106,8 @@ class FitResult:
         from its last pass: the leverages and the pose advice use it instead of a pass of their own. None for a
         loaded or evaluated fit. ``jacobian_r_zero``: the same at every parameter zero (the nominal machine, what
         the pose advice judges), from the fit's first pass when it started there; else None.
+    stated_std : dict
+        The instrument's stated std checked against the residuals (``StdCheck.summary()``); empty without them.
     """
 
     machine: Machine
@@ -139,6 +141,7 @@ class FitResult:
     start: str = ""
     jacobian_r: np.ndarray | None = None
     jacobian_r_zero: np.ndarray | None = None
+    stated_std: dict = field(default_factory=dict)
 
     @property
     def noise_um(self) -> float:

@@ -53,7 +53,7 @@ FIT_SCHEMA = Fields(
         "axis_ranges": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True), length=2, ordered=True)),
         "axis_readings": Table(Items(Number(low=-LARGEST, high=LARGEST))),
         "shared_std": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True))),  # signed changes
-        "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(),
+        "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(), "stated_std": Fields({}, other=True),
         "implausible": Items(Fields({}, other=True)),
     },
     other=True)
@@ -63,6 +63,15 @@ def _finite(x):
     """A float for JSON, or None where it is not finite (JSON has no NaN or infinity)."""
     x = float(x)
     return x if np.isfinite(x) else None
+
+
+def _finite_tree(x):
+    """``x`` (dicts, lists, numbers, text) with every float finite or None, for JSON."""
+    if isinstance(x, dict):
+        return {str(k): _finite_tree(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite_tree(v) for v in x]
+    return _finite(x) if isinstance(x, float) else x
 
 
 def fit_to_dict(result: FitResult) -> dict:
@@ -99,6 +108,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
         "start": result.start,
+        "stated_std": _finite_tree(result.stated_std),
         "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit,
                          "undetermined": a.undetermined}
                         for a in result.implausible()],
@@ -161,7 +171,7 @@ def load_fit(path) -> FitResult:
             prior=str(data.get("prior", "")),
             prior_std=None if data.get("prior_std") is None else np.array(
                 [np.inf if v is None else float(v) for v in data["prior_std"]]),
-            start=str(data.get("start", "")))
+            start=str(data.get("start", "")), stated_std=dict(data.get("stated_std") or {}))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

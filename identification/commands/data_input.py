@@ -1,0 +1,111 @@
+"""The alignments a verb reads with ``--data`` (identify, diagnose, verify): kinid's observation CSV or an
+instrument export, with one set of options for the export on every verb (docs/formats.md, "Instrument exports")."""
+from __future__ import annotations
+
+import sys
+
+from kinid.errors import DataError
+
+__all__ = ["add_export_options", "is_observation_file", "read_data", "refuse_export", "stated_std_of"]
+
+#: The export options, as argparse names them.
+_OPTIONS = ("point", "point_unit", "joint_unit", "target")
+
+
+def add_export_options(p) -> None:
+    """The instrument export's options (``--point``, ``--point-unit``, ``--joint-unit``, ``--target``) on ``p``."""
+    g = p.add_argument_group("instrument exports (docs/formats.md)")
+    g.add_argument("--point", default=None, metavar="x=COL,y=COL,z=COL",
+                   help="the measured point's columns (default: measurement_x/_y/_z in mm, x1/y1/z1 … in m)")
+    g.add_argument("--point-unit", choices=("mm", "m"), default=None, help="the measured point's unit")
+    g.add_argument("--joint-unit", choices=("rad", "deg"), default=None,
+                   help="the unit of reading columns without a _rad/_deg suffix (default: the URDF's, rad)")
+    g.add_argument("--target", default=None, metavar="LABEL",
+                   help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one fitted, T1, T2 …")
+
+
+def is_observation_file(path) -> bool:
+    """Whether ``path`` is a file and kinid's own observation CSV (not an instrument export)."""
+    from pathlib import Path
+
+    from ..data import is_observation_csv
+
+    return Path(path).is_file() and is_observation_csv(path)
+
+
+def read_data(path, machine, args, *, check_units: bool = True, others=()):
+    """(observations, stated std) of ``path``: kinid's observation CSV, or an instrument export read with the
+    export options of ``args`` (its mapping printed on standard error), one target of several chosen by
+    ``--target``.
+
+    Parameters
+    ----------
+    path : str
+        The file (``--data``, ``--before``).
+    machine : Machine
+    args : argparse.Namespace
+        With ``allow_outside_limits`` and the export options.
+    check_units : bool
+        Warn of the unit mistakes an observation CSV shows.
+    others : sequence of str
+        The verb's other files read the same way: an export option is refused only when none of them is an export.
+
+    Returns
+    -------
+    Observations, and dict (line, mark) -> array (3,) of the point's stated standard deviations in mm (empty for
+    an observation CSV or an export without them).
+
+    Raises
+    ------
+    DataError
+        One line: an export option given for observation CSVs only, a target not in the file, several targets
+        without ``--target``, or what the file's reader names.
+    """
+    import numpy as np
+
+    from ..data import is_observation_csv, parse_point_columns, read_export, read_observations
+
+    check_limits = not args.allow_outside_limits
+    given = [o for o in _OPTIONS if getattr(args, o, None) is not None]
+    if is_observation_csv(path):
+        if given and all(is_observation_csv(f) for f in others):
+            raise DataError(f"--{given[0].replace('_', '-')} is for an instrument export; {path} is an "
+                            f"observation CSV (its header has mark or wx_mm)")
+        return read_observations(path, machine, check_limits=check_limits, check_units=check_units), {}
+    point = parse_point_columns(args.point) if args.point is not None else None
+    export = read_export(path, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
+                         check_limits=check_limits)
+    print("\n".join(export.notes()), file=sys.stderr)
+    obs = export.observations
+    std = {} if export.std_mm is None else {(ln, m): s for ln, m, s in zip(obs.lines, obs.marks, export.std_mm)}
+    labels = [label for label, *_ in export.targets]
+    if args.target is not None:
+        if args.target not in labels:
+            raise DataError(f"--target {args.target!r}: the file's targets are {', '.join(labels)}")
+        return obs.subset(np.array([m == args.target for m in obs.marks])), std
+    if len(labels) > 1:
+        raise DataError(f"{len(labels)} targets per pose ({', '.join(labels)}) and the machine has one tool point: "
+                        f"fit one with --target {labels[0]} (several tool points, each with its own set-up, are "
+                        f"not yet supported)", path=path)
+    return obs, std
+
+
+def stated_std_of(obs, std: dict):
+    """The stated standard deviations (N, 3) in mm of the rows of ``obs`` (by CSV line and mark), or None when a
+    row has none."""
+    import numpy as np
+
+    rows = [std.get((ln, m)) for ln, m in zip(obs.lines or (), obs.marks)]
+    if not std or not obs.lines or any(s is None for s in rows):
+        return None
+    return np.array(rows, float).reshape(len(obs), 3)
+
+
+def refuse_export(path, option: str, why: str) -> None:
+    """DataError when ``path`` is an instrument export where the verb takes kinid's observation CSV only: ``why``
+    says what the verb needs that an export does not hold."""
+    from ..data import is_observation_csv
+
+    if not is_observation_csv(path):
+        raise DataError(f"{option} {path} is an instrument export (its header has none of mark, wx_mm, wy_mm, "
+                        f"wz_mm): {why}")
