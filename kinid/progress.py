@@ -4,13 +4,22 @@ terminal or forced) and the lines a step has to say (:meth:`Progress.say`).
 Library functions that run long take ``progress=`` and pass it through :func:`as_progress`, which
 accepts a :class:`Progress`, a text stream (every line said goes there, no counter), a callable
 ``(done, total)``, or None (silent).
+
+A command's steps that can take seconds without a counter (a fit, a check, a report) are each wrapped in
+:func:`step`: on a terminal, a step still running after :data:`STEP_SHOWN_S` says what it is doing, and how
+long it took when it ends; a quick step, or one whose stderr is a file or a pipe, says nothing.
 """
 from __future__ import annotations
 
+import contextlib
 import sys
+import threading
 import time
 
-__all__ = ["Progress", "as_progress"]
+__all__ = ["Progress", "as_progress", "step", "STEP_SHOWN_S"]
+
+#: A step of a command says what it is doing once it has run this long, seconds (a quicker one says nothing).
+STEP_SHOWN_S = 1.0
 
 
 class Progress:
@@ -109,3 +118,41 @@ def as_progress(progress, total=None) -> Progress:
     if total is not None:
         out.total = total
     return out
+
+
+@contextlib.contextmanager
+def step(label: str, *, stream=None, after_s: float = STEP_SHOWN_S):
+    """A step of a command that may take seconds: on a terminal (``stream``, default stderr), once it has run
+    ``after_s`` its line ``label …`` appears, and ``label: done in 3.2 s`` when it ends (``stopped after`` when an
+    error ends it); silent when it ends sooner or the stream is not a terminal (a script's stderr keeps only its
+    errors and warnings)."""
+    stream = sys.stderr if stream is None else stream
+    if not (hasattr(stream, "isatty") and stream.isatty()):
+        yield
+        return
+    start = time.perf_counter()
+    said = threading.Event()
+    lock = threading.Lock()
+    ended = False
+
+    def say():
+        with lock:
+            if not ended:
+                stream.write(f"{label} …\n")
+                stream.flush()
+                said.set()
+
+    timer = threading.Timer(after_s, say)
+    timer.daemon = True
+    timer.start()
+    how = "stopped after"  # an error or Ctrl-C ended it
+    try:
+        yield
+        how = "done in"
+    finally:
+        with lock:
+            ended = True
+        timer.cancel()
+        if said.is_set():
+            stream.write(f"{label}: {how} {time.perf_counter() - start:.1f} s\n")
+            stream.flush()
