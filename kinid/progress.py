@@ -121,9 +121,9 @@ def as_progress(progress, total=None) -> Progress:
 
 
 @contextlib.contextmanager
-def step(label: str, *, stream=None, after_s: float = STEP_SHOWN_S):
+def step(label: str, *, stream=None, after_s: float | None = None):
     """A step of a command that may take seconds: on a terminal (``stream``, default stderr), once it has run
-    ``after_s`` its line ``label …`` appears, and ``label: done in 3.2 s`` when it ends (``stopped after`` when an
+    ``after_s`` (default :data:`STEP_SHOWN_S`) its line ``label …`` appears, and ``label: done in 3.2 s`` when it ends (``stopped after`` when an
     error ends it); silent when it ends sooner or the stream is not a terminal (a script's stderr keeps only its
     errors and warnings)."""
     stream = sys.stderr if stream is None else stream
@@ -131,6 +131,7 @@ def step(label: str, *, stream=None, after_s: float = STEP_SHOWN_S):
         yield
         return
     start = time.perf_counter()
+    after_s = STEP_SHOWN_S if after_s is None else after_s
     said = threading.Event()
     lock = threading.Lock()
     ended = False

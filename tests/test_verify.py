@@ -9,6 +9,8 @@ and tool offsets; the axes physically go where the compensation sends them.
 from __future__ import annotations
 
 import json
+import re
+import sys
 
 import numpy as np
 import pytest
@@ -195,3 +197,33 @@ def test_the_loop_works_on_a_urdf_whose_rotary_travels_are_wider_than_the_data(t
     print(f"wide travels: before {v['before_um']['3d']:.3f} µm, after {v['after_um']['3d']:.3f} µm, "
           f"noise level {v['noise_level_3d_um']:.3f} µm")
     assert v["after_um"]["3d"] <= 1.5 * v["noise_level_3d_um"] and v["before_um"]["3d"] > 5 * v["after_um"]["3d"]
+
+
+def test_verify_says_its_long_steps_on_a_terminal_and_only_there(compensated, monkeypatch, capsys):
+    """On a terminal each step says what it does (here every step, STEP_SHOWN_S set to 0); the JSON on stdout is
+    untouched, and with stderr not a terminal nothing is said."""
+    import io
+
+    import kinid.progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    folder = compensated
+    second_run(folder / "run_steps.csv", folder / "comp", np.random.default_rng(13))
+    monkeypatch.setattr(kinid.progress, "STEP_SHOWN_S", 0.0)
+    args = ["verify", "--compensation", str(folder / "comp"), "--data", str(folder / "run_steps.csv"), "--json",
+            "--report", str(folder / "steps_report")]
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(args) == 0
+    lines = terminal.getvalue().splitlines()
+    assert re.fullmatch(r"fitting the set-up to the \d+ alignments of the run and judging what is left …", lines[0])
+    assert lines[1].startswith("fitting the set-up to the") and ": done in " in lines[1]
+    assert lines[2] == f"writing the report to {folder / 'steps_report'} …" and ": done in " in lines[3]
+    assert "after_um" in json.loads(capsys.readouterr().out)
+    monkeypatch.undo()
+    monkeypatch.setattr(kinid.progress, "STEP_SHOWN_S", 0.0)
+    assert main(args) == 0
+    assert "…" not in capsys.readouterr().err

@@ -70,6 +70,7 @@ def _verify(args) -> int:
 
     from kinid.checks import check_plausible, check_positive
     from kinid.files import strict_json
+    from kinid.progress import step
     from ..fitting import load_trusted_fit
     from ..data import check_row_count
     from ..compensation import verify
@@ -89,11 +90,13 @@ def _verify(args) -> int:
     before = None if args.before is None else read_data(args.before, result.machine, args, others=files)[0]
     if before is not None:
         check_row_count(before, "a verification")
-    out = verify(result, after, before=before, noise_um=args.noise_um)
+    with step(f"fitting the set-up to the {len(after)} alignments of the run and judging what is left"):
+        out = verify(result, after, before=before, noise_um=args.noise_um)
     if args.report:
         from ..compensation import verification_report
 
-        verification_report(out, args.report, fit_path=fit_path, data_path=args.data)
+        with step(f"writing the report to {args.report}"):
+            verification_report(out, args.report, fit_path=fit_path, data_path=args.data)
     if args.json:
         print(strict_json(out.summary()))
         return 0
