@@ -108,3 +108,18 @@ def test_the_never_worse_check_sees_the_readings_below_zero(tmp_path, monkeypatc
     print(err)
     assert "C.comp: applied as the controller applies it, it would leave" in err and " at C = -" in err
     assert not (tmp_path / "comp").exists()
+
+
+@pytest.mark.parametrize("measured, turn", [((0.0, 330.0), (0.0, 360.0)), ((15.0, 345.0), (0.0, 360.0)),
+                                            ((-180.0, 175.0), (-180.0, 180.0)), ((370.0, 700.0), (360.0, 720.0)),
+                                            ((-400.0, 725.0), (-400.0, 725.0)), ((-90.0, 200.0), (-90.0, 270.0))])
+def test_the_turn_a_format_without_modulo_gets(measured, turn):
+    """The whole turn 360°·k … 360°·(k + 1) holding every reading, else from the lowest reading over a turn or up to
+    the highest; a table that is not one turn stays as it is."""
+    from kinid.identification.compensation.ranges import unwrapped_range
+    from kinid.identification.compensation.table_grids import AxisRange
+
+    got = unwrapped_range(AxisRange(0.0, 360.0, "one turn (modulo)", True, (-np.inf, np.inf), measured))
+    assert (got.low, got.high, got.modulo) == (turn[0], turn[1], False) and got.measured == measured
+    part = AxisRange(-170.0, -10.0, "measured readings", False, (-np.inf, np.inf), (-170.0, -10.0))
+    assert unwrapped_range(part) is part
