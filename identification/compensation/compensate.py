@@ -37,7 +37,7 @@ from ..model import basis_of, basis_values
 from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
-from .ranges import axis_range, not_one_turn
+from .ranges import axis_range, not_one_turn, unwrapped_range
 from .rotary_geometry import kinematics_files
 from .table_check import TableCheck, check_positions, check_tables
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
@@ -296,7 +296,9 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                          f"{rng.low:.4g} .. {rng.high:.4g}°, " + ("end values held" if beyond == "hold" else
                                                                    "zero") + " beyond" + not_modulo["scale_words"])
         span = rng.measured or (rng.low, rng.high)
-        inside = np.linspace(max(span[0], rng.low), min(span[1], rng.high), 2001)
+        # a one-turn table's figures over its whole turn (readings in −180 … 175° are that turn too)
+        inside = np.linspace(rng.low, rng.high, 2001) if rng.modulo else \
+            np.linspace(max(span[0], rng.low), min(span[1], rng.high), 2001)
         checked_at = check_positions(model.axis_readings.get(a.name), span)
         travel_ends = [] if rng.modulo else [t for t in rng.travel if np.isfinite(t) and not rng.low <= t <= rng.high]
         bounds = np.maximum(BOUND_SHARE * np.sqrt(np.mean(stack(inside) ** 2, axis=1)), 1e-3)
@@ -329,17 +331,22 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         pos_at = lambda x, name=a.name: directions(positioning_table(model, name, x))  # noqa: E731
         error_rms = rms(pos_at(inside))
         for fmt in fmts:
+            # a format that does not wrap compensates the reading as it is: its one-turn table where the readings are
+            frng = rng if fmt.modulo else unwrapped_range(rng)
+            f_inside = inside if frng is rng else np.linspace(frng.low, frng.high, 2001)
+            f_ends = travel_ends if frng is rng else \
+                [t for t in frng.travel if np.isfinite(t) and not frng.low <= t <= frng.high]
             res = fmt.resolution(rotary)
             target = BOUND_SHARE * error_rms - res / 2
             limited = "resolution" if target < res / 2 else None
             target = max(target, res / 2)
-            most = fmt.max_points - extra_points(rng, beyond, fmt.equidistant)
+            most = fmt.max_points - extra_points(frng, beyond, fmt.equidistant)
             values_at = pos_at if fmt.bidirectional else (lambda x, f=pos_at: f(x).mean(axis=0, keepdims=True))
-            fq = table_grid(values_at, rng, [target] * values_at(inside[:2]).shape[0], most, step)
+            fq = table_grid(values_at, frng, [target] * values_at(inside[:2]).shape[0], most, step)
             base = positioning_table(model, a.name, fq)
-            fq_ext, ends = with_ends(fq, {"f": base.forward, "b": base.backward}, rng, beyond, fmt.equidistant)
+            fq_ext, ends = with_ends(fq, {"f": base.forward, "b": base.backward}, frng, beyond, fmt.equidistant)
             table = AxisErrorTable(a.name, rotary, fq_ext, ends["f"], None if base.reverse is None else ends["b"])
-            options = TableOptions(axis_number=numbers.numbers[a.name], modulo=rng.modulo,
+            options = TableOptions(axis_number=numbers.numbers[a.name], modulo=frng.modulo,
                                    comment=f"kinid {__version__}: {code} of {Path(machine.path).name}, "
                                            f"error = actual - commanded")
             name = fmt.file_name(a.name)
@@ -347,19 +354,19 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
             written.append(name)
             if fmt.read is None:
                 notes.append(f"{name}: {fmt.title} has no reader in kinid; checked as the table given to its writer")
-            read = (FileTable(table.positions, table.forward, table.backward, rng.modulo and fmt.modulo)
+            read = (FileTable(table.positions, table.forward, table.backward, frng.modulo)
                     if fmt.read is None else fmt.read(files[name], rotary))
             both = (lambda x, t=read: np.vstack([applied(t, x, True), applied(t, x, False)])) if fmt.bidirectional \
                 else (lambda x, t=read: applied(t, x)[None])
             checks.append((TableCheck(name, a.name, (unit_q, unit), values_at, both, floor=res), checked_at,
-                           travel_ends))
-            left = left_after(fmt, table, values_at, inside, res)
+                           f_ends))
+            left = left_after(fmt, table, values_at, f_inside, res)
             if fq.size >= most and left["rms"] > BOUND_SHARE * error_rms:
                 limited = "points"
             entry = {"file": name, "format": fmt.name, "axis": a.name, "axis_number": options.axis_number,
                      "points": int(table.positions.size), "step": float(fq[1] - fq[0]),
                      "from": float(fq[0]), "to": float(fq[-1]), "ends_added": int(fq_ext.size - fq.size),
-                     "modulo": rng.modulo, "unit": unit,
+                     "modulo": frng.modulo, "unit": unit,
                      "error_rms": error_rms, "left_rms": left["rms"], "left_max": left["max"],
                      "bound_rms": BOUND_SHARE * error_rms, "beyond": fmt.beyond, "sign": fmt.sign}
             if not fmt.bidirectional and base.reverse is not None:

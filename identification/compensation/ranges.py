@@ -6,7 +6,9 @@
 - :func:`largest_gap_deg` — the widest stretch of a turn without a reading (the seam from the last
   reading round to the first included);
 - :func:`turn_change` — how much a model changes over one turn (a scale error of a rotary axis,
-  which a modulo table cannot hold).
+  which a modulo table cannot hold);
+- :func:`unwrapped_range` — where a one-turn table goes for a format that does not wrap (LinuxCNC): the turn
+  that holds the readings as the data give them (−180 … 180° for readings in −180 … 175°), or all of them.
 """
 from __future__ import annotations
 
@@ -17,8 +19,8 @@ from ..fitting import FitResult
 from ..model import axis_limits
 from .table_grids import AxisRange
 
-__all__ = ["axis_range", "largest_gap_deg", "full_turn", "turn_change", "not_one_turn", "FULL_TURN_GAP_DEG",
-           "TURN_TOLERANCE"]
+__all__ = ["axis_range", "largest_gap_deg", "full_turn", "turn_change", "not_one_turn", "unwrapped_range",
+           "FULL_TURN_GAP_DEG", "TURN_TOLERANCE"]
 
 #: A rotary axis's readings go all the way round when no stretch of the turn wider than this is without a
 #: reading, the seam from the last reading round to the first included (12 positions 30° apart qualify, a
@@ -119,3 +121,22 @@ def not_one_turn(axis: str, names, cols_at, rng: AxisRange) -> dict | None:
                       + (f": a scale error of {scale:+.4g} ppm" if scale is not None and abs(scale) > 0 else "")
                       + "), which a one-turn (modulo) table cannot hold",
             "turn_change": {n: float(c) for n, c in zip(names, change)}, "scale_ppm": scale, "scale_words": words}
+
+
+def unwrapped_range(rng: AxisRange) -> AxisRange:
+    """Where the one-turn table ``rng`` (modulo, 0 .. 360°) goes for a format that does not wrap positions onto a
+    turn: the controller compensates the reading as it is, so the table covers the readings as the data give them.
+
+    The whole turn 360°·k .. 360°·(k + 1) that holds every measured reading (0 .. 360° for readings in 0 .. 330°);
+    else, for readings in −180 … 175° or unwrapped ones (−400 … 725°), from the lowest reading over one turn or up
+    to the highest, whichever is further. The model repeats every turn (:func:`not_one_turn` found nothing), so its
+    values there are the one turn's. Not modulo: beyond, the format's end policy.
+    """
+    if not rng.modulo or rng.measured is None:
+        return rng
+    lo, hi = (float(v) for v in rng.measured)
+    start = 360.0 * np.floor(lo / 360.0 + 1e-12)
+    if hi > start + 360.0 + 1e-9:
+        start = lo
+    return AxisRange(start, max(start + 360.0, hi), "the measured readings' turn (no wrap)", False, rng.travel,
+                     rng.measured)

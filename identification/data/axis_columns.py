@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import warnings
+
 import numpy as np
 
 from kinid.errors import DataError
@@ -103,7 +105,7 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         Naming the file, line and column of the first problem.
     """
     path = Path(path)
-    known = [a.column for a in machine.axes] + [f"dir_{a.name.lower()}" for a in machine.axes] + ["t_s"]
+    known = [a.column for a in machine.axes] + [f"dir_{a.name.lower()}" for a in machine.axes] + ["t_s", "run"]
     table = read_csv_columns(path, what=what, required=required, texts=texts, known=known)
     header_line, header = table.header_line, table.header
     axis_cols, dir_cols = {}, {}
@@ -136,7 +138,7 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
     n = len(lines)
     # the first bad cell in reading order among the columns read here, as a row-by-row reader would meet it
     read = [a.column for a in machine.axes if a.name in axis_cols] + (["t_s"] if "t_s" in header else []) + \
-        [header[k] for k in dir_cols.values()]
+        (["run"] if "t_s" in header and "run" in header else []) + [header[k] for k in dir_cols.values()]
     first = table.first_bad(read)
     if first is not None:
         raise first
@@ -145,6 +147,8 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
         if a.name in axis_cols:
             axes[:, j] = table.numbers(a.column)
     t_s = table.numbers("t_s").copy() if "t_s" in header else None
+    if t_s is not None:
+        t_s = run_clock(t_s, table.numbers("run") if "run" in header else None, lines, path)
     dirs = {}
     for name, k in dir_cols.items():
         v = table.numbers(header[k])
@@ -159,6 +163,30 @@ def read_axis_table(path, machine: Machine, *, what: str, required=(), optional_
     if warn_metres:
         warn_if_metres(machine, axes, path)
     return AxisTable(path, header_line, header, table, axes, dirs, t_s, lines)
+
+
+def run_clock(t_s: np.ndarray, runs, lines, path) -> np.ndarray:
+    """Times from each run's start, as the time-driven effects take them (a warm-up, a drift restart with each run).
+
+    With a ``run`` column (a number per row): ``t_s`` less the earliest ``t_s`` of the row's run, so a file that
+    joins two runs timed by one clock gives each run's rows their time since that run began. Without one, ``t_s``
+    as written; where it goes back (a second run appended, timed from its own start) that row starts a new run,
+    and a warning says so.
+    """
+    t_s = np.asarray(t_s, float).copy()
+    if runs is not None:
+        runs = np.asarray(runs, float)
+        for r in np.unique(runs):
+            rows = runs == r
+            t_s[rows] -= np.min(t_s[rows])
+        return t_s
+    back = np.flatnonzero(np.diff(t_s) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        warnings.warn(f"{path}: t_s goes back at line {lines[i]} ({t_s[i - 1]:g} -> {t_s[i]:g} s): read as the start "
+                      f"of another run ({back.size + 1} runs), a warm-up or drift restarting with each; give a 'run' "
+                      f"column where the runs share one clock", stacklevel=3)
+    return t_s
 
 
 #: A linear axis whose readings all lie within this share of its travel's larger end looks like metres in mm.
