@@ -24,7 +24,11 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["chi2_sf", "chi2_isf", "chi2_logsf", "f_logsf", "CLOSED_K"]
+__all__ = ["chi2_sf", "chi2_isf", "chi2_logsf", "f_logsf", "CLOSED_K", "K_EXPANDED"]
+
+#: The coverage factor of every expanded uncertainty kinid states, U = k·σ (GUM: about 95 % for a normal
+#: distribution): the reports' and the certificate's U, and the test a term must pass to be compensated.
+K_EXPANDED = 2.0
 
 #: The largest whole number of degrees of freedom χ² is computed for in closed form.
 CLOSED_K = 200

@@ -14,14 +14,13 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from kinid.stats import K_EXPANDED
 from ..model import basis_of
 from ..fitting import FitResult
 
-__all__ = ["constant_errors", "setup_offsets", "calibrated_urdf", "K_EXPANDED"]
+__all__ = ["constant_errors", "setup_offsets", "calibrated_urdf"]
 
 
-#: Coverage factor of the expanded uncertainty a compensated term must exceed.
-K_EXPANDED = 2.0
 
 
 def constant_errors(result: FitResult, compensated=None) -> list:

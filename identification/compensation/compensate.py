@@ -33,10 +33,11 @@ import numpy as np
 from kinid.axis_tables import FileTable, applied, csv_tables
 from kinid.axis_tables import AxisErrorTable, TableOptions, controller_format, default_formats, neutral_csv_text
 from kinid.errors import DataError
+from kinid.stats import K_EXPANDED
 from ..model import basis_of, basis_values
 from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
-from .calibration import K_EXPANDED, calibrated_urdf, constant_errors, setup_offsets
+from .calibration import calibrated_urdf, constant_errors, setup_offsets
 from .ranges import axis_range, not_one_turn, unwrapped_range
 from .rotary_geometry import kinematics_files
 from .table_check import TableCheck, check_positions, check_tables
@@ -44,7 +45,7 @@ from .table_grids import AxisRange, directions, extra_points, left_after, rms, t
 
 __all__ = ["Compensation", "compensation_model", "AxisRange", "axis_range", "axis_error_columns",
            "constant_errors", "setup_offsets", "calibrated_urdf", "write_compensation", "positioning_table",
-           "CompensationFiles", "K_EXPANDED", "BOUND_SHARE"]
+           "CompensationFiles", "BOUND_SHARE"]
 
 #: A table's interpolation may depart from the model by at most this share of the error's RMS.
 BOUND_SHARE = 0.10

@@ -14,6 +14,7 @@ import hashlib
 from pathlib import Path
 
 from kinid.errors import DataError
+from kinid.stats import K_EXPANDED
 from kinid.schema import Fields, Flag, Items, Number, Text, validate
 
 from ..fitting import load_trusted_fit
@@ -21,11 +22,8 @@ from .certificate_layout import MIN_SCALE, Certificate, CertTable
 from .certificate_meta import CertificateMeta
 
 __all__ = ["Certificate", "CertTable", "build_certificate", "write_certificate", "read_verify", "read_iso",
-           "K_COVERAGE", "MAX_ERROR_ROWS", "MIN_SCALE", "FILES"]
+           "MAX_ERROR_ROWS", "MIN_SCALE", "FILES"]
 
-#: The coverage factor of every expanded uncertainty on the page (GUM: about 95 % for a normal distribution); the
-#: same k as the significance test of ``kinid compensate`` (kinid.identification.compensation.K_EXPANDED).
-K_COVERAGE = 2.0
 #: At most this many geometric errors in the table (the largest |value|/U first); the rest are counted.
 MAX_ERROR_ROWS = 14
 #: The files the certificate folder holds.
@@ -129,7 +127,7 @@ def build_certificate(meta: CertificateMeta, *, fit_path=None, verify_path=None,
         uncertainty.append(u)
         trace.insert(0, ("fit", f"{Path(fit_path).name} SHA-256 {_sha256(fit_path)}"))
     uncertainty.insert(0, f"The expanded uncertainties U are the standard uncertainties multiplied by the coverage "
-                          f"factor k = {K_COVERAGE:g}, which for a normal distribution gives a coverage probability of "
+                          f"factor k = {K_EXPANDED:g}, which for a normal distribution gives a coverage probability of "
                           f"about 95 % (GUM, JCGM 100:2008).")
     uncertainty.append("Not included: the uncertainty of the instrument's own calibration, and thermal effects "
                        "other than those present during the measurement.")
@@ -248,15 +246,15 @@ def _fit_part(fit):
             if not ok or not math.isfinite(s) or s <= 0:
                 continue
             n_identified += 1
-            if abs(v) > K_COVERAGE * s:
-                significant.append((abs(v) / s, name, v, K_COVERAGE * s, u))
+            if abs(v) > K_EXPANDED * s:
+                significant.append((abs(v) / s, name, v, K_EXPANDED * s, u))
     significant.sort(key=lambda t: -t[0])
     shown = significant[:MAX_ERROR_ROWS]
     rows = tuple((name, f"{v:+.{_decimals(U)}f}", f"{U:.{_decimals(U)}f}", unit) for _, name, v, U, unit in shown)
     more = len(significant) - len(shown)
-    caption = (f"Geometric errors (ISO 230-1 codes) whose |value| exceeds U (k = {K_COVERAGE:g}), largest against U "
+    caption = (f"Geometric errors (ISO 230-1 codes) whose |value| exceeds U (k = {K_EXPANDED:g}), largest against U "
                f"first" + (f"; {more} more in the fit file" if more else "") + ".")
-    table = CertTable(("error", "value", f"U (k = {K_COVERAGE:g})", "unit"), rows, numeric=(1, 2), caption=caption)
+    table = CertTable(("error", "value", f"U (k = {K_EXPANDED:g})", "unit"), rows, numeric=(1, 2), caption=caption)
     words = [f"Geometric errors: {len(significant)} of the machine's {n_identified} identified error parameters exceed "
              f"their expanded uncertainty; the largest is {shown[0][1]} = {shown[0][2]:+.{_decimals(shown[0][3])}f} "
              f"{shown[0][4]} ± {shown[0][3]:.{_decimals(shown[0][3])}f} {shown[0][4]}." if shown else
