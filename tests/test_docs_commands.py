@@ -5,7 +5,9 @@ commands a user can copy and run from the top folder of a fresh clone (after
 the README's set-up); the blocks of one page run in order, in one copy of the
 repository, so a later block may use what an earlier one wrote. Templates
 with placeholders (``FIT.json``, ``DIR``) go in ``text`` blocks, which are
-not run.
+not run. What a command prints is shown in a ``text`` block after an
+``<!-- output of: COMMAND -->`` marker, checked by ``tests/test_docs_output.py``
+(the convention: ``tests/docs_output.py``).
 
 The set-up steps themselves (``python3 -m venv .venv``, ``.venv/bin/pip
 install ...``) are what CI does before running the tests; here they are
