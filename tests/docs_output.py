@@ -246,7 +246,7 @@ def main(argv=None) -> int:
         with tempfile.TemporaryDirectory() as tmp:
             results = run_page(page, _fresh_clone(Path(tmp)))
         problems += write_page(page, results) if args.write else differences(page, results)
-        print(f"{page.relative_to(ROOT)}: {len(results)} marked blocks", file=sys.stderr)
+        print(f"{page.name}: {len(results)} marked blocks", file=sys.stderr)
     for problem in problems:
         print(problem)
     return 1 if problems else 0

@@ -14,8 +14,8 @@ import re
 
 import pytest
 
-from docs_output import marked_blocks, malformed_markers, matches, rewritten, run_page
-from test_docs_commands import _fresh_clone, _pages
+from docs_output import main, marked_blocks, malformed_markers, matches, rewritten, run_page
+from test_docs_commands import ROOT, _fresh_clone, _pages
 
 MARKED = [p for p in _pages() if marked_blocks(p.read_text(encoding="utf-8"))]
 
@@ -85,7 +85,7 @@ def test_rewriting_keeps_a_matching_block_and_updates_an_excerpt_line_by_line():
 
 
 def test_the_docs_mark_their_output_blocks_and_every_marker_binds_a_block():
-    assert {p.name for p in MARKED} >= {"plan.md", "compensation.md", "history.md"}
+    assert {p.name for p in MARKED} >= {"README.md", "plan.md", "compensation.md", "history.md"}
     for page in _pages():
         assert malformed_markers(page.read_text(encoding="utf-8")) == [], page.name
 
@@ -102,3 +102,20 @@ def test_marked_blocks_show_what_their_commands_print(page, tmp_path):
             f"(.venv/bin/python tests/docs_output.py --write docs/{page.name} rewrites it):\n{printed}")
         # not vacuous: the same block with one figure (or word) altered fails
         assert not matches(_altered(mark.shown, mark.digits), lines, mark.digits), (page.name, mark.line)
+
+
+def test_the_script_reports_an_altered_page_and_rewrites_it(tmp_path, capsys):
+    page = ROOT / "docs" / "machines.md"
+    text = page.read_text(encoding="utf-8")
+    (mark,) = marked_blocks(text)
+    assert len(mark.shown) > 1  # the block to alter: the whole output of `kinid model`
+    altered = text[:mark.body_start] + mark.shown[0].replace("48 error joints", "47 error joints") + "\n" \
+        + "".join(line + "\n" for line in mark.shown[2:]) + text[mark.body_end:]
+    copy = tmp_path / "machines.md"
+    copy.write_text(altered, encoding="utf-8")
+    assert main(["--check", str(copy)]) == 1
+    report = capsys.readouterr().out
+    assert f"machines.md:{mark.line}:" in report and "-" + mark.shown[0].replace("48", "47") in report, report
+    assert copy.read_text(encoding="utf-8") == altered  # --check changes nothing
+    assert main(["--write", str(copy)]) == 0
+    assert copy.read_text(encoding="utf-8") == text
