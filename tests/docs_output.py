@@ -55,10 +55,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from test_docs_commands import ROOT, _commands, _fresh_clone, _pages, _run  # noqa: E402
+from test_docs_commands import _commands, _fresh_clone, _pages, _run  # noqa: E402
 
 MARKER = re.compile(
-    r"^<!--[ \t]*output(?:[ \t]*\(numbers to (?P<digits>\d+) in the last digit\))?[ \t]+of:[ \t]*(?P<command>.+?)[ \t]*-->"
+    r"^<!--[ \t]*output(?:[ \t]*\(numbers to (?P<digits>\d+) in the last digit\))?"
+    r"[ \t]+of:[ \t]*(?P<command>.+?)[ \t]*-->"
     r"[ \t]*\n(?:[ \t]*\n)*```text[ \t]*\n(?P<body>.*?)^```", re.S | re.M)
 ANY_MARKER = re.compile(r"^<!--[ \t]*output\b.*?-->", re.M)
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
