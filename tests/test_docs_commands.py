@@ -5,7 +5,9 @@ commands a user can copy and run from the top folder of a fresh clone (after
 the README's set-up); the blocks of one page run in order, in one copy of the
 repository, so a later block may use what an earlier one wrote. Templates
 with placeholders (``FIT.json``, ``DIR``) go in ``text`` blocks, which are
-not run.
+not run. What a command prints is shown in a ``text`` block after an
+``<!-- output of: COMMAND -->`` marker, checked by ``tests/test_docs_output.py``
+(the convention: ``tests/docs_output.py``).
 
 The set-up steps themselves (``python3 -m venv .venv``, ``.venv/bin/pip
 install ...``) are what CI does before running the tests; here they are
@@ -69,16 +71,23 @@ def test_the_readme_shows_runnable_commands():
     assert any("pytest" in c for c in commands), commands
 
 
-@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
-def test_page_commands_run_as_written(page, tmp_path):
-    clone = _fresh_clone(tmp_path / "clone")
+def _run(command: str, clone: Path, **kwargs) -> subprocess.CompletedProcess:
+    """Run one docs command in ``clone`` as a user would, ``.venv/bin/`` standing for the running environment."""
     bindir = Path(sys.executable).parent
     env = dict(os.environ, PATH=f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}", MPLBACKEND="Agg",
                OPENBLAS_NUM_THREADS="1")
+    shell = command.replace(".venv/bin/", f"{shlex.quote(str(bindir))}/")
+    kwargs.setdefault("stdout", subprocess.PIPE)
+    kwargs.setdefault("stderr", subprocess.PIPE)
+    return subprocess.run(shell, shell=True, cwd=clone, env=env, text=True, timeout=600, **kwargs)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
+def test_page_commands_run_as_written(page, tmp_path):
+    clone = _fresh_clone(tmp_path / "clone")
     for command in _commands(page.read_text(encoding="utf-8")):
         if "pytest" in command:
             # the test command itself: collect only (running the suite inside the suite would recurse)
             command = command + " --collect-only -q"
-        shell = command.replace(".venv/bin/", f"{shlex.quote(str(bindir))}/")
-        out = subprocess.run(shell, shell=True, cwd=clone, env=env, capture_output=True, text=True, timeout=600)
+        out = _run(command, clone)
         assert out.returncode == 0, f"{page.name}: `{command}` exited {out.returncode}:\n{out.stdout[-2000:]}\n{out.stderr[-2000:]}"
