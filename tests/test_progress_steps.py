@@ -43,3 +43,31 @@ def test_a_step_ended_by_an_error_says_where_it_stopped():
     except ValueError:
         pass
     assert out.getvalue().splitlines()[-1].startswith("checking: stopped after ")
+
+
+def test_compensate_and_certificate_say_their_steps_on_a_terminal(tmp_path, monkeypatch, capsys):
+    """Every step shown (STEP_SHOWN_S = 0): compensate's tables and checks, the certificate's pages."""
+    import sys
+    from pathlib import Path
+
+    import kinid.progress
+    from kinid.cli import main
+
+    root = Path(__file__).resolve().parents[1]
+    machine = str(root / "urdf" / "five_axis_bc.urdf")
+    assert main(["simulate", "--machine", machine, "--errors", str(root / "examples" / "errors.json"), "--plan",
+                 "patent", "--noise-um", "1", "--out", str(tmp_path / "obs.csv")]) == 0
+    assert main(["identify", "--machine", machine, "--data", str(tmp_path / "obs.csv"), "--noise-um", "1", "--out",
+                 str(tmp_path / "fit.json")]) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(kinid.progress, "STEP_SHOWN_S", 0.0)
+    for args, label in (
+            (["compensate", "--fit", tmp_path / "fit.json", "--out", tmp_path / "comp"],
+             f"writing the tables and checking each as its controller applies it ({tmp_path / 'comp'})"),
+            (["certificate", "--fit", tmp_path / "fit.json", "--meta", root / "examples" / "certificate_meta.json",
+              "--out", tmp_path / "cert"], f"writing the certificate to {tmp_path / 'cert'} (PDF and HTML)")):
+        terminal = Terminal()
+        monkeypatch.setattr(sys, "stderr", terminal)
+        assert main([str(a) for a in args]) == 0
+        shown = [line for line in terminal.getvalue().splitlines() if line.startswith(label)]
+        assert shown[0] == f"{label} …" and shown[1].startswith(f"{label}: done in "), terminal.getvalue()

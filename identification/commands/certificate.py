@@ -31,13 +31,15 @@ def _certificate(args) -> int:
 
     from kinid.files import strict_json
     from kinid.folders import check_listed_folder
+    from kinid.progress import step
     from ..reporting import build_certificate, read_meta, write_certificate
 
     meta = read_meta(args.meta)
     check_listed_folder(args.out)  # a folder it could not replace is refused before the work
-    cert = build_certificate(meta, fit_path=args.fit, verify_path=args.verify, iso_paths=args.iso,
-                       issued=date.today().isoformat())
-    pdf = write_certificate(cert, args.out)
+    with step(f"writing the certificate to {args.out} (PDF and HTML)"):
+        cert = build_certificate(meta, fit_path=args.fit, verify_path=args.verify, iso_paths=args.iso,
+                                 issued=date.today().isoformat())
+        pdf = write_certificate(cert, args.out)
     if args.json:
         from dataclasses import asdict
         from pathlib import Path

@@ -83,6 +83,7 @@ def _compensate(args) -> int:
     from pathlib import Path
 
     from kinid.checks import check_plausible, check_positive
+    from kinid.progress import step
     from ..compensation import write_compensation
     from ..fitting import load_trusted_fit
 
@@ -92,10 +93,11 @@ def _compensate(args) -> int:
             check_plausible(option, value, kind)
     numbers = _axis_numbers(args.axis_numbers)
     result = load_trusted_fit(args.fit)  # a fit that did not converge never reaches a controller
-    out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,
-                             formats=None if args.formats is None else tuple(args.formats), fit_path=args.fit,
-                             range_policy=args.range_policy, beyond=args.beyond, all_terms=args.all_terms, axis_numbers=numbers,
-                             kinematics_formats=args.kinematics_formats)
+    with step(f"writing the tables and checking each as its controller applies it ({args.out})"):
+        out = write_compensation(result, args.out, step_mm=args.step_mm, step_deg=args.step_deg,
+                                 formats=None if args.formats is None else tuple(args.formats), fit_path=args.fit,
+                                 range_policy=args.range_policy, beyond=args.beyond, all_terms=args.all_terms,
+                                 axis_numbers=numbers, kinematics_formats=args.kinematics_formats)
     print(f"compensation of {Path(args.fit).name} written to {args.out}: {', '.join(out.files)}")
     if out.controller:
         print(out.axis_numbers.line())
