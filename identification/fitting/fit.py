@@ -106,6 +106,9 @@ class FitResult:
         from its last pass: the leverages and the pose advice use it instead of a pass of their own. None for a
         loaded or evaluated fit. ``jacobian_r_zero``: the same at every parameter zero (the nominal machine, what
         the pose advice judges), from the fit's first pass when it started there; else None.
+    board_pose : dict
+        With the laser beside the camera: ``passes`` (fits made), ``move_um`` (the last check's move of
+        ``mark_dz_mm``, RMS), ``noise_um`` and ``settled`` of the depths judged with the fitted board pose.
     """
 
     machine: Machine
@@ -139,6 +142,7 @@ class FitResult:
     start: str = ""
     jacobian_r: np.ndarray | None = None
     jacobian_r_zero: np.ndarray | None = None
+    board_pose: dict = field(default_factory=dict)
 
     @property
     def noise_um(self) -> float:
