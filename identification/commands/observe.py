@@ -27,8 +27,8 @@ def register(sub) -> None:
                    help="one row per image (the mark nearest the optical axis, default) or one per decoded mark")
     p.add_argument("--fit", default=None, metavar="FIT.json",
                    help="judge the laser's reading with the board's pose as this fit finds it (its board set-up, "
-                        "errors and EC0T) instead of the nominal machine's: the second pass when the laser sits "
-                        "beside the camera (docs/observe.md)")
+                        "errors and EC0T) instead of the nominal machine's, for a file of the rows identify judges "
+                        "again itself when the laser sits beside the camera, or a drawing's offset (docs/observe.md)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     add_alias(p, "--log", "--data")
