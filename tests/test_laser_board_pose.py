@@ -230,3 +230,37 @@ def test_data_without_the_lever_columns_give_the_old_fit_and_no_line(tmp_path, c
     assert values_l == values
     assert np.allclose(np.array(std_l, float), np.array(std, float), rtol=1e-12, equal_nan=True)
     assert fit_l["board_pose"]["passes"] == 1 and fit_l["board_pose"]["settled"]
+
+
+def test_depths_that_do_not_settle_are_said_and_the_passes_capped(tmp_path):
+    """A σ far below what the depths can reach (0.0001 µm) never holds the move: the passes stop at the cap, the
+    last line says so, and each pass moved every row by lever · (slope used − slope fitted) (plain numpy)."""
+    from kinid.identification.commands.board_settle import board_move, settle
+    from kinid.identification.data import read_observations
+    from kinid.identification.fitting import fit, model_effects
+    from kinid.identification.model import load_machine
+
+    (tmp_path / "errors.json").write_text(json.dumps({"EX0C": 12.0, "EA0W": 300.0, "EB0W": -200.0}))
+    data = tmp_path / "obs.csv"
+    _run(tmp_path, "simulate", "--machine", MACHINE, "--errors", str(tmp_path / "errors.json"), "--noise-um", "0.5",
+         "--stop-scatter-um", "100", "--out", str(data))
+    machine = load_machine(MACHINE)
+    obs = read_observations(data, machine)
+    rng = np.random.default_rng(8)
+    by_line = {line: [*rng.uniform(-20, 20, 2), 0.0, 0.0] for line in obs.lines}  # slopes used: a level board
+    effects = model_effects(machine, [])
+    said, fits = [], []
+
+    def fit_once(o):
+        fits.append((o, fit(machine, o, effects, noise_um=1e-4)))
+        return fits[-1][1]
+
+    first = {k: list(v) for k, v in by_line.items()}
+    out = settle(machine, obs, by_line, fit_once, say=said.append, max_passes=2)
+    assert not out.settled and out.passes == 2 and len(fits) == 2
+    assert "did not settle in 2 passes" in said[-1] and len(said) == 3
+    move = board_move(machine, fits[0][1], obs, first)
+    lever = np.array([first[line][:2] for line in obs.lines])
+    assert np.allclose(move.dz_mm, -np.sum(move.slope * lever, axis=1), atol=1e-15)  # the slope used was 0
+    assert np.allclose(fits[1][0].offsets_mm[:, 2], obs.offsets_mm[:, 2] + move.dz_mm, atol=1e-12)
+    assert move.rms_um > 1.0  # the board laid 300 / −200 µrad off level, seen through levers of ±20 mm
