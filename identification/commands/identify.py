@@ -182,6 +182,14 @@ def _identify(args) -> int:
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
     effects = model_effects(machine, args.add)
+    from .board_settle import read_levers
+
+    levers = read_levers(args.data, obs) if is_observation_file(args.data) else None
+    if levers is not None:  # the laser beside the camera: its depths judged with the board pose fitted, before all
+        from .board_settle import settle
+
+        board = settle(machine, obs, levers, lambda o: _robust_fit(machine, o, effects, args))
+        obs = board.obs
     if args.prior_um is not None or args.prior_urad is not None:
         if not args.prior:
             raise DataError("--prior-um and --prior-urad set the sizes of --prior; add --prior")
@@ -204,7 +212,7 @@ def _identify(args) -> int:
         if not args.no_check:
             print(f"held-out check of the prior on {len(obs)} alignments …", file=sys.stderr, flush=True)
             described += "; " + held_out_check(machine, obs, effects, noise_um=args.noise_um, **sizes).describe()
-        result = replace(result, prior=described)
+        result = replace(result, prior=described, board_pose={} if levers is None else board.record())
     elif args.auto:
         from ..diagnosis import forward_select
 
@@ -212,6 +220,11 @@ def _identify(args) -> int:
                                robust=not args.no_robust)
         result = steps[-1].fit
         obs = steps[-1].data
+        if levers is not None:
+            from dataclasses import replace
+
+            result, obs = _settled_again(machine, obs, levers, result, board, args)
+            steps = [*steps[:-1], replace(steps[-1], fit=result, data=obs)]
         _refuse_untrusted(machine, read, result, args.data)
         if args.report:
             from ..reporting import selection_report
@@ -229,6 +242,8 @@ def _identify(args) -> int:
             obs, aside, kept_fit = set_aside_with_fit(machine, obs, effects, noise_um=args.noise_um)
         result = replace(kept_fit if kept_fit is not None else fit(machine, obs, effects, noise_um=args.noise_um),
                          set_aside=aside)
+        if levers is not None:
+            result, obs = _settled_again(machine, obs, levers, result, board, args)
         _refuse_untrusted(machine, read, result, args.data)
         if args.report:
             from ..diagnosis import diagnose
@@ -253,12 +268,37 @@ def _identify(args) -> int:
     if args.target_um is not None:
         _target_line(result, obs, args)
     print(f"fit written to {args.out}")
-    from .observe import board_pose_hint
-
-    hint = board_pose_hint(args.data, machine, result, obs) if is_observation_file(args.data) else None
-    if hint:
-        print(hint.replace("FIT.json", str(args.out)))
     return 0
+
+
+def _robust_fit(machine, obs, effects, args):
+    """The fit of ``effects`` on ``obs`` as identify makes it without --auto (gross errors set aside unless
+    --no-robust): the board pose each pass of :func:`~.board_settle.settle` takes."""
+    from ..fitting import fit, set_aside_with_fit
+
+    if args.no_robust:
+        return fit(machine, obs, effects, noise_um=args.noise_um)
+    kept, _, kept_fit = set_aside_with_fit(machine, obs, effects, noise_um=args.noise_um)
+    return kept_fit if kept_fit is not None else fit(machine, kept, effects, noise_um=args.noise_um)
+
+
+def _settled_again(machine, obs, levers, result, board, args):
+    """(fit, rows): the final model's board pose checked once more; if it moves the depths beyond the noise, they
+    are judged again and the final model refitted (its set-aside rows kept aside). The fit records the passes."""
+    from dataclasses import replace
+
+    from ..fitting import fit
+    from .board_settle import board_move, settle
+
+    move = board_move(machine, result, obs, levers)
+    passes, moved = board.passes, (move.rms_um, move.noise_um, move.within)
+    if not move.within:
+        again = settle(machine, obs, levers, lambda o: fit(machine, o, result.effects, noise_um=args.noise_um),
+                       first=result, start=passes + 1)
+        obs, passes, moved = again.obs, passes + again.passes, (again.move_um, again.noise_um, again.settled)
+        result = replace(fit(machine, obs, result.effects, noise_um=args.noise_um), set_aside=result.set_aside)
+    record = {"passes": passes, "move_um": moved[0], "noise_um": moved[1], "settled": bool(moved[2])}
+    return replace(result, board_pose=record), obs
 
 
 def _check_stated_std(result, obs, stated):

@@ -27,8 +27,8 @@ def register(sub) -> None:
                    help="one row per image (the mark nearest the optical axis, default) or one per decoded mark")
     p.add_argument("--fit", default=None, metavar="FIT.json",
                    help="judge the laser's reading with the board's pose as this fit finds it (its board set-up, "
-                        "errors and EC0T) instead of the nominal machine's: the second pass when the laser sits "
-                        "beside the camera (docs/observe.md)")
+                        "errors and EC0T) instead of the nominal machine's, for a file of the rows identify judges "
+                        "again itself when the laser sits beside the camera, or a drawing's offset (docs/observe.md)")
     p.add_argument("--allow-outside-limits", action="store_true",
                    help="accept readings outside the axis travel given by the URDF joint limits")
     add_alias(p, "--log", "--data")
@@ -74,8 +74,8 @@ def _observe(args) -> int:
     if args.fit is None and lever > 0 and log.laser_mm is not None:
         # a board laid by hand is tilted by some 100-500 µrad, which the nominal machine does not know
         print(f"the laser sits {lever:.1f} mm beside the camera: the board's slope was taken from the nominal "
-              f"machine, and a set-up tilt of 200 µrad moves mark_dz_mm by {0.2 * lever:.1f} µm; after identify, "
-              f"observe again with the fitted board pose: kinid observe ... --fit FIT.json")
+              f"machine, and a set-up tilt of 200 µrad moves mark_dz_mm by {0.2 * lever:.1f} µm; kinid identify "
+              f"judges mark_dz_mm again with the board pose it fits (the lever and slope columns)")
     return 0
 
 
@@ -92,41 +92,8 @@ def _usable(fit, machine, obs, lever_mm):
     return design(machine, fit.effects, obs), np.where(vague, 0.0, fit.theta), vague  # held parameters at 0 too
 
 
+#: The columns observe writes with the laser beside the camera, with which identify judges the depths again.
 LEVER_COLUMNS = ("laser_lever_x_mm", "laser_lever_y_mm", "board_slope_x", "board_slope_y")
-
-
-def board_pose_hint(data_path, machine, fit, obs) -> str | None:
-    """What ``identify`` says when the data were observed with the laser beside the camera (the columns
-    :data:`LEVER_COLUMNS`) and the fitted board pose moves ``mark_dz_mm`` by more than the fit's noise: the figure and
-    the command that observes again with the fit. None when the columns are absent or the move is within the noise."""
-    import csv
-
-    import numpy as np
-
-    from ..data import board_pose
-    from ..fitting import joint_values
-
-    with open(data_path, newline="") as f:
-        reader = csv.DictReader(f)
-        if not set(LEVER_COLUMNS) <= set(reader.fieldnames or ()):
-            return None
-        by_line = {}
-        for row in reader:
-            by_line[reader.line_num] = [float(row[c]) for c in LEVER_COLUMNS]
-    if not all(line in by_line for line in obs.lines):
-        return None
-    table = np.array([by_line[line] for line in obs.lines])
-    lever, used = table[:, :2], table[:, 2:]
-    reach = float(np.sqrt(np.mean(np.sum(lever**2, axis=1))))
-    d, values, _ = _usable(fit, machine, obs, reach)
-    n = board_pose(machine, obs.axes, joint_values(machine, d, values)).normals
-    moves_um = -np.sum((n[:, :2] / n[:, 2:] - used) * lever, axis=1) * 1e3
-    rms = float(np.sqrt(np.mean(moves_um**2)))
-    if not rms > fit.noise.value_um:
-        return None
-    return (f"the fitted board pose moves mark_dz_mm by {rms:.2f} µm RMS (the board's slope, judged before with "
-            f"another pose, times the laser's {reach:.1f} mm beside the camera), more than the noise "
-            f"{fit.noise.value_um:.2f} µm: observe again with this fit, then identify again: kinid observe ... --fit FIT.json")
 
 
 #: Set-up parameters whose σ moves the laser's depth: the board's tilt, and the camera's turn on the tool.

@@ -108,6 +108,9 @@ class FitResult:
         the pose advice judges), from the fit's first pass when it started there; else None.
     stated_std : dict
         The instrument's stated std checked against the residuals (``StdCheck.summary()``); empty without them.
+    board_pose : dict
+        With the laser beside the camera: ``passes`` (fits made), ``move_um`` (the last check's move of
+        ``mark_dz_mm``, RMS), ``noise_um`` and ``settled`` of the depths judged with the fitted board pose.
     """
 
     machine: Machine
@@ -142,6 +145,7 @@ class FitResult:
     jacobian_r: np.ndarray | None = None
     jacobian_r_zero: np.ndarray | None = None
     stated_std: dict = field(default_factory=dict)
+    board_pose: dict = field(default_factory=dict)
 
     @property
     def noise_um(self) -> float:

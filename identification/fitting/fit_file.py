@@ -55,6 +55,8 @@ FIT_SCHEMA = Fields(
         "shared_std": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True))),  # signed changes
         "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(), "stated_std": Fields({}, other=True),
         "implausible": Items(Fields({}, other=True)),
+        "board_pose": Fields({}, optional={"passes": _COUNT, "move_um": Number(low=0, high=LARGEST, null=True),
+                                           "noise_um": Number(low=0, high=LARGEST, null=True), "settled": Flag()}),
     },
     other=True)
 
@@ -109,6 +111,7 @@ def fit_to_dict(result: FitResult) -> dict:
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
         "start": result.start,
         "stated_std": _finite_tree(result.stated_std),
+        "board_pose": {k: _finite(v) if k.endswith("_um") else v for k, v in result.board_pose.items()},
         "implausible": [{"effect": a.effect, "size": _finite(a.size), "limit": a.limit, "unit": a.unit,
                          "undetermined": a.undetermined}
                         for a in result.implausible()],
@@ -171,7 +174,8 @@ def load_fit(path) -> FitResult:
             prior=str(data.get("prior", "")),
             prior_std=None if data.get("prior_std") is None else np.array(
                 [np.inf if v is None else float(v) for v in data["prior_std"]]),
-            start=str(data.get("start", "")), stated_std=dict(data.get("stated_std") or {}))
+            start=str(data.get("start", "")), stated_std=dict(data.get("stated_std") or {}),
+            board_pose={str(k): (np.nan if v is None else v) for k, v in data.get("board_pose", {}).items()})
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:

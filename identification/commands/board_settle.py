@@ -1,0 +1,140 @@
+"""``identify`` judges the laser's depth with the board pose it fits (docs/observe.md, "The board's pose").
+
+With the laser beside the camera, ``observe`` judged each row's ``mark_dz_mm`` with the board's slope of the nominal
+machine and wrote the lever and slope it used (:data:`~.observe.LEVER_COLUMNS`). ``identify`` fits, takes the board's
+slope from its fit and moves each row's depth by ``lever · (slope_used − slope_fitted)``, refits, and repeats until
+the move is within the fit's noise. The fitted board tilt's standard deviations become shared (type B) columns
+``shift_fit_ea0w_dz_mm``, ``shift_fit_eb0w_dz_mm`` of the settled rows, as ``observe --fit`` writes them.
+"""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+__all__ = ["MAX_PASSES", "TILT_SOURCES", "BoardMove", "Settled", "read_levers", "board_move", "settle"]
+
+#: The passes (fit, re-judge the depths) ``identify`` makes before it says the depths did not settle.
+MAX_PASSES = 5
+#: The board's set-up tilt: its σ times the lever moves every depth alike (type B).
+TILT_SOURCES = ("EA0W", "EB0W")
+
+
+def read_levers(data_path, obs) -> dict | None:
+    """Line -> (lever x, lever y, slope x, slope y) of each row of ``obs`` from the observation CSV ``data_path``;
+    None when the file has not the four columns (the laser on the camera's axis, or not observed by kinid)."""
+    from .observe import LEVER_COLUMNS
+
+    with open(data_path, newline="") as f:
+        reader = csv.DictReader(f)
+        if not set(LEVER_COLUMNS) <= set(reader.fieldnames or ()):
+            return None
+        by_line = {reader.line_num: [float(row[c]) for c in LEVER_COLUMNS] for row in reader}
+    if not obs.lines or not all(line in by_line for line in obs.lines) or not all(
+            np.all(np.isfinite(by_line[line])) for line in obs.lines):
+        return None
+    return by_line
+
+
+@dataclass(frozen=True)
+class BoardMove:
+    """How the fitted board pose moves the depths of the rows: ``dz_mm`` (N,), the fitted ``slope`` (N, 2) and the
+    tilt's shared shifts (source -> (N, 3), mm); ``rms_um`` the move's RMS and ``noise_um`` the fit's σ."""
+
+    dz_mm: np.ndarray
+    slope: np.ndarray
+    shifts_mm: dict
+    rms_um: float
+    noise_um: float
+
+    @property
+    def within(self) -> bool:
+        return not self.rms_um > self.noise_um
+
+
+def _slopes(machine, axes, errors) -> np.ndarray:
+    from ..data import board_pose
+
+    n = board_pose(machine, axes, errors).normals
+    return n[:, :2] / n[:, 2:]
+
+
+def board_move(machine, fit, obs, by_line) -> BoardMove:
+    """The move of each row's ``mark_dz_mm`` when the board's slope is the one ``fit`` finds at the row's pose.
+
+    The camera's turn on the tool (``EC0T``) is held at 0: the lever was written in the frame of the nominal machine's
+    normals (the machine's axes), and the turn only turns the slope in that frame. A turn the images determine to
+    no better than the laser's noise is left at 0 as ``observe --fit`` leaves it."""
+    from ..fitting import joint_values
+    from .observe import _usable
+
+    table = np.array([by_line[line] for line in obs.lines])
+    lever, used = table[:, :2], table[:, 2:]
+    reach = float(np.sqrt(np.mean(np.sum(lever**2, axis=1))))
+    d, values, vague = _usable(fit, machine, obs, reach)
+    codes = list(fit.param_names)
+    if "EC0T" in codes:
+        values[codes.index("EC0T")] = 0.0
+    slope = _slopes(machine, obs.axes, joint_values(machine, d, values))
+    shifts = {}
+    for name in TILT_SOURCES:
+        k = codes.index(name) if name in codes else None
+        if k is None or vague[k] or not (np.isfinite(fit.std[k]) and fit.std[k] > 0):
+            continue
+        moved = values.copy()
+        moved[k] += fit.std[k]
+        shift = np.zeros((len(obs), 3))
+        shift[:, 2] = np.sum((slope - _slopes(machine, obs.axes, joint_values(machine, d, moved))) * lever, axis=1)
+        shifts["fit_" + name.lower()] = shift
+    dz_mm = np.sum((used - slope) * lever, axis=1)
+    return BoardMove(dz_mm, slope, shifts, float(np.sqrt(np.mean(dz_mm**2))) * 1e3, float(fit.noise.value_um))
+
+
+def _moved(obs, by_line, move: BoardMove):
+    """``obs`` with the depths moved and the tilt's shifts; ``by_line`` takes the slopes now used."""
+    offsets = obs.offsets_mm.copy()
+    offsets[:, 2] += move.dz_mm
+    for i, line in enumerate(obs.lines):
+        by_line[line][2:] = [float(move.slope[i, 0]), float(move.slope[i, 1])]
+    kept = {k: v for k, v in obs.shifts_mm.items() if not k.startswith("fit_")}  # observe --fit's: judged again
+    return replace(obs, offsets_mm=offsets, shifts_mm={**kept, **move.shifts_mm})
+
+
+@dataclass(frozen=True)
+class Settled:
+    """The rows with their depths judged with the fitted board pose, and how that went: ``passes`` fits made,
+    ``move_um`` the last pass's move (RMS) against the noise ``noise_um``, ``settled`` whether it was within."""
+
+    obs: object
+    passes: int
+    move_um: float
+    noise_um: float
+    settled: bool
+
+    def record(self, passes_before: int = 0) -> dict:
+        """The fit file's ``board_pose`` entry."""
+        return {"passes": passes_before + self.passes, "move_um": self.move_um, "noise_um": self.noise_um,
+                "settled": self.settled}
+
+
+def settle(machine, obs, by_line, fit_once, *, say=print, max_passes: int = MAX_PASSES, first=None,
+           start: int = 1) -> Settled:
+    """Fit (``fit_once(obs) -> FitResult``), move the depths by the fitted board pose, refit, until the move is within
+    the fit's noise (that last move is made too: the caller fits the rows returned) or ``max_passes`` fits were
+    made; one line per pass through ``say``, the passes numbered from
+    ``start``. ``first``: a fit of ``obs`` the first pass takes instead of fitting. ``by_line`` is updated with the
+    slopes used."""
+    for k in range(start, start + max_passes):
+        result = first if k == start and first is not None else fit_once(obs)
+        move = board_move(machine, result, obs, by_line)
+        if move.within:
+            say(f"board pose: pass {k} moved mark_dz_mm by {move.rms_um:.2f} µm RMS, within the noise "
+                f"{move.noise_um:.2f} µm: settled")
+            return Settled(_moved(obs, by_line, move), k - start + 1, move.rms_um, move.noise_um, True)
+        obs = _moved(obs, by_line, move)
+        say(f"board pose: pass {k} moved mark_dz_mm by {move.rms_um:.2f} µm RMS, more than the noise "
+            f"{move.noise_um:.2f} µm: judged again with the fitted board pose")
+    say(f"board pose: mark_dz_mm did not settle in {max_passes} passes (the last moved it by {move.rms_um:.2f} µm RMS, "
+        f"noise {move.noise_um:.2f} µm): the rows of the last pass are used; check the laser's offset and the board")
+    return Settled(obs, max_passes, move.rms_um, move.noise_um, False)
