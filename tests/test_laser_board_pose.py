@@ -264,3 +264,27 @@ def test_depths_that_do_not_settle_are_said_and_the_passes_capped(tmp_path):
     assert np.allclose(move.dz_mm, -np.sum(move.slope * lever, axis=1), atol=1e-15)  # the slope used was 0
     assert np.allclose(fits[1][0].offsets_mm[:, 2], obs.offsets_mm[:, 2] + move.dz_mm, atol=1e-12)
     assert move.rms_um > 1.0  # the board laid 300 / −200 µrad off level, seen through levers of ±20 mm
+
+
+@pytest.mark.parametrize("cell", ["abc", "inf", ""])
+def test_a_lever_or_slope_cell_that_is_no_number_is_one_line(tmp_path, capsys, cell):
+    """The four columns observe writes with the laser beside the camera: a bad cell names its line and column (it
+    was a ValueError traceback, and a non-finite one silently left every depth judged with the nominal board)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    assert main(["simulate", "--machine", MACHINE, "--errors", str(root / "examples" / "errors.json"), "--plan",
+                 "patent", "--out", str(tmp_path / "obs.csv")]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "obs.csv")))
+    with open(tmp_path / "levers.csv", "w", newline="") as f:
+        out = csv.DictWriter(f, [*rows[0], "laser_lever_x_mm", "laser_lever_y_mm", "board_slope_x", "board_slope_y"])
+        out.writeheader()
+        for k, r in enumerate(rows):
+            out.writerow({**r, "laser_lever_x_mm": 18.0, "laser_lever_y_mm": -2.5, "board_slope_x": 0.0,
+                          "board_slope_y": cell if k == 4 else 0.0})
+    capsys.readouterr()
+    assert main(["identify", "--machine", MACHINE, "--data", str(tmp_path / "levers.csv"), "--noise-um", "1",
+                 "--out", str(tmp_path / "fit.json")]) == 2
+    err = capsys.readouterr().err
+    assert f"levers.csv:6, column 'board_slope_y': {cell!r} is not a finite number" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "fit.json").exists()

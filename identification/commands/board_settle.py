@@ -30,11 +30,27 @@ def read_levers(data_path, obs) -> dict | None:
         reader = csv.DictReader(f)
         if not set(LEVER_COLUMNS) <= set(reader.fieldnames or ()):
             return None
-        by_line = {reader.line_num: [float(row[c]) for c in LEVER_COLUMNS] for row in reader}
-    if not obs.lines or not all(line in by_line for line in obs.lines) or not all(
-            np.all(np.isfinite(by_line[line])) for line in obs.lines):
+        by_line = {reader.line_num: [_number(row[c], data_path, reader.line_num, c) for c in LEVER_COLUMNS]
+                   for row in reader}
+    if not obs.lines or not all(line in by_line for line in obs.lines):
         return None
     return by_line
+
+
+def _number(text, path, line: int, column: str) -> float:
+    """A lever or slope cell as a finite number; one line naming the cell otherwise (a silently skipped pass would
+    leave every depth judged with the nominal board)."""
+    from kinid.errors import DataError
+
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        value = None
+    if value is None or not np.isfinite(value):
+        raise DataError(f"{text!r} is not a finite number: observe writes the laser's lever (mm) and the board's slope "
+                        f"it used with each row; a row edited by hand? (remove the four lever and slope columns to "
+                        f"fit the depths as they are)", path=path, line=line, column=column)
+    return value
 
 
 @dataclass(frozen=True)
