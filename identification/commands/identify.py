@@ -177,11 +177,12 @@ def _identify(args) -> int:
     _positive(args.target_um, "--target-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
-    read, stated = read_data(args.data, machine, args, check_units=False)
+    read, stated = read_data(args.data, machine, args, check_units=False, together=True)
     read = _without_duplicates(read)
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
-    effects = model_effects(machine, args.add)
+    targets = () if is_observation_file(args.data) else tuple(dict.fromkeys(obs.marks))
+    effects = model_effects(machine, args.add, targets=targets)
     if args.prior_um is not None or args.prior_urad is not None:
         if not args.prior:
             raise DataError("--prior-um and --prior-urad set the sizes of --prior; add --prior")
@@ -241,6 +242,8 @@ def _identify(args) -> int:
     result = _check_stated_std(result, obs, stated)
     save_fit(result, args.out)
     print(result.table())
+    if len(targets) > 1:
+        print("\n".join(_target_lines(result, targets)))
     if result.stated_std:
         print(result.stated_std["line"])
     if result.aliases:
@@ -273,6 +276,22 @@ def _check_stated_std(result, obs, stated):
         return result
     check = check_stated_std(result.residuals_um, std_mm * 1e3, result.dof)
     return result if check is None else replace(result, stated_std=check.summary())
+
+
+def _target_lines(result, targets) -> list:
+    """One line per target of several fitted together: its point on the tool (x, y, z in the tool frame, mm, its
+    set-up ``E?0T:target:<mark>``) with σ, or held where the data see it only with another term."""
+    import numpy as np
+
+    values = dict(zip(result.param_names, zip(result.values, result.std, result.identifiable)))
+    out = []
+    for mark in targets:
+        parts = []
+        for c in "xyz":
+            v, s, ok = values.get(f"E{c.upper()}0T:target:{mark}", (np.nan, np.nan, False))
+            parts.append(f"{c} {v / 1e3:+.4f} ± {s / 1e3:.4f}" if ok else f"{c} held")
+        out.append(f"{mark}: tool point {', '.join(parts)} mm (tool frame; from the tool frame of the URDF)")
+    return out
 
 
 def _target_line(result, obs, args) -> None:
@@ -382,10 +401,12 @@ def _diagnose(args) -> int:
     from ..fitting import load_fit
     from ..fitting import Noise
     from ..data import check_row_count
+    from ..model import basis_of
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
-    obs = _without_duplicates(read_data(args.data, loaded.machine, args)[0])
+    together = any(basis_of(e).driver == "mark" for e in loaded.effects)  # a fit of several targets together
+    obs = _without_duplicates(read_data(args.data, loaded.machine, args, together=together)[0])
     check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
