@@ -280,17 +280,26 @@ def _check_stated_std(result, obs, stated):
 
 def _target_lines(result, targets) -> list:
     """One line per target of several fitted together: its point on the tool (x, y, z in the tool frame, mm, its
-    set-up ``E?0T:target:<mark>``) with σ, or held where the data see it only with another term."""
+    set-up ``E?0T:target:<mark>``) with σ, or held where the data see it only with another term (the other
+    targets' coordinate then from the held one's)."""
     import numpy as np
 
     values = dict(zip(result.param_names, zip(result.values, result.std, result.identifiable)))
-    out = []
+    seen_with = {a.name: a.partners[0][0] for a in result.aliases if a.partners}
+    name = {(m, c): f"E{c.upper()}0T:target:{m}" for m in targets for c in "xyz"}
+    # a target's coordinate held (seen only with a machine's term): the others' are from it
+    held = {c: m for m in targets for c in "xyz" if not values.get(name[m, c], (0, 0, False))[2]}
+    out = ["the targets' points on the tool (E?0T:target:<mark>, in the URDF's tool frame):"]
     for mark in targets:
         parts = []
         for c in "xyz":
-            v, s, ok = values.get(f"E{c.upper()}0T:target:{mark}", (np.nan, np.nan, False))
-            parts.append(f"{c} {v / 1e3:+.4f} ± {s / 1e3:.4f}" if ok else f"{c} held")
-        out.append(f"{mark}: tool point {', '.join(parts)} mm (tool frame; from the tool frame of the URDF)")
+            v, s, ok = values.get(name[mark, c], (np.nan, np.nan, False))
+            if ok:
+                parts.append(f"{c} {v / 1e3:+.4f} ± {s / 1e3:.4f} mm" + (f" (from {held[c]}'s)" if c in held else ""))
+            else:
+                parts.append(f"{c} held" + (f" (seen only with {seen_with[name[mark, c]]})"
+                                            if name[mark, c] in seen_with else ""))
+        out.append(f"{mark}: tool point {', '.join(parts)}")
     return out
 
 

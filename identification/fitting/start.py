@@ -274,9 +274,10 @@ def _tool_setup(machine: Machine, d: Design, free, aliases) -> tuple:
     """The point on the tool's set-up translations ``E[XYZ]0T`` the start estimates, in chain order, as
     (parameter, basis value, joint): a joint's parameters each one value on the rows it is on and 0 elsewhere
     (one constant; or one per target, ``EX0T:target:T2``, where several targets are measured at each pose);
-    and, for those held, where their value goes: parameter -> (the one free parameter it aliases with, c), the
+    and, for those held, where their value goes: parameter -> ((the free parameter it aliases with, c), …), the
     data seeing ``partner + c · held`` (a held ``EZ0T`` beside ``EZ0J6``, the same line: its value is the
-    partner's)."""
+    partner's; a held ``EZ0T:target:T3``'s goes to ``EZ0J6``, the other targets' ``EZ0T:target:…`` moving back by
+    as much: their rows unmoved)."""
     names = d.param_names()
     tool, moves = [], {}
     for j in np.unique(d.joint_index):
@@ -287,17 +288,21 @@ def _tool_setup(machine: Machine, d: Design, free, aliases) -> tuple:
         levels = [np.unique(d.basis[:, k][d.basis[:, k] != 0]) for k in params]
         if any(v.size != 1 for v in levels):
             continue
+        shares = d.basis[:, params] / np.array([v[0] for v in levels])
+        if len(params) > 1 and not np.all(shares.sum(axis=1) == 1.0):
+            continue  # several, and not one per row (each target's rows): no move of a held one is exact
         for k, v in zip(params, levels):
             k, b = int(k), float(v[0])
             if free[k]:
                 tool.append((k, b, joint))
                 continue
             alias = next((a for a in aliases if a.name == names[k]), None)
-            if alias is not None and alias.kind == "aliased" and len(alias.partners) == 1:
-                partner = names.index(alias.partners[0][0])
-                if free[partner]:
+            # one partner; or, of several targets' (the other targets' points move back), all of them free
+            if alias is not None and alias.kind == "aliased" and (len(alias.partners) == 1 or len(params) > 1):
+                partners = tuple((names.index(n), c) for n, c in alias.partners)
+                if all(free[p] for p, _ in partners):
                     tool.append((k, b, joint))
-                    moves[k] = (partner, alias.partners[0][1])
+                    moves[k] = partners
     return sorted(tool, key=lambda f: f[2].q_index), moves
 
 
@@ -354,8 +359,9 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
     def move_tool(step_mm):
         for (k, b, _), s in zip(tool, step_mm):
             theta[k] += s * 1e3 / b
-        for k, (partner, c) in moves.items():  # a held one's value onto the free parameter that carries it
-            theta[partner] += c * theta[k]
+        for k, partners in moves.items():  # a held one's value onto the free parameters that carry it
+            for partner, c in partners:
+                theta[partner] += c * theta[k]
             theta[k] = 0.0
         tool_moved_mm[:] += step_mm
 
