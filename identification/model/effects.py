@@ -264,7 +264,7 @@ def model_effects(machine: Machine, add=(), *, base=None, targets=()) -> list[Ef
         names.add(e.name)
         effects.append(e)
     if len(targets) > 1:
-        tool = [e for e in effects if e.basis == "constant" and machine.error_joint(e.code).axis == "T"
+        tool = [e for e in effects if basis_of(e).constant and machine.error_joint(e.code).axis == "T"
                 and machine.error_joint(e.code).location and machine.error_joint(e.code).direction in "XYZ"]
         if not tool:
             raise DataError(f"{len(targets)} targets per pose ({', '.join(targets)}): fitting them together gives "
