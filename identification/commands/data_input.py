@@ -21,7 +21,8 @@ def add_export_options(p) -> None:
     g.add_argument("--joint-unit", choices=("rad", "deg"), default=None,
                    help="the unit of reading columns without a _rad/_deg suffix (default: the URDF's, rad)")
     g.add_argument("--target", default=None, metavar="LABEL",
-                   help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one fitted, T1, T2 …")
+                   help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one read, T1, T2 … "
+                        "(default: every target; identify fits them together, each its own tool point)")
 
 
 def is_observation_file(path) -> bool:
@@ -33,10 +34,10 @@ def is_observation_file(path) -> bool:
     return Path(path).is_file() and is_observation_csv(path)
 
 
-def read_data(path, machine, args, *, check_units: bool = True, others=()):
+def read_data(path, machine, args, *, check_units: bool = True, others=(), together: bool = False):
     """(observations, stated std) of ``path``: kinid's observation CSV, or an instrument export read with the
     export options of ``args`` (its mapping printed on standard error), one target of several chosen by
-    ``--target``.
+    ``--target``, or every target where the verb fits them ``together``.
 
     Parameters
     ----------
@@ -49,6 +50,9 @@ def read_data(path, machine, args, *, check_units: bool = True, others=()):
         Warn of the unit mistakes an observation CSV shows.
     others : sequence of str
         The verb's other files read the same way: an export option is refused only when none of them is an export.
+    together : bool
+        Without ``--target``, read every target of several (the rows' marks ``T1``, ``T2`` …), and say so; else
+        several targets without ``--target`` are refused.
 
     Returns
     -------
@@ -59,7 +63,7 @@ def read_data(path, machine, args, *, check_units: bool = True, others=()):
     ------
     DataError
         One line: an export option given for observation CSVs only, a target not in the file, several targets
-        without ``--target``, or what the file's reader names.
+        without ``--target`` (unless ``together``), or what the file's reader names.
     """
     import numpy as np
 
@@ -75,18 +79,23 @@ def read_data(path, machine, args, *, check_units: bool = True, others=()):
     point = parse_point_columns(args.point) if args.point is not None else None
     export = read_export(path, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
                          check_limits=check_limits)
-    print("\n".join(export.notes()), file=sys.stderr)
     obs = export.observations
     std = {} if export.std_mm is None else {(ln, m): s for ln, m, s in zip(obs.lines, obs.marks, export.std_mm)}
     labels = [label for label, *_ in export.targets]
+    if args.target is not None and args.target not in labels:
+        raise DataError(f"--target {args.target!r}: the file's targets are {', '.join(labels)}")
+    notes = export.notes()
+    if args.target is None and together and len(labels) > 1:
+        notes.append(f"  targets {', '.join(labels)} fitted together: each its own point on the tool "
+                     f"(E?0T:target:<mark>), the machine's errors and the measurement frame shared")
+    elif args.target is not None and len(labels) > 1:
+        notes.append(f"  target {args.target} fitted (--target), the others left out")
+    print("\n".join(notes), file=sys.stderr)
     if args.target is not None:
-        if args.target not in labels:
-            raise DataError(f"--target {args.target!r}: the file's targets are {', '.join(labels)}")
         return obs.subset(np.array([m == args.target for m in obs.marks])), std
-    if len(labels) > 1:
-        raise DataError(f"{len(labels)} targets per pose ({', '.join(labels)}) and the machine has one tool point: "
-                        f"fit one with --target {labels[0]} (several tool points, each with its own set-up, are "
-                        f"not yet supported)", path=path)
+    if len(labels) > 1 and not together:
+        raise DataError(f"{len(labels)} targets per pose ({', '.join(labels)}): choose one with --target "
+                        f"{labels[0]} (kinid identify fits them together)", path=path)
     return obs, std
 
 

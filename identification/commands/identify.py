@@ -177,11 +177,12 @@ def _identify(args) -> int:
     _positive(args.target_um, "--target-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
-    read, stated = read_data(args.data, machine, args, check_units=False)
+    read, stated = read_data(args.data, machine, args, check_units=False, together=True)
     read = _without_duplicates(read)
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
-    effects = model_effects(machine, args.add)
+    targets = () if is_observation_file(args.data) else tuple(dict.fromkeys(obs.marks))
+    effects = model_effects(machine, args.add, targets=targets)
     from .board_settle import read_levers
 
     levers = read_levers(args.data, obs) if is_observation_file(args.data) else None
@@ -256,6 +257,8 @@ def _identify(args) -> int:
     result = _check_stated_std(result, obs, stated)
     save_fit(result, args.out)
     print(result.table())
+    if len(targets) > 1:
+        print("\n".join(_target_lines(result, targets)))
     if result.stated_std:
         print(result.stated_std["line"])
     if result.aliases:
@@ -313,6 +316,31 @@ def _check_stated_std(result, obs, stated):
         return result
     check = check_stated_std(result.residuals_um, std_mm * 1e3, result.dof)
     return result if check is None else replace(result, stated_std=check.summary())
+
+
+def _target_lines(result, targets) -> list:
+    """One line per target of several fitted together: its point on the tool (x, y, z in the tool frame, mm, its
+    set-up ``E?0T:target:<mark>``) with σ, or held where the data see it only with another term (the other
+    targets' coordinate then from the held one's)."""
+    import numpy as np
+
+    values = dict(zip(result.param_names, zip(result.values, result.std, result.identifiable)))
+    seen_with = {a.name: a.partners[0][0] for a in result.aliases if a.partners}
+    name = {(m, c): f"E{c.upper()}0T:target:{m}" for m in targets for c in "xyz"}
+    # a target's coordinate held (seen only with a machine's term): the others' are from it
+    held = {c: m for m in targets for c in "xyz" if not values.get(name[m, c], (0, 0, False))[2]}
+    out = ["the targets' points on the tool (E?0T:target:<mark>, in the URDF's tool frame):"]
+    for mark in targets:
+        parts = []
+        for c in "xyz":
+            v, s, ok = values.get(name[mark, c], (np.nan, np.nan, False))
+            if ok:
+                parts.append(f"{c} {v / 1e3:+.4f} ± {s / 1e3:.4f} mm" + (f" (from {held[c]}'s)" if c in held else ""))
+            else:
+                parts.append(f"{c} held" + (f" (seen only with {seen_with[name[mark, c]]})"
+                                            if name[mark, c] in seen_with else ""))
+        out.append(f"{mark}: tool point {', '.join(parts)}")
+    return out
 
 
 def _target_line(result, obs, args) -> None:
@@ -422,10 +450,12 @@ def _diagnose(args) -> int:
     from ..fitting import load_fit
     from ..fitting import Noise
     from ..data import check_row_count
+    from ..model import basis_of
 
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
-    obs = _without_duplicates(read_data(args.data, loaded.machine, args)[0])
+    together = any(basis_of(e).driver == "mark" for e in loaded.effects)  # a fit of several targets together
+    obs = _without_duplicates(read_data(args.data, loaded.machine, args, together=together)[0])
     check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside

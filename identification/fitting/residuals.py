@@ -60,7 +60,7 @@ def design(machine: Machine, effects, obs: Observations, axes_user: np.ndarray |
     codes = machine.error_codes
     blocks, index = [], []
     for e in effects:
-        b = basis_values(e, machine, axes_user, t_s=obs.t_s, directions=obs.directions)
+        b = basis_values(e, machine, axes_user, t_s=obs.t_s, directions=obs.directions, marks=obs.marks)
         blocks.append(b)
         index += [codes.index(e.code)] * b.shape[1]
     basis = np.concatenate(blocks, axis=1) if blocks else np.zeros((len(obs), 0))

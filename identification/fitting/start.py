@@ -14,7 +14,8 @@ and may end on a non-physical solution. Here the frame is estimated first, in cl
 2. the transform is put into the six set-up joints: with ``S`` the set-up's placement (translations, then
    rotations, in the chain's order), the model's point is ``S⁻¹ p₀``, so ``S ← S · [R, t]⁻¹``, its rotation
    split into the set-up's three angles in their chain order;
-3. where the tool point's set-up translations ``E[XYZ]0T`` are in the model, the frame and the point on the
+3. where the tool point's set-up translations ``E[XYZ]0T`` are in the model (one constant each, or one per
+   target where several are measured at each pose, ``EX0T:target:T2``), the frame and the point(s) on the
    tool are first solved at once (:func:`frame_and_tool`: ``Rᵀ (w − t) = p + G s`` is linear in ``Rᵀ`` taken as
    any matrix, ``Rᵀ t`` and the point's move ``s``; the matrix then turned into the nearest rotation), and then
    alternately: the point on the tool by linear least squares in the frame of 1.–2. (the point is affine in
@@ -270,24 +271,51 @@ def _frame_round(machine, d, obs, setup: _Setup, theta, tool_columns):
 
 
 def _tool_setup(machine: Machine, d: Design, free, aliases) -> tuple:
-    """The point on the tool's set-up translations ``E[XYZ]0T`` (one constant parameter each) the start
-    estimates, in chain order, as (parameter, basis value, joint); and, for those held, where their value goes:
-    parameter -> (the one free parameter it aliases with, c), the data seeing ``partner + c · held`` (a held
-    ``EZ0T`` beside ``EZ0J6``, the same line: its value is the partner's)."""
+    """The point on the tool's set-up translations ``E[XYZ]0T`` the start estimates, in chain order, as
+    (parameter, basis value, joint): a joint's parameters each one value on the rows it is on and 0 elsewhere
+    (one constant; or one per target, ``EX0T:target:T2``, where several targets are measured at each pose);
+    and, for those held, where their value goes: parameter -> ((the free parameter it aliases with, c), …), the
+    data seeing ``partner + c · held`` (a held ``EZ0T`` beside ``EZ0J6``, the same line: its value is the
+    partner's; a held ``EZ0T:target:T3``'s goes to ``EZ0J6``, the other targets' ``EZ0T:target:…`` moving back by
+    as much: their rows unmoved)."""
     names = d.param_names()
-    every = _single_constants(machine, d, "T", "XYZ", np.ones(len(free), bool))
     tool, moves = [], {}
-    for k, b, joint in sorted(every.values(), key=lambda f: f[2].q_index):
-        if free[k]:
-            tool.append((k, b, joint))
+    for j in np.unique(d.joint_index):
+        joint = machine.error_joints[j]
+        if joint.axis != "T" or not joint.location or joint.direction not in "XYZ":
             continue
-        alias = next((a for a in aliases if a.name == names[k]), None)
-        if alias is not None and alias.kind == "aliased" and len(alias.partners) == 1:
-            partner = names.index(alias.partners[0][0])
-            if free[partner]:
+        params = np.flatnonzero(d.joint_index == j)
+        levels = [np.unique(d.basis[:, k][d.basis[:, k] != 0]) for k in params]
+        if any(v.size != 1 for v in levels):
+            continue
+        shares = d.basis[:, params] / np.array([v[0] for v in levels])
+        if len(params) > 1 and not np.all(shares.sum(axis=1) == 1.0):
+            continue  # several, and not one per row (each target's rows): no move of a held one is exact
+        for k, v in zip(params, levels):
+            k, b = int(k), float(v[0])
+            if free[k]:
                 tool.append((k, b, joint))
-                moves[k] = (partner, alias.partners[0][1])
-    return tool, moves
+                continue
+            alias = next((a for a in aliases if a.name == names[k]), None)
+            # one partner; or, of several targets' (the other targets' points move back), all of them free
+            if alias is not None and alias.kind == "aliased" and (len(alias.partners) == 1 or len(params) > 1):
+                partners = tuple((names.index(n), c) for n, c in alias.partners)
+                if all(free[p] for p, _ in partners):
+                    tool.append((k, b, joint))
+                    moves[k] = partners
+    return sorted(tool, key=lambda f: f[2].q_index), moves
+
+
+def _tool_columns(machine: Machine, d: Design, tool) -> tuple:
+    """(the error joints of ``tool``, once each; f(G) the points' derivatives (N, 3, len(tool)) with respect to
+    each parameter's move in mm, from G (N, 3, joints) of the joints')."""
+    columns = sorted({machine.error_joints.index(jt) for _, _, jt in tool})
+    at = [columns.index(machine.error_joints.index(jt)) for _, _, jt in tool]
+    share = d.basis[:, [k for k, _, _ in tool]] / np.array([b for _, b, _ in tool])  # 1 on a parameter's rows
+
+    def per_parameter(G):
+        return G[:, :, at] * share[:, None, :]
+    return columns, per_parameter
 
 
 def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, free=None,
@@ -323,7 +351,7 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
     if setup is None or len(obs) < 3 or not np.all(np.isfinite(obs.axes)):
         return None
     tool, moves = _tool_setup(machine, d, free, aliases)
-    tool_columns = [machine.error_joints.index(jt) for _, _, jt in tool]
+    tool_columns, per_parameter = _tool_columns(machine, d, tool)
     R0, e0 = _placement(setup, theta)
     tool_moved_mm = np.zeros(len(tool))
     settled = not tool
@@ -331,15 +359,16 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
     def move_tool(step_mm):
         for (k, b, _), s in zip(tool, step_mm):
             theta[k] += s * 1e3 / b
-        for k, (partner, c) in moves.items():  # a held one's value onto the free parameter that carries it
-            theta[partner] += c * theta[k]
+        for k, partners in moves.items():  # a held one's value onto the free parameters that carry it
+            for partner, c in partners:
+                theta[partner] += c * theta[k]
             theta[k] = 0.0
         tool_moved_mm[:] += step_mm
 
     if tool:  # frame and point on the tool at once, linear: the rounds then start near both
         p, G, _ = evaluate(machine, obs.axes, joint_values(machine, d, theta), offsets_mm=obs.offsets_mm,
                            error_columns=tool_columns, axes_jacobian=False)
-        joint = frame_and_tool(p, G, w)
+        joint = frame_and_tool(p, per_parameter(G), w)
         if joint is not None:
             R, t, step_mm = joint
             R_s, e_s = _placement(setup, theta)
@@ -355,7 +384,7 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
             break
         # the point on the tool in the new frame: the residual R p + t − w, its columns R G (mm per mm)
         r = p @ R.T + t - w
-        J = np.einsum("ij,njk->nik", R, G)[keep].reshape(-1, len(tool))
+        J = np.einsum("ij,njk->nik", R, per_parameter(G))[keep].reshape(-1, len(tool))
         step_mm = np.linalg.lstsq(J, -r[keep].ravel(), rcond=None)[0]
         move_tool(step_mm)
         settled = bool(np.max(np.abs(step_mm)) < TOOL_STEP_MM)

@@ -111,10 +111,11 @@ class Basis:
         bare code (constant).
     syntax : str
         The name as users write it, for messages: ``periodic:<P>``.
-    driver : {"none", "position", "direction", "time", "positions"}
+    driver : {"none", "position", "direction", "time", "positions", "mark"}
         What the value varies with: nothing, the position of the joint's axis, the approach
-        direction of that axis, time (column ``t_s``), or the positions of the joint's axis and of
-        the other axis the effect names (``q`` is then (N, 2)).
+        direction of that axis, time (column ``t_s``), the positions of the joint's axis and of
+        the other axis the effect names (``q`` is then (N, 2)), or the row's mark (``q`` is then the
+        marks, (N,) of str: one of several targets measured at each pose).
     parse : callable (re.Match, BasisInput) -> dict
         The effect's fields beyond name, code, basis, axis and unit (``degree``, ``period``,
         ``knots``, ``args``); raises ``BasisInput.fail(...)`` for a bad value.
@@ -187,8 +188,8 @@ BASES = Registry("effect basis", Basis, key="kind", parameter="kind", variant_pa
 
 def register_basis(basis: Basis) -> Basis:
     """Add ``basis`` to :data:`BASES` (replacing one of the same kind) and return it."""
-    if isinstance(basis, Basis) and basis.driver not in ("none", "position", "direction", "time", "positions"):
-        raise DataError(f"must be none, position, direction, time or positions, got {basis.driver!r}",
+    if isinstance(basis, Basis) and basis.driver not in ("none", "position", "direction", "time", "positions", "mark"):
+        raise DataError(f"must be none, position, direction, time, positions or mark, got {basis.driver!r}",
                         parameter="driver")
     return BASES.register(basis)
 
@@ -455,6 +456,22 @@ register_basis(Basis(
     candidates=lambda j, kind, *, varying, linear_axes=(), **_:
         [f"{j.code}:with:{b}" for b in linear_axes if b != j.axis]
         if varying and kind == "prismatic" and not j.location and j.kind == "prismatic" else []))
+
+
+# --- one of several targets -----------------------------------------------------------------------
+
+def _parse_target(m, ctx: BasisInput) -> dict:
+    if ctx.joint.axis != "T" or not ctx.joint.location:
+        raise ctx.fail(f"a target basis is a tool point's set-up (E?0T); {ctx.code} is not one")
+    return {"args": (m.group("label"),)}
+
+
+register_basis(Basis(
+    kind="target", grammar=r"target:(?P<label>[A-Za-z0-9_.-]+)", syntax="target:<mark>", driver="mark",
+    parse=_parse_target, n_params=_one, param_names=_own_name, param_units=_unit,
+    # the tool point's set-up of one target of several measured at each pose: the value on its rows, 0 elsewhere
+    values=lambda e, q, t, s: (np.asarray(q) == e.args[0]).astype(float).reshape(-1, 1),
+    describe=lambda e, u: f"constant on the rows of target {e.args[0]}"))
 
 
 def parse_name(name: str, joint, machine, source: str) -> tuple:

@@ -204,7 +204,8 @@ def _axis_dependent_joints(machine) -> list:
     return out
 
 
-def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None) -> np.ndarray:
+def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None,
+                 marks=None) -> np.ndarray:
     """Basis values (N, n_params) of ``effect`` for N poses.
 
     Parameters
@@ -214,11 +215,13 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
     t_s : array (N,) or None
         Times, s (drift).
     directions : mapping axis name -> array (N,) of ±1, or None (reversal).
+    marks : sequence (N,) of str, or None
+        The rows' marks (a target's set-up, ``E?0T:target:T2``).
 
     Raises
     ------
     DataError
-        If the data lack the column the basis needs (``t_s``, ``dir_<axis>``).
+        If the data lack the column the basis needs (``t_s``, ``dir_<axis>``, the marks).
     """
     basis = basis_of(effect)
     n = axes_user.shape[0]
@@ -235,13 +238,23 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
         if directions is None or effect.axis not in directions:
             raise DataError(f"effect {effect.name!r} needs the column 'dir_{effect.axis.lower()}' in the data")
         s = np.asarray(directions[effect.axis], float).reshape(n)
+    elif basis.driver == "mark":
+        if marks is None or len(marks) != n:
+            raise DataError(f"effect {effect.name!r} needs the rows' marks (the target each row measured)")
+        q = np.asarray(marks, dtype=object)
     else:
         q = np.zeros(n)
     return np.asarray(basis.values(effect, q, t, s), float).reshape(n, -1)
 
 
-def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
-    """The default model (or ``base`` effect names) plus the effects named in ``add``."""
+def model_effects(machine: Machine, add=(), *, base=None, targets=()) -> list[Effect]:
+    """The default model (or ``base`` effect names) plus the effects named in ``add``.
+
+    With two or more ``targets`` (the marks of the targets measured at each pose, ``T1``, ``T2`` …), each
+    constant translation of the tool point's set-up (``EX0T``, ``EY0T``, ``EZ0T``) becomes one per target
+    (``EX0T:target:T1`` …): every target its own point on the tool, the machine's errors and the measurement
+    frame shared. DataError where the model has none of them.
+    """
     effects = default_model(machine) if base is None else [parse_effect(n, machine) for n in base]
     names = {e.name for e in effects}
     for n in add:
@@ -250,4 +263,13 @@ def model_effects(machine: Machine, add=(), *, base=None) -> list[Effect]:
             raise DataError(f"is already in the model: {n!r}", parameter="add")
         names.add(e.name)
         effects.append(e)
+    if len(targets) > 1:
+        tool = [e for e in effects if basis_of(e).constant and machine.error_joint(e.code).axis == "T"
+                and machine.error_joint(e.code).location and machine.error_joint(e.code).direction in "XYZ"]
+        if not tool:
+            raise DataError(f"{len(targets)} targets per pose ({', '.join(targets)}): fitting them together gives "
+                            f"each its own point on the tool, the set-up joints EX0T, EY0T, EZ0T, which the model "
+                            f"lacks (add them to the URDF, or fit one with --target {targets[0]})")
+        effects = [t for e in effects for t in ([parse_effect(f"{e.code}:target:{m}", machine) for m in targets]
+                                                if e in tool else [e])]
     return effects

@@ -178,12 +178,13 @@ def _first_marks(w_mm: np.ndarray, count: int) -> np.ndarray:
 
 def data_advice(machine: Machine, result, obs: Observations) -> list:
     """Advice lines for the parameters a fit held (``kinid identify``): poses over the machine's travel at the data's
-    marks. Effects driven by time or direction are left out (no pose determines them). The data's Jacobian at zero
+    marks. Effects driven by time, direction or the row's mark (a target's point on the tool: the pool's poses
+    measure no target) are left out (no pose determines them). The data's Jacobian at zero
     is the fit's first pass's (``result.jacobian_r_zero``) where it has one, else a pass over ``obs``."""
     from ..model import basis_of
     from .pool import solved_axes
 
-    effects = [e for e in result.effects if basis_of(e).driver not in ("time", "direction")]
+    effects = [e for e in result.effects if basis_of(e).driver not in ("time", "direction", "mark")]
     names = {n for e in effects for n in e.param_names()}
     held = [a for a in result.aliases if a.name in names]
     if not held or len(obs) == 0:
