@@ -9,6 +9,8 @@ three targets on the flange 100 mm apart (each the flange's origin plus its rota
 """
 from __future__ import annotations
 
+import json
+
 import sys
 from pathlib import Path
 
@@ -135,6 +137,14 @@ def test_identify_without_target_fits_every_target_and_prints_each_point(arm, ca
     assert abs(shown - x2 / 1e3) < 1e-4 and abs(x2 - 100e3) <= 3 * s2
     assert main(["diagnose", "--fit", str(d / "three.json"), "--data", str(data), "--json"]) == 0
     capsys.readouterr()
+    # compensate writes each target's point into setup.json (T2's 100 mm x was dropped without a word)
+    assert main(["compensate", "--fit", str(d / "three.json"), "--out", str(d / "comp")]) == 0
+    targets = json.loads((d / "comp" / "setup.json").read_text())["targets"]
+    assert sorted(targets) == ["T1", "T2", "T3"]
+    assert targets["T2"]["offset_mm"][0] == pytest.approx(x2 / 1e3, abs=1e-9)
+    assert targets["T2"]["joints"]["EX0T"]["expanded_uncertainty_k2"] == pytest.approx(2 * s2)
+    assert abs(targets["T3"]["offset_mm"][1] - TARGETS["T3"][1]) <= 3 * values["EY0T:target:T3"][1] / 1e3
+    assert sum("held" in j for t in targets.values() for j in t["joints"].values()) == 1  # one z held
 
 
 def test_a_target_chosen_fits_as_a_file_of_that_target_alone(arm, capsys):

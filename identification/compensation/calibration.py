@@ -149,6 +149,33 @@ def setup_offsets(result: FitResult, written_as_zero=None) -> dict:
             "transform_mm": [[float(v) for v in row] for row in T_mm],
             "joints": joints,
         }
+    targets = _target_points(result, zero)
+    if targets:
+        out["targets"] = targets
+    return out
+
+
+def _target_points(result: FitResult, zero: dict) -> dict:
+    """Each target's own point on the tool when several were fitted together (``E?0T:target:<mark>``): mark ->
+    its offset in the tool frame, mm (a term within its U, or one the data cannot see, at 0), and each term with its
+    value and U, µm. A coordinate held for one target (seen only with a machine term) makes the others' relative."""
+    out, k = {}, 0
+    for e in result.effects:
+        if e.basis == "target":
+            mark, ok = e.args[0], bool(result.identifiable[k])
+            std = float(result.std[k]) if ok and np.isfinite(result.std[k]) else None
+            value = float(result.values[k]) if ok else None
+            t = out.setdefault(mark, {"offset_mm": [0.0, 0.0, 0.0], "joints": {}})
+            if e.code[1] in "XYZ" and ok and e.name not in zero:
+                t["offset_mm"]["XYZ".index(e.code[1])] = value * 1e-3
+            t["joints"][e.code] = {"value": 0.0 if e.name in zero else value, "unit": "µm", "identified": ok,
+                                   "expanded_uncertainty_k2": None if std is None else K_EXPANDED * std}
+            if e.name in zero:
+                t["joints"][e.code].update(fitted_value=value, written_as_zero=zero[e.name])
+            elif not ok:
+                t["joints"][e.code]["held"] = ("not identifiable from these data: held at 0, and this coordinate of "
+                                               "the other targets is given relative to it")
+        k += e.n_params
     return out
 
 
