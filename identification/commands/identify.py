@@ -6,6 +6,7 @@ from pathlib import Path
 
 from kinid.errors import DataError
 from kinid.options import add_json_option, csv_rows, json_file
+from kinid.progress import step
 from .data_input import add_export_options, is_observation_file, read_data, refuse_export, stated_std_of
 
 # NumPy and the modules that do the work are imported inside the function that runs the verb:
@@ -211,8 +212,8 @@ def _identify(args) -> int:
         _refuse_untrusted(machine, read, result, args.data)
         described = choice.describe()
         if not args.no_check:
-            print(f"held-out check of the prior on {len(obs)} alignments …", file=sys.stderr, flush=True)
-            described += "; " + held_out_check(machine, obs, effects, noise_um=args.noise_um, **sizes).describe()
+            with step(f"held-out check of the prior on {len(obs)} alignments"):
+                described += "; " + held_out_check(machine, obs, effects, noise_um=args.noise_um, **sizes).describe()
         result = replace(result, prior=described, board_pose={} if levers is None else board.record())
     elif args.auto:
         from ..diagnosis import forward_select
@@ -230,19 +231,20 @@ def _identify(args) -> int:
         if args.report:
             from ..reporting import selection_report
 
-            _report_line(args.report)
-            selection_report(steps, obs, args.report, fit_file=args.out)
+            with step(f"writing the report to {args.report}: figures, HTML and PDF"):
+                selection_report(steps, obs, args.report, fit_file=args.out)
     else:
         from dataclasses import replace
 
         aside, kept_fit = (), None
-        if not args.no_robust:
-            from ..fitting import set_aside_with_fit
+        with step(f"fitting {len(obs)} alignments"):
+            if not args.no_robust:
+                from ..fitting import set_aside_with_fit
 
-            # its fit of the rows kept, when it has one (no row set aside in its last round), is the fit: not twice
-            obs, aside, kept_fit = set_aside_with_fit(machine, obs, effects, noise_um=args.noise_um)
-        result = replace(kept_fit if kept_fit is not None else fit(machine, obs, effects, noise_um=args.noise_um),
-                         set_aside=aside)
+                # its fit of the rows kept, when it has one (no row set aside in its last round), is the fit
+                obs, aside, kept_fit = set_aside_with_fit(machine, obs, effects, noise_um=args.noise_um)
+            result = replace(kept_fit if kept_fit is not None else fit(machine, obs, effects, noise_um=args.noise_um),
+                             set_aside=aside)
         if levers is not None:
             result, obs = _settled_again(machine, obs, levers, result, board, args)
         _refuse_untrusted(machine, read, result, args.data)
@@ -250,9 +252,10 @@ def _identify(args) -> int:
             from ..diagnosis import diagnose
             from ..reporting import diagnosis_report
 
-            diagnosis = diagnose(machine, obs, effects, noise_um=args.noise_um, result=result)
-            _report_line(args.report)
-            diagnosis_report(diagnosis, obs, args.report)
+            with step(f"scoring the candidate effects against the residual of {len(obs)} alignments"):
+                diagnosis = diagnose(machine, obs, effects, noise_um=args.noise_um, result=result)
+            with step(f"writing the report to {args.report}: figures, HTML and PDF"):
+                diagnosis_report(diagnosis, obs, args.report)
     warn_units(machine, read)
     result = _check_stated_std(result, obs, stated)
     save_fit(result, args.out)
@@ -431,16 +434,6 @@ def _simulate(args) -> int:
     return 0
 
 
-def _report_line(folder) -> None:
-    """One line on stderr (a terminal) before a report is written: its figures and PDF take seconds (never on stdout,
-    where --json prints)."""
-    from kinid.progress import Progress
-
-    progress = Progress(stream=sys.stderr)  # on a terminal, as every progress line: a script's stderr keeps its errors
-    if progress.enabled:
-        progress.say(f"writing the report to {folder}: figures, HTML and PDF …")
-
-
 def _diagnose(args) -> int:
     import numpy as np
 
@@ -461,7 +454,8 @@ def _diagnose(args) -> int:
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
         obs = obs.subset(np.array([i for i, ln in enumerate(obs.lines) if ln not in aside_lines]))
     carried = Noise(loaded.noise_um, "fit") if loaded.noise.known else None
-    result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, carried_noise=carried)
+    with step(f"scoring the candidate effects against the residual of {len(obs)} alignments"):
+        result = diagnose(loaded.machine, obs, loaded.effects, noise_um=args.noise_um, carried_noise=carried)
     if loaded.set_aside:
         from dataclasses import replace
 
@@ -470,8 +464,8 @@ def _diagnose(args) -> int:
         from kinid.reports.html import file_provenance
         from ..reporting import diagnosis_report
 
-        _report_line(args.report)
-        diagnosis_report(result, obs, args.report, provenance=[("fit", file_provenance(args.fit))])
+        with step(f"writing the report to {args.report}: figures, HTML and PDF"):
+            diagnosis_report(result, obs, args.report, provenance=[("fit", file_provenance(args.fit))])
     if args.json:
         print(strict_json(result.summary()))
     else:

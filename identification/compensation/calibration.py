@@ -161,7 +161,7 @@ def _target_points(result: FitResult, zero: dict) -> dict:
     value and U, µm. A coordinate held for one target (seen only with a machine term) makes the others' relative."""
     out, k = {}, 0
     for e in result.effects:
-        if e.basis == "target":
+        if basis_of(e).driver == "mark":  # one target of several measured at each pose
             mark, ok = e.args[0], bool(result.identifiable[k])
             std = float(result.std[k]) if ok and np.isfinite(result.std[k]) else None
             value = float(result.values[k]) if ok else None

@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from kinid.checks import check_positive
-from kinid.progress import as_progress
+from kinid.progress import as_progress, step
 from kinid.threads import blas_single_threaded
 
 from ..model import Machine, check_effects, check_machine, chosen_of, implausible_effects
@@ -205,9 +205,10 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
     theta0 = None
     carried = None
     undetermined = {}  # error joint -> why the period added for it is not determined by the data
-    for _ in range(max_steps + 1):
-        dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha, theta0=theta0,
-                      result=start if theta0 is None else None)  # the first step's fit: the set-aside's, if made
+    for k in range(max_steps + 1):
+        with step(f"  fitting {'the model' if added is None else added} and scoring the candidates (step {k + 1})"):
+            dg = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha,
+                          theta0=theta0, result=start if theta0 is None else None)  # the first fit: the set-aside's
         if theta0 is not None and (not dg.fit.success or dg.fit.iterations > WARM_START_ITERATIONS):
             # the warm start stalled: a cold start reaches the optimum the model has
             cold = diagnose(machine, obs, effects, noise_um=noise_um, carried_noise=carried, alpha=alpha)
