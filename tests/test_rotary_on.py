@@ -108,17 +108,25 @@ def test_a_bad_on_effect_is_named(ac, name, match):
         parse_effect(name, ac)
 
 
-def test_candidates_only_where_the_other_axis_is_read_at_three_angles(ac):
+def test_candidates_on_the_carrying_axis_read_at_three_angles(ac):
+    """C's location joints on A, the trunnion that carries C; not A's on C, and none where A is read at 2 angles."""
     model = default_model(ac)
     lib = {e.name for e in candidate_library(ac, model, has_directions=False, has_time=True,
                                              positions={"X": 50, "Y": 50, "Z": 50, "A": 7, "C": 12})}
-    on = {n for n in lib if ":on:" in n}
-    location = {e.code for e in ac.error_joints if e.location and e.axis in ("A", "C")}
-    assert on == {f"{c}:on:{'A' if c.endswith('C') else 'C'}" for c in location}
-    assert {"EA0C:on:A", "EB0C:on:A"} <= on and len(on) <= 8
+    location = {e.code for e in ac.error_joints if e.location and e.axis == "C"}
+    assert {n for n in lib if ":on:" in n} == {f"{c}:on:A" for c in location}
+    assert {"EA0C:on:A", "EB0C:on:A"} <= lib
     few = {e.name for e in candidate_library(ac, model, has_directions=False, has_time=True,
                                              positions={"X": 50, "Y": 50, "Z": 50, "A": 2, "C": 12})}
-    assert not any(n.endswith(":on:A") for n in few) and any(n.endswith(":on:C") for n in few)
+    assert not any(":on:" in n for n in few)
+
+
+def test_no_candidates_between_a_head_and_a_table():
+    """B in the tool's chain, C in the workpiece's: neither carries the other."""
+    machine = load_machine(path("five_axis_bhead_c"))
+    lib = candidate_library(machine, default_model(machine), has_directions=False, has_time=True)
+    assert not any(e.basis == "on" for e in lib)
+    assert parse_effect("EA0C:on:B", machine).n_params == 2  # still named with --add
 
 
 def _selected(machine, obs):
@@ -175,3 +183,16 @@ def test_auto_adds_the_sag_where_the_order_tells_it_from_time(ac, seed):
     later = _measured(ac, truth, plan, rng, noise_um=0.0)
     rms = _held_out(ac, obs, steps, later)
     assert rms["auto"] <= rms["true"] * 1.1 and rms["auto"] < 0.5 * rms["default"], rms
+
+
+@pytest.mark.slow
+def test_compensation_leaves_it_out_naming_the_other_axis(ac):
+    """A table over C cannot hold an error that follows A: left out, named a cross compensation over A only."""
+    from kinid.identification.compensation.compensate import compensation_model
+    from kinid.identification.fitting.fit import fit
+
+    rng = np.random.default_rng(5)
+    obs = _measured(ac, _truth(ac, 5), patent_plan(ac), rng)
+    result = fit(ac, obs, default_model(ac) + [parse_effect("EA0C:on:A", ac)], noise_um=NOISE_UM)
+    left = dict(compensation_model(result).left_out)
+    assert left["EA0C:on:A"].startswith("varies with A: a cross compensation"), left["EA0C:on:A"]

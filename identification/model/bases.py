@@ -20,7 +20,7 @@ name                   value of the error joint                        parameter
 ``EXX:local:<h>:<a>:<b>``  cubic B-splines every h whose support lies    knots − 4
                        in [a, b]: smooth, zero outside: a local error
 ``EA0C:on:A[:<k>]``    Σ a_n(cos nα − 1) + b_n sin nα, α = angle of A  2k
-                       (:mod:`~kinid.identification.model.rotary_on`)
+                       (:mod:`~kinid.identification.model.rotary_on`, registered when effects load)
 =====================  ==============================================  ==========
 
 A new kind is one :func:`register_basis` call with a :class:`Basis`; parsing, the fit, the
@@ -481,6 +481,3 @@ def parse_name(name: str, joint, machine, source: str) -> tuple:
         return basis, basis.parse(m, ctx)
     syntaxes = [b.syntax for b in BASES.values() if b.grammar is not None]
     raise ctx.fail(f"unknown basis {rest!r}; expected {', '.join(syntaxes[:-1])} or {syntaxes[-1]}")
-
-
-from . import rotary_on  # noqa: E402,F401  (registers the on:<rotary axis> basis, after the others)

@@ -6,11 +6,15 @@ with A's angle. As a smooth function of an angle it is a Fourier series in that 
 
     value = Σ_{n=1..k} a_n·(cos(n·α) − 1) + b_n·sin(n·α),   α = angle of the other axis (deg)
 
-Every term is zero at α = 0, so the joint's constant (in the default model) stays its value at the other
-axis's zero. The effect's own axis (``Effect.axis``) is the joint's; the other axis is ``Effect.args[0]``, the
-order ``Effect.degree``. It is registered after the other bases (:mod:`~kinid.identification.model.bases`)
-and its candidates are the location joints of each rotary axis on every other rotary axis the data read at
-:data:`MIN_ANGLES` distinct angles at least — order 1 only, so a five-axis machine adds eight.
+Every term is zero at α = 0, so the joint's constant (in the default model) stays its value at the other axis's
+zero. The effect's own axis (``Effect.axis``) is the joint's; the other axis is ``Effect.args[0]``, the order
+``Effect.degree``. It is registered after the other bases (:mod:`~kinid.identification.model.bases`), when
+:mod:`~kinid.identification.model.effects` (which parses every effect name) imports it; its candidates are the
+location joints of each rotary axis on the rotary axis that carries it (the nearest rotary axis between it and
+the base in the URDF's chain: C on the trunnion A of an A/C table), where the data read that axis at
+:data:`MIN_ANGLES` distinct angles at least — order 1 only: four on a five-axis table-table machine, none where
+the two rotary axes are in different chains (head and table), one per location joint of each joint of an arm but
+its first. Any other pair is named with ``--add``.
 """
 from __future__ import annotations
 
@@ -18,7 +22,7 @@ import numpy as np
 
 from .bases import Basis, BasisInput, register_basis
 
-__all__ = ["MAX_ORDER", "MIN_ANGLES", "on_values"]
+__all__ = ["MAX_ORDER", "MIN_ANGLES", "on_values", "rotary_carriers"]
 
 #: Highest harmonic an ``on:<axis>:<k>`` effect may have.
 MAX_ORDER = 4
@@ -81,13 +85,29 @@ def _describe(e, u) -> str:
     return f"varies with the angle of {other} ({terms}, zero at {other} = 0): a bearing or trunnion that sags as {other} turns"
 
 
-def _candidates(j, kind, *, rotary_axes=(), positions=None, **_) -> list:
-    """Order 1 on every location joint of a rotary axis, on each other rotary axis read at MIN_ANGLES angles or
-    more (every one where the angles read are not known)."""
-    if not j.location or j.axis not in rotary_axes:
+def rotary_carriers(machine) -> dict:
+    """Rotary axis name -> the rotary axis that carries it: the nearest one between it and the base in the URDF's
+    chain (C -> A on an A/C table; none for a head's B and a table's C, in different chains)."""
+    model = machine.model
+    rotary = {model.getJointId(a.joint): a.name for a in machine.axes if a.kind != "prismatic"}
+    out = {}
+    for jid, name in rotary.items():
+        p = model.parents[jid]
+        while p > 0 and p not in rotary:
+            p = model.parents[p]
+        if p > 0:
+            out[name] = rotary[p]
+    return out
+
+
+def _candidates(j, kind, *, carriers=None, positions=None, **_) -> list:
+    """Order 1 on every location joint of a rotary axis, on the rotary axis that carries it (``carriers``, from
+    :func:`rotary_carriers`) where that axis is read at MIN_ANGLES angles or more (``positions``; where the
+    angles read are not known, always)."""
+    other = (carriers or {}).get(j.axis) if j.location else None
+    if other is None or (positions is not None and positions.get(other, 0) < MIN_ANGLES):
         return []
-    return [f"{j.code}:on:{b}" for b in rotary_axes
-            if b != j.axis and (positions is None or positions.get(b, 0) >= MIN_ANGLES)]
+    return [f"{j.code}:on:{other}"]
 
 
 register_basis(Basis(
