@@ -109,7 +109,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
         elif basis_of(e).driver == "time":
             reason = "a drift with time: no table holds it"
         elif basis_of(e).driver == "positions":
-            reason = (f"varies with {e.args[0]} as well as {e.axis}: a cross compensation (the controller's table of "
+            reason = (f"varies with {e.args[0]}: a cross compensation (the controller's table of "
                       f"{e.code} over {e.args[0]}), not written")
         elif not all_terms:
             reason = _not_significant(values[sl][ok], result.std[sl][ok])

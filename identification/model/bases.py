@@ -19,6 +19,8 @@ name                   value of the error joint                        parameter
                        beyond the ends)
 ``EXX:local:<h>:<a>:<b>``  cubic B-splines every h whose support lies    knots − 4
                        in [a, b]: smooth, zero outside: a local error
+``EA0C:on:A[:<k>]``    Σ a_n(cos nα − 1) + b_n sin nα, α = angle of A  2k
+                       (:mod:`~kinid.identification.model.rotary_on`, registered when effects load)
 =====================  ==============================================  ==========
 
 A new kind is one :func:`register_basis` call with a :class:`Basis`; parsing, the fit, the

@@ -14,6 +14,7 @@ import numpy as np
 from kinid.errors import DataError
 from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse_name
 from .machine import Machine, joint_kind
+from .rotary_on import rotary_carriers  # registers the on:<rotary axis> basis, after those of bases
 
 __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
            "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
@@ -136,17 +137,20 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
     poly1, poly2, poly3, periodic at the standard periods, reversal (when the data have ``dir_``
     columns); drift on every error joint (when the data have ``t_s``); every constant location
     error the model lacks; with ``positions`` (axis name → distinct positions its readings visit), the error at
-    each position of an axis read at too few for a map (:func:`position_tables`).
+    each position of an axis read at too few for a map (:func:`position_tables`), and ``on:<B>`` only on a rotary axis
+    carried by the rotary axis B, read at 3 angles or more (:mod:`~kinid.identification.model.rotary_on`).
     """
     have = {e.name for e in model}
     varying = {code for code, _ in axis_dependent_joints(machine)}
     out = []
     linear = [a.name for a in machine.axes if a.kind == "prismatic"]
+    carriers = rotary_carriers(machine)
     for j in machine.error_joints:
         kind = machine.axis(j.axis).kind if j.code in varying else ""
         for basis in BASES.values():
             out += basis.candidates(j, kind, varying=j.code in varying, has_directions=has_directions,
-                                    has_time=has_time, linear_axes=linear)
+                                    has_time=has_time, linear_axes=linear, carriers=carriers,
+                                    positions=positions)
     out += position_tables(machine, positions or {})
     return [parse_effect(n, machine) for n in out if n not in have]
 
