@@ -9,50 +9,27 @@ ink at the plane points it is given).
 Errors (µm, µrad): a 10 mm-lead screw error of X (EXX, after the X carriage, along x), the C
 axis line offset in x and y (EX0C, EY0C, after the B rotation and the table drop), the tool
 length (EZ0T) and the camera's rotation about the tool axis (EC0T), which moves nothing but
-what the camera sees. ``BOARD_SETUP`` adds the set-up a real run has (the board laid on the table tilted by a
+what the camera sees. The ray tracer, the board and the lenses are benchmarks/camera_render.py's (shared with
+benchmarks/proving_chain.py, imported here). ``BOARD_SETUP`` adds the set-up a real run has (the board laid on the table tilted by a
 fraction of a milliradian, turned and placed tens of µm off: EX0W ... EC0W, the URDF's board joints, translations
 then rotations about x, y, z), for runs that pass ``truth={**TRUTH, **BOARD_SETUP}``.
 """
 from __future__ import annotations
 
 import csv
-import json
+import sys
 from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+from camera_render import (BOARD_COLS, BOARD_ROWS, CAM, IMAGE_PX, IMAGE_X_ANGLE_DEG, LASER_STANDOFF_MM,  # noqa: E402,F401
+                           PINHOLE, PITCH_MM, PIXEL_MM, board_dict, board_origin_w, pinhole_sensor, render_at,
+                           write_setup_files)
+
 TRUTH = {"EX0C": 12.0, "EY0C": -8.0, "EZ0T": 15.0, "EC0T": 800.0, "EXX:periodic:10": [1.5, -0.8]}
 #: A board laid on a table by hand: tilted 200 µrad about x and −150 µrad about y, turned 300 µrad, placed 40, −25, 15 µm off.
 BOARD_SETUP = {"EX0W": 40.0, "EY0W": -25.0, "EZ0W": 15.0, "EA0W": 200.0, "EB0W": -150.0, "EC0W": 300.0}
-PITCH_MM = 16.0
-BOARD_ROWS = BOARD_COLS = 8
-PIXEL_MM = 0.045
-IMAGE_PX = 400
-IMAGE_X_ANGLE_DEG = 3.0
-LASER_STANDOFF_MM = 30.0
-#: A calibrated pinhole camera 120 mm above the tool point (f 4800 px: 0.025 mm per pixel there), with
-#: OpenCV's distortion (k1, k2, p1, p2, k3); its principal point is where the tool point appears.
-PINHOLE = {"f_px": 4800.0, "size_px": 720, "working_distance_mm": 120.0, "dist": (-0.12, 0.3, 4e-4, -3e-4, 0.0)}
-
-
-def _undistort(xd, yd, dist, iterations=30):
-    """Ideal normalised coordinates of distorted ones (OpenCV's model, fixed-point iteration)."""
-    k1, k2, p1, p2, k3 = dist
-    x, y = xd.copy(), yd.copy()
-    for _ in range(iterations):
-        r2 = x * x + y * y
-        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        x = (xd - 2 * p1 * x * y - p2 * (r2 + 2 * x * x)) / radial
-        y = (yd - p1 * (r2 + 2 * y * y) - 2 * p2 * x * y) / radial
-    return x, y
-
-
-def pinhole_sensor(camera=PINHOLE):
-    """The sensor file's camera entries for ``camera`` (docs/observe.md)."""
-    f, n = camera["f_px"], camera["size_px"]
-    c0 = (n - 1) / 2.0
-    return {"camera": {"camera_matrix": [[f, 0.0, c0], [0.0, f, c0], [0.0, 0.0, 1.0]], "dist_coeffs": list(camera["dist"]),
-                       "image_size": [n, n]}, "working_distance_mm": camera["working_distance_mm"]}
 
 
 def _ry(rad):
@@ -113,72 +90,12 @@ def seen_offset(readings, b_deg, c_deg, mark_w, truth=TRUTH):
     return Rt.T @ (pw + Rw @ np.asarray(mark_w, float) - pt)
 
 
-def board_dict():
-    from kinid.vision import make_board
-
-    b = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
-    return {"pitch_mm": b.pitch_mm, "rows": b.rows, "cols": b.cols, "center_d_mm": b.center_d_mm,
-            "ring_inner_d_mm": b.ring_inner_d_mm, "ring_outer_d_mm": b.ring_outer_d_mm, "bits": b.bits,
-            "codes": [list(r) for r in b.codes]}
-
-
-def board_origin_w():
-    """Workpiece position of mark (0, 0): the board centred, rows running towards −y."""
-    half = (BOARD_COLS - 1) * PITCH_MM / 2.0
-    return np.array([-half, half, 0.0])
-
-
-#: Camera axes in tool axes (columns x, y, z): the image x axis turned IMAGE_X_ANGLE_DEG, looking down the tool.
-_A = np.radians(IMAGE_X_ANGLE_DEG)
-CAM = np.array([[np.cos(_A), np.sin(_A), 0.0], [np.sin(_A), -np.cos(_A), 0.0], [0.0, 0.0, -1.0]]).T
-
-
 def render(readings, b_deg, c_deg, rng, truth=TRUTH, noise=2.0, laser_offset_mm=(0.0, 0.0), camera=None):
     """The camera's image (uint8) and the laser reading (mm) at these true readings (:func:`render_at`)."""
     x, y, z = readings
     pw, Rw = workpiece(y, b_deg, c_deg, truth)
     pt, Rt = tool(x, z, truth)
     return render_at(pw, Rw, pt, Rt, rng, noise=noise, laser_offset_mm=laser_offset_mm, camera=camera)
-
-
-def render_at(pw, Rw, pt, Rt, rng, *, noise=2.0, laser_offset_mm=(0.0, 0.0), camera=None):
-    """The camera's image (uint8) and the laser reading (mm) with the workpiece frame (origin ``pw``, rotation
-    ``Rw``) and the tool frame (``pt``, ``Rt``) where the true machine puts them, machine frame, mm.
-
-    ``camera`` None: a telecentric lens, IMAGE_PX² at PIXEL_MM; else a pinhole camera (see PINHOLE) whose
-    pixel rays start at its projection centre, ``working_distance_mm`` above the tool point on the tool axis.
-    """
-    from kinid.vision import board_coverage, make_board, render_pattern
-
-    board = make_board(BOARD_ROWS, BOARD_COLS, PITCH_MM)
-    cam = CAM
-    size = IMAGE_PX if camera is None else camera["size_px"]
-    c0 = (size - 1) / 2.0
-    origin = board_origin_w()
-
-    def image_to_plane(xy_px):
-        if camera is None:  # telecentric: every ray along the camera axis, from the plane through the tool point
-            u = (xy_px[:, 0] - c0) * PIXEL_MM
-            v = (xy_px[:, 1] - c0) * PIXEL_MM
-            start = pt + (Rt @ (cam[:, 0:1] * u + cam[:, 1:2] * v)).T
-            direction = np.broadcast_to(Rt @ cam[:, 2], start.shape)
-        else:  # pinhole: from the projection centre through the undistorted pixel
-            xn, yn = _undistort((xy_px[:, 0] - c0) / camera["f_px"], (xy_px[:, 1] - c0) / camera["f_px"], camera["dist"])
-            start = np.broadcast_to(pt + Rt @ np.array([0.0, 0.0, camera["working_distance_mm"]]), (len(xn), 3))
-            direction = (Rt @ (cam[:, 0:1] * xn + cam[:, 1:2] * yn + cam[:, 2:3])).T
-        s_w = (start - pw) @ Rw  # workpiece frame
-        d_w = direction @ Rw
-        t = -s_w[:, 2] / d_w[:, 2]
-        hit = s_w + t[:, None] * d_w
-        return np.column_stack([hit[:, 0] - origin[0], -(hit[:, 1] - origin[1])])  # board frame
-
-    img = render_pattern(board_coverage(board), (size, size), image_to_plane, blur_px=0.7,
-                         noise_sigma=noise, rng=rng)
-    # laser: parallel to the camera axis, from its offset beside the tool point to the board surface
-    s_w = Rw.T @ (pt + Rt @ np.array([laser_offset_mm[0], laser_offset_mm[1], 0.0]) - pw)
-    d_w = Rw.T @ (Rt @ np.array([0.0, 0.0, -1.0]))
-    laser = LASER_STANDOFF_MM + (-s_w[2] / d_w[2])
-    return img, laser
 
 
 def laser_offset_as_measured(offset_mm, truth=TRUTH):
@@ -214,8 +131,5 @@ def write_run(folder, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, laser_no
         w = csv.writer(f)
         w.writerow(["image", "x_mm", "y_mm", "z_mm", "b_deg", "c_deg", "laser_mm"])
         w.writerows(rows)
-    optics = {"pixel_mm": PIXEL_MM} if camera is None else pinhole_sensor(camera)
-    (folder / "sensor.json").write_text(json.dumps({**optics, "image_x_angle_deg": IMAGE_X_ANGLE_DEG,
-                                                    "laser_standoff_mm": LASER_STANDOFF_MM}))
-    (folder / "board.json").write_text(json.dumps(board_dict()))
+    write_setup_files(folder, camera)
     return truth_rows

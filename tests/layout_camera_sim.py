@@ -19,7 +19,6 @@ the X reading).
 from __future__ import annotations
 
 import csv
-import json
 import sys
 from dataclasses import dataclass
 from functools import lru_cache
@@ -225,8 +224,5 @@ def write_run(folder, lay, poses, *, rng, stop_mm=0.1, reading_noise_um=0.5, las
         w = csv.writer(f)
         w.writerow(["image", *(lay.column(a) for a in lay.axes), "laser_mm"])
         w.writerows(rows)
-    optics = {"pixel_mm": PIXEL_MM} if camera is None else pinhole_sensor(camera)
-    (folder / "sensor.json").write_text(json.dumps({**optics, "image_x_angle_deg": IMAGE_X_ANGLE_DEG,
-                                                    "laser_standoff_mm": LASER_STANDOFF_MM}))
-    (folder / "board.json").write_text(json.dumps(bc.board_dict()))
+    bc.write_setup_files(folder, camera)
     return truth_rows
