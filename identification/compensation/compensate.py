@@ -37,7 +37,7 @@ from kinid.stats import K_EXPANDED
 from ..model import basis_of, basis_values
 from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
-from .calibration import calibrated_urdf, constant_errors, setup_offsets
+from .calibration import calibrated_urdf, constant_errors, held_at_zero, setup_offsets
 from .ranges import axis_range, not_one_turn, unwrapped_range
 from .rotary_geometry import kinematics_files
 from .table_check import TableCheck, check_positions, check_tables
@@ -71,6 +71,8 @@ class Compensation:
     setup_left_out : tuple of (effect name, reason)
         The set-up effects written as 0 in ``setup.json``: within their expanded uncertainty (k = 2),
         unless ``all_terms``.
+    held : FitResult or None
+        The fit with the terms written as 0 held at 0 (:func:`held_at_zero`): setup.json's and the rotary geometry's.
     """
 
     result: FitResult
@@ -78,6 +80,7 @@ class Compensation:
     left_out: tuple
     setup_effects: tuple
     setup_left_out: tuple = ()
+    held: FitResult | None = None
 
 
 def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compensation:
@@ -90,13 +93,15 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     """
     machine = result.machine
     values = np.array(result.values, float)
+    dropped = np.zeros(len(values), bool)  # identified, within their uncertainty, written as 0
+    zeroed = np.zeros(len(values), bool)  # left out of the machine's compensation
     left, setup, setup_left, k = [], [], [], 0
     for e in result.effects:
         sl = slice(k, k + e.n_params)
         k += e.n_params
         joint = machine.error_joint(e.code)
         ok = np.asarray(result.identifiable[sl], bool)
-        reason = None
+        reason = small = None
         if joint.axis in ("W", "T"):
             setup.append(e.name)
             reason = "set-up of the " + ("workpiece (board)" if joint.axis == "W" else "sensor (tool)") + \
@@ -116,7 +121,12 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
         if reason is not None:
             left.append((e.name, reason))
             values[sl] = np.where(ok, 0.0, values[sl])
-    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left))
+            zeroed[sl] = True
+        dropped[sl] = ok & (small is not None or (reason or "").startswith("not significant"))
+    held = held_at_zero(result, dropped)
+    values = np.where(zeroed, values, held)  # the terms kept, as the fit has them without the dropped ones
+    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left),
+                        replace(result, values=held))
 
 
 def _not_significant(values, std) -> str | None:
@@ -391,7 +401,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     controller = [entry for entry in controller if entry["file"] in outcome]
     for entry in controller:
         entry["never_worse"] = outcome[entry["file"]]
-    setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out))
+    setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out), held=comp.held)
     files["constants.json"] = json_text({"errors": constant_errors(result, comp)},
                                         path=Path(folder) / "constants.json")
     written.append("constants.json")

@@ -53,6 +53,7 @@ FIT_SCHEMA = Fields(
         "axis_ranges": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True), length=2, ordered=True)),
         "axis_readings": Table(Items(Number(low=-LARGEST, high=LARGEST))),
         "shared_std": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True))),  # signed changes
+        "correlation": Items(Items(Number(low=-1.000001, high=1.000001, null=True))),  # NaN (held) as null
         "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(), "stated_std": Fields({}, other=True),
         "implausible": Items(Fields({}, other=True)),
         "board_pose": Fields({}, optional={"passes": _COUNT, "move_um": Number(low=0, high=LARGEST, null=True),
@@ -107,6 +108,8 @@ def fit_to_dict(result: FitResult) -> dict:
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
         "axis_readings": {k: [float(x) for x in v] for k, v in result.axis_readings.items()},
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
+        **({} if result.correlation is None else {"correlation": [[_finite(x) for x in row]
+                                                                  for row in result.correlation]}),
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
         "start": result.start,
@@ -175,7 +178,8 @@ def load_fit(path) -> FitResult:
             prior_std=None if data.get("prior_std") is None else np.array(
                 [np.inf if v is None else float(v) for v in data["prior_std"]]),
             start=str(data.get("start", "")), stated_std=dict(data.get("stated_std") or {}),
-            board_pose={str(k): (np.nan if v is None else v) for k, v in data.get("board_pose", {}).items()})
+            board_pose={str(k): (np.nan if v is None else v) for k, v in data.get("board_pose", {}).items()},
+            correlation=_correlation(data.get("correlation"), len(names)))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:
@@ -183,6 +187,16 @@ def load_fit(path) -> FitResult:
     if sum(e.n_params for e in effects) != len(names):
         raise DataError("malformed kinid fit: the parameters do not match the effects", path=path)
     return result
+
+
+def _correlation(rows, n: int):
+    """The parameters' correlation (n, n), NaN where held; None when the file has none (written before it kept it)."""
+    if rows is None:
+        return None
+    c = np.array([[np.nan if x is None else float(x) for x in row] for row in rows], float)
+    if c.shape != (n, n):
+        raise ValueError(f"the correlation is {c.shape[0]} × {c.shape[1] if c.ndim == 2 else 0}, not {n} × {n}")
+    return c
 
 
 #: σ typed in mm instead of µm leaves a residual this many times σ, give or take the factor SIGMA_MM_SPREAD.
