@@ -50,7 +50,8 @@ def held_at_zero(result: FitResult, dropped):
 
     A term the plan hardly separates from others is not significant alone (EA0Z beside EA0B on a B head seen at
     three tilts: 941 ± 843 µrad), but the kept terms were fitted with its value: zeroed alone, it moved the
-    compensated tool point by 9.6 µm RMS where the fit predicts 0.28 µm (benchmarks/proving_chain.py)."""
+    compensated tool point by 9.6 µm RMS where the fit predicts 0.28 µm (benchmarks/proving_chain.py). Only the
+    machine's terms are dropped so: the sensor's turn on the tool (EA0T … EC0T) does not move the tool point."""
     values = np.array(result.values, float)
     corr = getattr(result, "correlation", None)
     kept = np.isfinite(values) & ~dropped & np.asarray(result.identifiable, bool)

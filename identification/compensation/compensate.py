@@ -72,7 +72,7 @@ class Compensation:
         The set-up effects written as 0 in ``setup.json``: within their expanded uncertainty (k = 2),
         unless ``all_terms``.
     held : FitResult or None
-        The fit with the terms written as 0 held at 0 (:func:`held_at_zero`): setup.json's and the rotary geometry's.
+        The fit with the machine's terms written as 0 held there (:func:`held_at_zero`): setup.json's, rotary geometry's.
     """
 
     result: FitResult
@@ -93,7 +93,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     """
     machine = result.machine
     values = np.array(result.values, float)
-    dropped = np.zeros(len(values), bool)  # identified, within their uncertainty, written as 0
+    dropped = np.zeros(len(values), bool)  # the machine's identified terms within their uncertainty, written as 0
     zeroed = np.zeros(len(values), bool)  # left out of the machine's compensation
     left, setup, setup_left, k = [], [], [], 0
     for e in result.effects:
@@ -122,7 +122,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
             left.append((e.name, reason))
             values[sl] = np.where(ok, 0.0, values[sl])
             zeroed[sl] = True
-        dropped[sl] = ok & (small is not None or (reason or "").startswith("not significant"))
+        dropped[sl] = ok & (reason or "").startswith("not significant")
     held = held_at_zero(result, dropped)
     values = np.where(zeroed, values, held)  # the terms kept, as the fit has them without the dropped ones
     return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left),
