@@ -22,7 +22,7 @@ from kinid.axis_tables import (CONTROLLER_FORMATS, AxisErrorTable, ControllerFor
                                sinumerik_text, twincat_text)
 from kinid.cli import main
 from kinid.errors import DataError
-from kinid.identification import fit, load_machine, save_fit
+from kinid.identification import fit, load_machine, parse_effect, save_fit
 from kinid.identification.compensation.compensate import positioning_table, write_compensation
 from kinid.identification.model.effects import default_model
 from kinid.identification.fitting.fit import FitResult
@@ -286,3 +286,30 @@ def test_a_registered_format_is_written_by_compensate(readme_example):
         assert 2 <= rows.shape[0] <= 50
     finally:
         CONTROLLER_FORMATS.pop(fmt.name)
+
+
+def test_an_effect_of_a_size_no_machine_has_is_never_compensated(tmp_path, capsys):
+    """A C error with the period of the C readings' step (360/7°): the readings sample it at one phase, so its sine
+    is any value the fit needs (1.29e5 ± 0.66e5 µrad in the proving ground's scenario) while its cosine is
+    significant; the effect passed the significance test and C's table moved the axis by up to 7° between the
+    readings. A size beyond the plausible limit is left out, named, even with --all-terms."""
+    from dataclasses import replace
+
+    machine = load_machine(urdf_path("five_axis_bc"))
+    base = _fit_of(machine, {})
+    odd = parse_effect("ECC:periodic:51.4286", machine)
+    effects = base.effects + (odd,)
+    p = len(base.values) + odd.n_params
+    result = replace(base, effects=effects, param_names=base.param_names + tuple(odd.param_names()),
+                     units=base.units + ("µrad", "µrad"), values=np.append(base.values, [129367.0, -1.77]),
+                     std=np.append(base.std, [66482.0, 0.877]), identifiable=np.ones(p, bool),
+                     axis_ranges={"C": (0.0, 334.2857), "B": (-18.1, 29.0)})
+    save_fit(result, tmp_path / "fit.json")
+    for extra in ([], ["--all-terms"]):
+        out = tmp_path / f"comp{len(extra)}"
+        assert main(["compensate", "--fit", str(tmp_path / "fit.json"), "--out", str(out), *extra]) == 0
+        said = capsys.readouterr().out
+        assert "ECC:periodic:51.4286: left out (a size no machine has" in said
+        assert not (out / "C.csv").exists()
+        info = json.loads((out / "compensation.json").read_text())
+        assert "C" not in info["tables"]

@@ -85,12 +85,16 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
 
     Left out, each with its reason: the set-up of the workpiece and the sensor (pseudo-axes W and T,
     they belong in the controller's work and tool offsets), drifts with time (no table holds them),
-    effects the data could not identify, and — unless ``all_terms`` — effects none of whose
+    effects the data could not identify, effects of a size no machine has (``FitResult.implausible``: even
+    with ``all_terms``), and — unless ``all_terms`` — effects none of whose
     parameters exceeds its expanded uncertainty (|value| ≤ k·σ, k = 2).
     """
     machine = result.machine
     values = np.array(result.values, float)
     left, setup, setup_left, k = [], [], [], 0
+    # a size no machine has is not a machine's error: between the readings a fit may need any value (a period
+    # that the readings sample at the same phase), and a table would move the axis by it there
+    odd = {o.effect: o for o in result.implausible()}
     for e in result.effects:
         sl = slice(k, k + e.n_params)
         k += e.n_params
@@ -106,6 +110,9 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
                 setup_left.append((e.name, small))
         elif not ok.any():
             reason = "not identifiable from these data"
+        elif e.name in odd:
+            reason = (f"a size no machine has, {odd[e.name].describe()}: not compensated (a period the readings "
+                      f"sample at one phase, poses that do not determine it, or observations that are inconsistent)")
         elif basis_of(e).driver == "time":
             reason = "a drift with time: no table holds it"
         elif basis_of(e).driver == "positions":
