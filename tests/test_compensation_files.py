@@ -313,3 +313,31 @@ def test_an_effect_of_a_size_no_machine_has_is_never_compensated(tmp_path, capsy
         assert not (out / "C.csv").exists()
         info = json.loads((out / "compensation.json").read_text())
         assert "C" not in info["tables"]
+
+
+@pytest.mark.parametrize("sine_um, compensated", [(2.5, False), (5.0, True)])
+def test_a_curve_not_known_better_than_it_is_large_is_left_out(sine_um, compensated):
+    """A C error of period 90° with sine 2.5σ: its parameter passes the 2σ test, but over the turn its curve's RMS,
+    2.5/√2 = 1.77σ, is within twice its standard deviation's RMS (σ: independent sine and cosine) — a table would hold
+    noise; at 5σ (3.5σ RMS) it is compensated. Without the correlation (an older file) the parameter test alone."""
+    from dataclasses import replace
+
+    from kinid.identification.compensation.compensate import compensation_model
+
+    machine = load_machine(urdf_path("five_axis_bc"))
+    base = _fit_of(machine, {})
+    periodic = parse_effect("ECC:periodic:90", machine)
+    p = len(base.values) + 2
+    result = replace(base, effects=base.effects + (periodic,),
+                     param_names=base.param_names + tuple(periodic.param_names()),
+                     units=base.units + ("µrad", "µrad"), values=np.append(base.values, [sine_um, 0.0]),
+                     std=np.append(base.std, [1.0, 1.0]), identifiable=np.ones(p, bool), correlation=np.eye(p),
+                     axis_ranges={"C": (0.0, 330.0)}, axis_readings={"C": np.arange(0.0, 331.0, 30.0)})
+    why = dict(compensation_model(result).left_out).get("ECC:periodic:90")
+    if compensated:
+        assert why is None
+    else:
+        assert re.match(r"not significant as a curve: over C's measured range its RMS 1\.7\d is within its expanded "
+                        r"uncertainty's RMS 2 \(k = 2\)", why), why  # 1.75 over 0 … 330°
+        assert "ECC:periodic:90" not in dict(compensation_model(result, all_terms=True).left_out)
+        assert "ECC:periodic:90" not in dict(compensation_model(replace(result, correlation=None)).left_out)

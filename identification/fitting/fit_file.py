@@ -55,6 +55,7 @@ FIT_SCHEMA = Fields(
         "shared_std": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True))),  # signed changes
         "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(), "stated_std": Fields({}, other=True),
         "implausible": Items(Fields({}, other=True)),
+        "correlation": Items(Items(Number(low=-1.000001, high=1.000001, null=True)), null=True),
         "board_pose": Fields({}, optional={"passes": _COUNT, "move_um": Number(low=0, high=LARGEST, null=True),
                                            "noise_um": Number(low=0, high=LARGEST, null=True), "settled": Flag()}),
     },
@@ -109,6 +110,8 @@ def fit_to_dict(result: FitResult) -> dict:
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
+        "correlation": None if result.correlation is None else [[_finite(x) for x in row]
+                                                                 for row in np.asarray(result.correlation)],
         "start": result.start,
         "stated_std": _finite_tree(result.stated_std),
         "board_pose": {k: _finite(v) if k.endswith("_um") else v for k, v in result.board_pose.items()},
@@ -116,6 +119,17 @@ def fit_to_dict(result: FitResult) -> dict:
                          "undetermined": a.undetermined}
                         for a in result.implausible()],
     }
+
+
+def _correlation(rows, n: int):
+    """The parameters' correlation (n, n) as FIT.json keeps it (null where held), or None (an older file)."""
+    if rows is None:
+        return None
+    out = np.array([[np.nan if x is None else float(x) for x in row] for row in rows], float)
+    if out.shape != (n, n):
+        raise ValueError(f"correlation is {out.shape[0]} rows of {out.shape[1] if out.ndim == 2 else '?'}, "
+                         f"the parameters are {n}")
+    return out
 
 
 def save_fit(result: FitResult, path) -> None:
@@ -174,6 +188,7 @@ def load_fit(path) -> FitResult:
             prior=str(data.get("prior", "")),
             prior_std=None if data.get("prior_std") is None else np.array(
                 [np.inf if v is None else float(v) for v in data["prior_std"]]),
+            correlation=_correlation(data.get("correlation"), len(names)),
             start=str(data.get("start", "")), stated_std=dict(data.get("stated_std") or {}),
             board_pose={str(k): (np.nan if v is None else v) for k, v in data.get("board_pose", {}).items()})
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
