@@ -297,13 +297,31 @@ class _Flow:
         if height > most:
             width, height = width * most / height, most
         self._room(height + 20)
-        page = self.pages[-1]
         x0, y1 = self._xy(self.left, self.y + height)
-        ax = page.add_axes((x0, y1, width / self.width_pt, height / self.height_pt))
-        ax.imshow(image, interpolation="none")
-        ax.set_axis_off()
+        self.pages[-1].add_artist(_picture(image, (x0, y1, width / self.width_pt, height / self.height_pt)))
         self.y += height + 3
         self.text(caption, 7.5, color=_GREY, after=10)
+
+
+def _picture(pixels, box):
+    """An artist drawing ``pixels`` (rows top to bottom) into ``box`` (left, bottom, width, height; fractions of the
+    page) at their own resolution, as ``imshow(..., interpolation="none")`` in an axes of that box does, without
+    making an axes (which costs more than the picture)."""
+    from matplotlib.artist import Artist
+    from matplotlib.transforms import Affine2D
+
+    class Picture(Artist):
+        def draw(self, renderer):
+            if not self.get_visible():
+                return
+            (x0, y0), (x1, y1) = self.get_figure(root=True).transFigure.transform(
+                [(box[0], box[1]), (box[0] + box[2], box[1] + box[3])])
+            gc = renderer.new_gc()
+            renderer.draw_image(gc, x0, y0, pixels[::-1], Affine2D().scale(x1 - x0, y1 - y0))  # rows bottom up
+            gc.restore()
+            self.stale = False
+
+    return Picture()
 
 
 def _opaque_pixels(png: Path):
