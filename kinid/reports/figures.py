@@ -100,14 +100,15 @@ def fixed_layout(fig, *, left_in: float = 0.75, right_in: float = 0.2, top_in: f
                         wspace=wspace_in / axes_w, hspace=hspace_in / axes_h)
 
 
-def text_width_in(text: str, fontsize: float) -> float:
-    """Width, inches, of ``text`` (its longest line) set in the figures' font at ``fontsize`` pt: a margin made for a
-    note beside the axes, measured without drawing the figure (as ``bbox_inches="tight"`` would)."""
+def text_width_in(text: str, fontsize: float, *, dpi: int = 110) -> float:
+    """Width, inches, of ``text`` (its longest line) set in the figures' font at ``fontsize`` pt and drawn at ``dpi``
+    (:func:`save_figure`'s: glyphs are fitted to the pixel grid, so the width depends a little on it): a margin made
+    for a note beside the axes, measured without drawing the figure (as ``bbox_inches="tight"`` would)."""
     from matplotlib.backends.backend_agg import RendererAgg
     from matplotlib.font_manager import FontProperties
 
-    measure, prop = RendererAgg(1, 1, 72), FontProperties(size=fontsize)
-    return max(measure.get_text_width_height_descent(line, prop, ismath=False)[0] for line in text.split("\n")) / 72
+    measure, prop = RendererAgg(1, 1, dpi), FontProperties(size=fontsize)
+    return max(measure.get_text_width_height_descent(line, prop, ismath=False)[0] for line in text.split("\n")) / dpi
 
 
 def legend_below(fig, ax=None, *, columns: int | None = None, fontsize: float = 9, inside: bool = False, **kwargs):
