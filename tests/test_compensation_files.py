@@ -22,7 +22,7 @@ from kinid.axis_tables import (CONTROLLER_FORMATS, AxisErrorTable, ControllerFor
                                sinumerik_text, twincat_text)
 from kinid.cli import main
 from kinid.errors import DataError
-from kinid.identification import fit, load_machine, save_fit
+from kinid.identification import fit, load_machine, parse_effect, save_fit
 from kinid.identification.compensation.compensate import compensation_model, positioning_table, write_compensation
 from kinid.identification.model.effects import default_model
 from kinid.identification.fitting.fit import FitResult
@@ -287,3 +287,58 @@ def test_a_registered_format_is_written_by_compensate(readme_example):
         assert 2 <= rows.shape[0] <= 50
     finally:
         CONTROLLER_FORMATS.pop(fmt.name)
+
+
+def test_an_effect_of_a_size_no_machine_has_is_never_compensated(tmp_path, capsys):
+    """A C error with the period of the C readings' step (360/7°): the readings sample it at one phase, so its sine
+    is any value the fit needs (1.29e5 ± 0.66e5 µrad in the proving ground's scenario) while its cosine is
+    significant; the effect passed the significance test and C's table moved the axis by up to 7° between the
+    readings. A size beyond the plausible limit is left out, named, even with --all-terms."""
+    from dataclasses import replace
+
+    machine = load_machine(urdf_path("five_axis_bc"))
+    base = _fit_of(machine, {})
+    odd = parse_effect("ECC:periodic:51.4286", machine)
+    effects = base.effects + (odd,)
+    p = len(base.values) + odd.n_params
+    result = replace(base, effects=effects, param_names=base.param_names + tuple(odd.param_names()),
+                     units=base.units + ("µrad", "µrad"), values=np.append(base.values, [129367.0, -1.77]),
+                     std=np.append(base.std, [66482.0, 0.877]), identifiable=np.ones(p, bool),
+                     axis_ranges={"C": (0.0, 334.2857), "B": (-18.1, 29.0)})
+    save_fit(result, tmp_path / "fit.json")
+    for extra in ([], ["--all-terms"]):
+        out = tmp_path / f"comp{len(extra)}"
+        assert main(["compensate", "--fit", str(tmp_path / "fit.json"), "--out", str(out), *extra]) == 0
+        said = capsys.readouterr().out
+        assert "ECC:periodic:51.4286: left out (a size no machine has" in said
+        assert not (out / "C.csv").exists()
+        info = json.loads((out / "compensation.json").read_text())
+        assert "C" not in info["tables"]
+
+
+@pytest.mark.parametrize("sine_um, compensated", [(2.5, False), (5.0, True)])
+def test_a_curve_not_known_better_than_it_is_large_is_left_out(sine_um, compensated):
+    """A C error of period 90° with sine 2.5σ: its parameter passes the 2σ test, but over the turn its curve's RMS,
+    2.5/√2 = 1.77σ, is within twice its standard deviation's RMS (σ: independent sine and cosine) — a table would hold
+    noise; at 5σ (3.5σ RMS) it is compensated. Without the correlation (an older file) the parameter test alone."""
+    from dataclasses import replace
+
+    from kinid.identification.compensation.compensate import compensation_model
+
+    machine = load_machine(urdf_path("five_axis_bc"))
+    base = _fit_of(machine, {})
+    periodic = parse_effect("ECC:periodic:90", machine)
+    p = len(base.values) + 2
+    result = replace(base, effects=base.effects + (periodic,),
+                     param_names=base.param_names + tuple(periodic.param_names()),
+                     units=base.units + ("µrad", "µrad"), values=np.append(base.values, [sine_um, 0.0]),
+                     std=np.append(base.std, [1.0, 1.0]), identifiable=np.ones(p, bool), correlation=np.eye(p),
+                     axis_ranges={"C": (0.0, 330.0)}, axis_readings={"C": np.arange(0.0, 331.0, 30.0)})
+    why = dict(compensation_model(result).left_out).get("ECC:periodic:90")
+    if compensated:
+        assert why is None
+    else:
+        assert re.match(r"not significant as a curve: over C's measured range its RMS 1\.7\d is within its expanded "
+                        r"uncertainty's RMS 2 \(k = 2\)", why), why  # 1.75 over 0 … 330°
+        assert "ECC:periodic:90" not in dict(compensation_model(result, all_terms=True).left_out)
+        assert "ECC:periodic:90" not in dict(compensation_model(replace(result, correlation=None)).left_out)

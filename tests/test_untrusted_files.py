@@ -276,7 +276,7 @@ def fit_file(tmp_path_factory):
 
     folder = tmp_path_factory.mktemp("fit")
     m = load_machine(urdf_path("five_axis_bc"))
-    truth = {"EXX:poly2": [2.0, -1.0], "ECC:periodic:90": [4.0, 2.0]}
+    truth = {"EXX:poly2": [0.2, -0.01], "ECC:periodic:90": [4.0, 2.0]}  # tens of µm: a size a machine has
     effects = [parse_effect(n, m) for n in truth]
     theta = np.concatenate([np.atleast_1d(v) for v in truth.values()]).astype(float)
     obs = simulate(m, patent_plan(m), effects, theta, noise_um=0.5, rng=np.random.default_rng(3))

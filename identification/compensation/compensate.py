@@ -39,6 +39,7 @@ from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import calibrated_urdf, constant_errors, held_at_zero, setup_offsets
 from .ranges import axis_range, not_one_turn, unwrapped_range
+from .significance import curve_not_significant, not_significant
 from .rotary_geometry import kinematics_files
 from .table_check import TableCheck, check_positions, check_tables
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
@@ -88,14 +89,18 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
 
     Left out, each with its reason: the set-up of the workpiece and the sensor (pseudo-axes W and T,
     they belong in the controller's work and tool offsets), drifts with time (no table holds them),
-    effects the data could not identify, and — unless ``all_terms`` — effects none of whose
-    parameters exceeds its expanded uncertainty (|value| ≤ k·σ, k = 2).
+    effects the data could not identify, effects of a size no machine has (``FitResult.implausible``: even
+    with ``all_terms``), and — unless ``all_terms`` — effects not known better than they are large
+    (:mod:`.significance`: no parameter beyond its expanded uncertainty, or a curve within its own).
     """
     machine = result.machine
     values = np.array(result.values, float)
     dropped = np.zeros(len(values), bool)  # the machine's identified terms within their uncertainty, written as 0
     zeroed = np.zeros(len(values), bool)  # left out of the machine's compensation
     left, setup, setup_left, k = [], [], [], 0
+    # a size no machine has is not a machine's error: between the readings a fit may need any value (a period
+    # that the readings sample at the same phase), and a table would move the axis by it there
+    odd = {o.effect: o for o in result.implausible()}
     for e in result.effects:
         sl = slice(k, k + e.n_params)
         k += e.n_params
@@ -106,18 +111,21 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
             setup.append(e.name)
             reason = "set-up of the " + ("workpiece (board)" if joint.axis == "W" else "sensor (tool)") + \
                      ": in setup.json, for the work or tool offset"
-            small = None if all_terms or not ok.any() else _not_significant(values[sl][ok], result.std[sl][ok])
+            small = None if all_terms or not ok.any() else not_significant(values[sl][ok], result.std[sl][ok])
             if small is not None:
                 setup_left.append((e.name, small))
         elif not ok.any():
             reason = "not identifiable from these data"
+        elif e.name in odd:
+            reason = (f"a size no machine has, {odd[e.name].describe()}: not compensated (a period the readings "
+                      f"sample at one phase, poses that do not determine it, or observations that are inconsistent)")
         elif basis_of(e).driver == "time":
             reason = "a drift with time: no table holds it"
         elif basis_of(e).driver == "positions":
             reason = (f"varies with {e.args[0]}: a cross compensation (the controller's table of "
                       f"{e.code} over {e.args[0]}), not written")
         elif not all_terms:
-            reason = _not_significant(values[sl][ok], result.std[sl][ok])
+            reason = not_significant(values[sl][ok], result.std[sl][ok]) or curve_not_significant(result, e, sl)
         if reason is not None:
             left.append((e.name, reason))
             values[sl] = np.where(ok, 0.0, values[sl])
@@ -128,22 +136,6 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left),
                         replace(result, values=held))
 
-
-def _not_significant(values, std) -> str | None:
-    """Why an effect of these identified parameter values and standard deviations is not significant (every
-    |value| ≤ k·σ, k = 2), or None (significant, or σ unknown)."""
-    std = np.asarray(std, float)
-    v = np.abs(np.asarray(values, float))
-    if v.size == 0 or not (np.all(np.isfinite(std)) and np.all(std > 0)):
-        return None
-    ratio = float(np.max(v / std))
-    if ratio > K_EXPANDED:
-        return None
-    return (f"not significant: |value| ≤ its expanded uncertainty (k = {K_EXPANDED:g}); "
-            f"largest |value|/σ {ratio:.2g}")
-
-
-# --- the errors of an axis ---------------------------------------------------------------------
 
 def _effects_by_axis(result: FitResult):
     """Axis -> list of (effect, its parameter values), for bases driven by that axis's position or direction."""

@@ -53,9 +53,9 @@ FIT_SCHEMA = Fields(
         "axis_ranges": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True), length=2, ordered=True)),
         "axis_readings": Table(Items(Number(low=-LARGEST, high=LARGEST))),
         "shared_std": Table(Items(Number(low=-LARGEST, high=LARGEST, null=True))),  # signed changes
-        "correlation": Items(Items(Number(low=-1.000001, high=1.000001, null=True))),  # NaN (held) as null
         "prior": Text(), "prior_std": Items(_STD, null=True), "start": Text(), "stated_std": Fields({}, other=True),
         "implausible": Items(Fields({}, other=True)),
+        "correlation": Items(Items(Number(low=-1.000001, high=1.000001, null=True)), null=True),
         "board_pose": Fields({}, optional={"passes": _COUNT, "move_um": Number(low=0, high=LARGEST, null=True),
                                            "noise_um": Number(low=0, high=LARGEST, null=True), "settled": Flag()}),
     },
@@ -108,10 +108,10 @@ def fit_to_dict(result: FitResult) -> dict:
         "axis_ranges": {k: [_finite(lo), _finite(hi)] for k, (lo, hi) in result.axis_ranges.items()},
         "axis_readings": {k: [float(x) for x in v] for k, v in result.axis_readings.items()},
         "shared_std": {k: [_finite(x) for x in v] for k, v in result.shared_std.items()},
-        **({} if result.correlation is None else {"correlation": [[_finite(x) for x in row]
-                                                                  for row in result.correlation]}),
         "prior": result.prior,
         "prior_std": None if result.prior_std is None else [_finite(v) for v in result.prior_std],
+        "correlation": None if result.correlation is None else [[_finite(x) for x in row]
+                                                                 for row in np.asarray(result.correlation)],
         "start": result.start,
         "stated_std": _finite_tree(result.stated_std),
         "board_pose": {k: _finite(v) if k.endswith("_um") else v for k, v in result.board_pose.items()},
@@ -119,6 +119,17 @@ def fit_to_dict(result: FitResult) -> dict:
                          "undetermined": a.undetermined}
                         for a in result.implausible()],
     }
+
+
+def _correlation(rows, n: int):
+    """The parameters' correlation (n, n) as FIT.json keeps it (null where held), or None (an older file)."""
+    if rows is None:
+        return None
+    out = np.array([[np.nan if x is None else float(x) for x in row] for row in rows], float)
+    if out.shape != (n, n):
+        raise ValueError(f"correlation is {out.shape[0]} rows of {out.shape[1] if out.ndim == 2 else '?'}, "
+                         f"the parameters are {n}")
+    return out
 
 
 def save_fit(result: FitResult, path) -> None:
@@ -177,9 +188,9 @@ def load_fit(path) -> FitResult:
             prior=str(data.get("prior", "")),
             prior_std=None if data.get("prior_std") is None else np.array(
                 [np.inf if v is None else float(v) for v in data["prior_std"]]),
+            correlation=_correlation(data.get("correlation"), len(names)),
             start=str(data.get("start", "")), stated_std=dict(data.get("stated_std") or {}),
-            board_pose={str(k): (np.nan if v is None else v) for k, v in data.get("board_pose", {}).items()},
-            correlation=_correlation(data.get("correlation"), len(names)))
+            board_pose={str(k): (np.nan if v is None else v) for k, v in data.get("board_pose", {}).items()})
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"malformed kinid fit ({exc.__class__.__name__}: {exc})", path=path) from None
     except KinidError as exc:
@@ -187,16 +198,6 @@ def load_fit(path) -> FitResult:
     if sum(e.n_params for e in effects) != len(names):
         raise DataError("malformed kinid fit: the parameters do not match the effects", path=path)
     return result
-
-
-def _correlation(rows, n: int):
-    """The parameters' correlation (n, n), NaN where held; None when the file has none (written before it kept it)."""
-    if rows is None:
-        return None
-    c = np.array([[np.nan if x is None else float(x) for x in row] for row in rows], float)
-    if c.shape != (n, n):
-        raise ValueError(f"the correlation is {c.shape[0]} × {c.shape[1] if c.ndim == 2 else 0}, not {n} × {n}")
-    return c
 
 
 #: σ typed in mm instead of µm leaves a residual this many times σ, give or take the factor SIGMA_MM_SPREAD.

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinid.reports.figures import fixed_layout, legend_below, new_figure, panel_grid, save_figure
+from kinid.reports.figures import fixed_layout, legend_below, new_figure, panel_grid, save_figure, text_width_in
 from ..model import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of
 
 __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram", "plot_singular_values",
@@ -154,7 +154,8 @@ def plot_periodogram(machine, obs, r_um, path) -> None:
 
 
 def plot_singular_values(fit_result, path) -> None:
-    """Singular values of the column-scaled Jacobian, and the parameters held fixed."""
+    """Singular values of the column-scaled Jacobian, and the parameters held fixed (beside the axes, the figure
+    widened to their longest line: laid out without drawing it twice to measure it)."""
     fig = new_figure((7, 3.2))
     ax = fig.subplots()
     s = np.sort(fit_result.singular_values)[::-1]
@@ -165,12 +166,16 @@ def plot_singular_values(fit_result, path) -> None:
     ax.set_xlabel("index (largest first)")
     ax.set_ylabel("singular value (unit columns)")
     ax.set_title(f"Rank {fit_result.rank}/{len(fit_result.param_names)}, condition {fit_result.condition_number:.3g}")
-    if fit_result.aliases:  # beside the axes, as wide as the messages: the saved figure is cropped to them
-        text = "\n".join(a.message for a in fit_result.aliases[:8])
-        ax.text(1.02, 1.0, "held fixed:\n" + text, transform=ax.transAxes, fontsize=8, va="top")
-        save_figure(fig, path)
-        return
-    fixed_layout(fig, left_in=0.8, top_in=0.35, bottom_in=0.55)
+    if fit_result.aliases:  # beside the axes, as wide as the messages
+        text = "held fixed:\n" + "\n".join(a.message for a in fit_result.aliases[:8])
+        ax.text(1.02, 1.0, text, transform=ax.transAxes, fontsize=8, va="top")
+        # the axes as large as matplotlib's default margins leave in 7 × 3.2 in (as these figures were always drawn)
+        axes_w_in, axes_h_in = 0.775 * 7, 0.77 * 3.2
+        right_in = 0.02 * axes_w_in + text_width_in(text, 8) + 0.1
+        fig.set_size_inches(0.75 + axes_w_in + right_in, 0.35 + axes_h_in + 0.5)
+        fixed_layout(fig, left_in=0.75, right_in=right_in, top_in=0.35, bottom_in=0.5)
+    else:
+        fixed_layout(fig, left_in=0.8, top_in=0.35, bottom_in=0.55)
     save_figure(fig, path, tight=False)
 
 

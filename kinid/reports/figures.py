@@ -16,7 +16,8 @@ import io
 
 from ..files import atomic_write
 
-__all__ = ["new_figure", "save_figure", "panel_grid", "fixed_layout", "legend_below", "SHOWN_WIDTH_IN"]
+__all__ = ["new_figure", "save_figure", "panel_grid", "fixed_layout", "legend_below", "text_width_in",
+           "SHOWN_WIDTH_IN"]
 
 
 def new_figure(figsize=(7.0, 4.0)):
@@ -63,10 +64,15 @@ def panel_grid(n: int, *, panel_in=(3.0, 2.7), most_per_row: int = 3, sharey: bo
     rows = -(-n // cols)
     width = min(panel_in[0] * cols, SHOWN_WIDTH_IN)
     fig = new_figure((width, panel_in[1] * rows + 0.5))
-    axs = fig.subplots(rows, cols, sharey=sharey, squeeze=False).ravel()
-    for ax in axs[n:]:
-        ax.set_visible(False)
-    return fig, list(axs[:n])
+    grid = fig.add_gridspec(rows, cols)
+    axs = []
+    for i in range(n):  # the empty places of a short last row get no axes: an axes costs as much to make as to draw
+        ax = fig.add_subplot(grid[i // cols, i % cols], sharey=axs[0] if sharey and axs else None)
+        if sharey and i % cols:  # one y scale a row, labelled on its first panel (as subplots(sharey=True) does)
+            ax.yaxis.set_tick_params(which="both", labelleft=False)
+            ax.yaxis.offsetText.set_visible(False)
+        axs.append(ax)
+    return fig, axs
 
 
 def fixed_layout(fig, *, left_in: float = 0.75, right_in: float = 0.2, top_in: float = 0.5,
@@ -92,6 +98,17 @@ def fixed_layout(fig, *, left_in: float = 0.75, right_in: float = 0.2, top_in: f
     axes_h = (h - top_in - bottom_in - (rows - 1) * hspace_in) / rows
     fig.subplots_adjust(left=left_in / w, right=1 - right_in / w, top=1 - top_in / h, bottom=bottom_in / h,
                         wspace=wspace_in / axes_w, hspace=hspace_in / axes_h)
+
+
+def text_width_in(text: str, fontsize: float, *, dpi: int = 110) -> float:
+    """Width, inches, of ``text`` (its longest line) set in the figures' font at ``fontsize`` pt and drawn at ``dpi``
+    (:func:`save_figure`'s: glyphs are fitted to the pixel grid, so the width depends a little on it): a margin made
+    for a note beside the axes, measured without drawing the figure (as ``bbox_inches="tight"`` would)."""
+    from matplotlib.backends.backend_agg import RendererAgg
+    from matplotlib.font_manager import FontProperties
+
+    measure, prop = RendererAgg(1, 1, dpi), FontProperties(size=fontsize)
+    return max(measure.get_text_width_height_descent(line, prop, ismath=False)[0] for line in text.split("\n")) / dpi
 
 
 def legend_below(fig, ax=None, *, columns: int | None = None, fontsize: float = 9, inside: bool = False, **kwargs):

@@ -61,6 +61,11 @@ def write_pdf(path, title: str, subtitle: str, provenance, summary, sections, *,
         out.write(buf.getvalue())
 
 
+#: A line's width predicted from its words' is measured whole when it is this close to the limit, pt: the prediction
+#: is off by the rounding of glyph positions only (hundredths of a point; the tests compare it with every line
+#: measured whole).
+_UNSURE_PT = 0.5
+
 #: A page holding at most this many lines of a text block alone is avoided by setting the block's lines closer.
 _FEW_LINES = 8
 
@@ -127,15 +132,34 @@ class _Flow:
             self._widths[key] = self._measure.get_text_width_height_descent(s, prop, ismath=False)[0]
         return self._widths[key]
 
+    def _gap(self, before: str, after: str, size: float, weight, family) -> float:
+        """The room, pt, between the ink of a word ending in ``before`` and one starting with ``after`` set after it
+        with one space (the space's advance, the glyphs' side bearings and any kerning)."""
+        pair = f"{before} {after}"
+        return (self._width(pair, size, weight, family) - self._width(before, size, weight, family)
+                - self._width(after, size, weight, family))
+
     def wrap(self, text: str, size: float, width_pt: float, weight="normal", family="sans-serif") -> list:
-        """Lines of ``text`` no wider than ``width_pt`` (words kept whole unless one alone is wider)."""
+        """Lines of ``text`` no wider than ``width_pt`` (words kept whole unless one alone is wider).
+
+        Each line is the longest run of words that fits, as measuring every trial line would give; a trial's
+        width is predicted from its words' widths and the gaps between them (each measured once, then cached),
+        and measured whole only when the prediction falls within :data:`_UNSURE_PT` of the limit.
+        """
         lines = []
         for paragraph in str(text).split("\n"):
-            line = ""
+            line, line_w = "", 0.0
             for word in paragraph.split(" "):
                 trial = f"{line} {word}" if line else word
-                if self._width(trial, size, weight, family) <= width_pt:
-                    line = trial
+                if not line or not word:
+                    trial_w = self._width(trial, size, weight, family)
+                else:
+                    trial_w = (line_w + self._gap(line[-1], word[0], size, weight, family)
+                               + self._width(word, size, weight, family))
+                    if abs(trial_w - width_pt) <= _UNSURE_PT:
+                        trial_w = self._width(trial, size, weight, family)
+                if trial_w <= width_pt:
+                    line, line_w = trial, trial_w
                     continue
                 if line:
                     lines.append(line)
@@ -143,7 +167,7 @@ class _Flow:
                     cut = max(1, int(len(word) * width_pt / self._width(word, size, weight, family)) - 1)
                     lines.append(word[:cut])
                     word = word[cut:]
-                line = word
+                line, line_w = word, self._width(word, size, weight, family)
             lines.append(line)
         return lines
 
@@ -273,13 +297,31 @@ class _Flow:
         if height > most:
             width, height = width * most / height, most
         self._room(height + 20)
-        page = self.pages[-1]
         x0, y1 = self._xy(self.left, self.y + height)
-        ax = page.add_axes((x0, y1, width / self.width_pt, height / self.height_pt))
-        ax.imshow(image, interpolation="none")
-        ax.set_axis_off()
+        self.pages[-1].add_artist(_picture(image, (x0, y1, width / self.width_pt, height / self.height_pt)))
         self.y += height + 3
         self.text(caption, 7.5, color=_GREY, after=10)
+
+
+def _picture(pixels, box):
+    """An artist drawing ``pixels`` (rows top to bottom) into ``box`` (left, bottom, width, height; fractions of the
+    page) at their own resolution, as ``imshow(..., interpolation="none")`` in an axes of that box does, without
+    making an axes (which costs more than the picture)."""
+    from matplotlib.artist import Artist
+    from matplotlib.transforms import Affine2D
+
+    class Picture(Artist):
+        def draw(self, renderer):
+            if not self.get_visible():
+                return
+            (x0, y0), (x1, y1) = self.get_figure(root=True).transFigure.transform(
+                [(box[0], box[1]), (box[0] + box[2], box[1] + box[3])])
+            gc = renderer.new_gc()
+            renderer.draw_image(gc, x0, y0, pixels[::-1], Affine2D().scale(x1 - x0, y1 - y0))  # rows bottom up
+            gc.restore()
+            self.stale = False
+
+    return Picture()
 
 
 def _opaque_pixels(png: Path):
