@@ -193,7 +193,7 @@ def data(tmp_path_factory):
     (d / "driver.py").write_text(DRIVER)
     machine = urdf_path("five_axis_bc")
     (d / "eb.json").write_text(json.dumps({"EX0C": -8.0, "EA0B": 20.0, "EXX:periodic:10": [0.9, 1.1],
-                                           "EYY:poly2": [0.004, -2e-5]}))
+                                           "EYY:poly2": [0.04, -2e-4]}))  # µm over the travel: significant as a curve
     for name, errors, seed, added in (("a", EXAMPLES / "errors.json", 1, ["EXX:periodic:10"]),
                                       ("b", d / "eb.json", 2, ["EXX:periodic:10", "EYY:poly2"])):
         _kinid("simulate", "--machine", machine, "--errors", errors, "--noise-um", 1, "--seed", seed,
