@@ -50,3 +50,16 @@ def pytest_terminal_summary(terminalreporter, config):
     n = getattr(config, "_kinid_slow", 0)
     if n:
         terminalreporter.write_line(f"{n} slow tests not run (the fast tier); KINID_TESTS=all runs them, as CI does")
+
+
+@pytest.fixture(scope="session")
+def ur_arm(tmp_path_factory):
+    """The six-axis arm of examples/ur_like.urdf as ``kinid model`` makes it (base ``world``, tool ``wrist_3_link``):
+    (URDF path, Machine). Built once for the tests of instrument exports, stated std and several targets."""
+    from kinid.cli import main
+    from kinid.identification.model import load_machine
+
+    urdf = tmp_path_factory.mktemp("ur_arm") / "arm.urdf"
+    assert main(["model", "--urdf", str(Path(__file__).resolve().parents[1] / "examples" / "ur_like.urdf"), "--base",
+                 "world", "--tool", "wrist_3_link", "--out", str(urdf)]) == 0
+    return urdf, load_machine(urdf)

@@ -23,20 +23,16 @@ from kinid.cli import main  # noqa: E402
 from kinid.errors import DataError  # noqa: E402
 from kinid.identification.data import read_export, read_observations  # noqa: E402
 from kinid.identification.fitting import design, load_fit, residuals  # noqa: E402
-from kinid.identification.model import load_machine  # noqa: E402
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
           "wrist_3_joint")
 
 
 @pytest.fixture(scope="module")
-def arm(tmp_path_factory):
+def arm(tmp_path_factory, ur_arm):
     """(folder, URDF path, machine, plain-numpy truth machine, names the fit identifies) of the arm."""
     d = tmp_path_factory.mktemp("export_arm")
-    urdf = d / "arm.urdf"
-    assert main(["model", "--urdf", str(ROOT / "examples" / "ur_like.urdf"), "--base", "world", "--tool",
-                 "wrist_3_link", "--out", str(urdf)]) == 0
-    machine = load_machine(urdf)
+    urdf, machine = ur_arm
     assert [a.joint for a in machine.axes] == list(JOINTS)  # the short names J1..J6 stand for these
     return d, urdf, machine, truth.read_urdf(urdf.read_text()), far.arm()[3]
 

@@ -26,7 +26,6 @@ from kinid.cli import main  # noqa: E402
 from kinid.errors import DataError  # noqa: E402
 from kinid.identification.data.observations import Observations  # noqa: E402
 from kinid.identification.fitting import design, fit, load_fit, model_effects, residuals  # noqa: E402
-from kinid.identification.model import load_machine  # noqa: E402
 
 #: The targets' offsets on the flange (tool frame), mm: 100 mm apart, as a tracker's nest or a mocap cluster.
 TARGETS = {"T1": (0.0, 0.0, 40.0), "T2": (100.0, 0.0, 40.0), "T3": (0.0, 100.0, 60.0)}
@@ -34,13 +33,10 @@ NOISE_MM = 0.020
 
 
 @pytest.fixture(scope="module")
-def arm(tmp_path_factory):
+def arm(tmp_path_factory, ur_arm):
     """(folder, URDF path, machine, plain-numpy truth machine, errors {code: µm / µrad})."""
     d = tmp_path_factory.mktemp("targets_arm")
-    urdf = d / "arm.urdf"
-    assert main(["model", "--urdf", str(ROOT / "examples" / "ur_like.urdf"), "--base", "world", "--tool",
-                 "wrist_3_link", "--out", str(urdf)]) == 0
-    machine = load_machine(urdf)
+    urdf, machine = ur_arm
     rng = np.random.default_rng(7)
     free = far.arm()[3]  # the default model's terms one target identifies (the others alias with them)
     errors = {code: rng.normal(0, 100.0) for code in free if not code.endswith(("W", "T"))}
