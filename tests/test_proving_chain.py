@@ -55,28 +55,3 @@ def test_the_laser_beside_the_camera_holds_the_on_axis_accuracy(seed):
     assert rec["offset"]["held_out_um"] <= 1.5 * rec["axis"]["held_out_um"]
     assert rec["offset"]["held_out_um"] < rec["uncompensated_um"] / 10  # the chain compensates at all
     assert not rec["offset"]["spurious"] and rec["pass"]
-
-
-def test_a_term_written_as_zero_leaves_the_others_as_a_fit_without_it():
-    """What the chain's B head exposed (EA0Z within its uncertainty beside EA0B): for a linear least-squares fit the
-    conditional mean of the kept terms given the dropped one at 0 is the refit without it (plain numpy lstsq)."""
-    from types import SimpleNamespace
-
-    from kinid.identification.compensation.calibration import held_at_zero
-
-    rng = np.random.default_rng(5)
-    n = 60
-    a = rng.normal(size=n)
-    J = np.column_stack([a, a + 0.02 * rng.normal(size=n), rng.normal(size=n)])  # columns 0 and 1 nearly alike
-    y = J @ [3.0, 0.0, -1.0] + 0.1 * rng.normal(size=n)
-    theta = np.linalg.lstsq(J, y, rcond=None)[0]
-    cov = np.linalg.pinv(J.T @ J) * 0.1**2
-    std = np.sqrt(np.diag(cov))
-    result = SimpleNamespace(values=theta, std=std, correlation=cov / np.outer(std, std), shared_std={},
-                             identifiable=np.ones(3, bool))
-    dropped = np.array([False, True, False])
-    refit = np.linalg.lstsq(J[:, ~dropped], y, rcond=None)[0]
-    held = held_at_zero(result, dropped)
-    assert held[1] == 0.0
-    assert np.allclose(held[~dropped], refit, atol=1e-9)
-    assert abs(theta[0] - refit[0]) > 10 * abs(held[0] - refit[0]) + 0.1  # zeroing alone would leave it far off

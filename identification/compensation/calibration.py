@@ -18,7 +18,9 @@ from kinid.stats import K_EXPANDED
 from ..model import basis_of
 from ..fitting import FitResult
 
-__all__ = ["constant_errors", "held_at_zero", "setup_offsets", "calibrated_urdf"]
+__all__ = ["constant_errors", "setup_offsets", "calibrated_urdf"]
+
+
 
 
 def constant_errors(result: FitResult, compensated=None) -> list:
@@ -42,28 +44,6 @@ def constant_errors(result: FitResult, compensated=None) -> list:
             out.append(row)
         k += e.n_params
     return out
-
-
-def held_at_zero(result: FitResult, dropped):
-    """The fit's values with the ``dropped`` ones (terms within their uncertainty, written as 0) at 0 and the others
-    as the fit would have them then: the Gaussian conditional mean θ_k − C_kd C_dd⁻¹ θ_d of the noise's covariance.
-
-    A term the plan hardly separates from others is not significant alone (EA0Z beside EA0B on a B head seen at
-    three tilts: 941 ± 843 µrad), but the kept terms were fitted with its value: zeroed alone, it moved the
-    compensated tool point by 9.6 µm RMS where the fit predicts 0.28 µm (benchmarks/proving_chain.py). Only the
-    machine's terms are dropped so: the sensor's turn on the tool (EA0T … EC0T) does not move the tool point."""
-    values = np.array(result.values, float)
-    corr = getattr(result, "correlation", None)
-    kept = np.isfinite(values) & ~dropped & np.asarray(result.identifiable, bool)
-    if corr is None or not dropped.any() or not kept.any():
-        return np.where(dropped, 0.0, values)
-    shared = sum((np.asarray(v, float) ** 2 for v in result.shared_std.values()), np.zeros(len(result.std)))
-    std = np.sqrt(np.maximum(np.asarray(result.std, float) ** 2 - shared, 0.0))  # the noise's part
-    cov = np.nan_to_num(np.asarray(corr, float)) * np.outer(std, std)
-    c_dd, c_kd = cov[np.ix_(dropped, dropped)], cov[np.ix_(kept, dropped)]
-    shift = c_kd @ np.linalg.lstsq(c_dd, values[dropped], rcond=None)[0]
-    values[kept] = values[kept] - shift
-    return np.where(dropped, 0.0, values)
 
 
 def _origin(joint) -> np.ndarray:
@@ -108,7 +88,7 @@ def _constant_values(result: FitResult) -> dict:
     return {c["name"]: c["value"] for c in constant_errors(result) if c["identified"] and c["value"]}
 
 
-def setup_offsets(result: FitResult, written_as_zero=None, held: FitResult | None = None) -> dict:
+def setup_offsets(result: FitResult, written_as_zero=None) -> dict:
     """The set-up of the workpiece (W) and the sensor (T) as a work offset and a tool offset.
 
     For each end: the transform ``S`` that takes the nominal end frame to the identified one,
@@ -119,16 +99,13 @@ def setup_offsets(result: FitResult, written_as_zero=None, held: FitResult | Non
 
     ``written_as_zero`` (set-up joint -> reason) names joints that count as 0 in the transforms (a term
     within its expanded uncertainty); their entry keeps the fitted value as ``fitted_value`` and the reason.
-    ``held``: the fit with those at 0 and the others as the fit has them then (:func:`held_at_zero`), the values
-    written (default: ``result``'s).
     """
     import pinocchio as pin
 
     machine = result.machine
     root = ET.fromstring(machine.urdf)
     parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
-    constants = {c["name"]: c for c in constant_errors(held or result)}
-    fitted = {c["name"]: c["value"] for c in constant_errors(result)}
+    constants = {c["name"]: c for c in constant_errors(result)}
     zero = dict(written_as_zero or {})
     out = {}
     for pseudo, end in (("W", "workpiece"), ("T", "tool")):
@@ -162,7 +139,7 @@ def setup_offsets(result: FitResult, written_as_zero=None, held: FitResult | Non
                             "expanded_uncertainty_k2": c["expanded_uncertainty_k2"],
                             "unit": c["unit"], "identified": c["identified"]}
             if code in zero:
-                joints[code].update(fitted_value=fitted[code], written_as_zero=zero[code])
+                joints[code].update(fitted_value=c["value"], written_as_zero=zero[code])
         T_mm = S_end.copy()
         T_mm[:3, 3] *= 1e3
         out["workpiece" if pseudo == "W" else "tool"] = {
@@ -172,13 +149,13 @@ def setup_offsets(result: FitResult, written_as_zero=None, held: FitResult | Non
             "transform_mm": [[float(v) for v in row] for row in T_mm],
             "joints": joints,
         }
-    targets = _target_points(held or result, zero, fitted=result)
+    targets = _target_points(result, zero)
     if targets:
         out["targets"] = targets
     return out
 
 
-def _target_points(result: FitResult, zero: dict, fitted: FitResult) -> dict:
+def _target_points(result: FitResult, zero: dict) -> dict:
     """Each target's own point on the tool when several were fitted together (``E?0T:target:<mark>``): mark ->
     its offset in the tool frame, mm (a term within its U, or one the data cannot see, at 0), and each term with its
     value and U, µm. A coordinate held for one target (seen only with a machine term) makes the others' relative."""
@@ -194,7 +171,7 @@ def _target_points(result: FitResult, zero: dict, fitted: FitResult) -> dict:
             t["joints"][e.code] = {"value": 0.0 if e.name in zero else value, "unit": "µm", "identified": ok,
                                    "expanded_uncertainty_k2": None if std is None else K_EXPANDED * std}
             if e.name in zero:
-                t["joints"][e.code].update(fitted_value=float(fitted.values[k]), written_as_zero=zero[e.name])
+                t["joints"][e.code].update(fitted_value=value, written_as_zero=zero[e.name])
             elif not ok:
                 t["joints"][e.code]["held"] = ("not identifiable from these data: held at 0, and this coordinate of "
                                                "the other targets is given relative to it")

@@ -37,7 +37,7 @@ from kinid.stats import K_EXPANDED
 from ..model import basis_of, basis_values
 from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
-from .calibration import calibrated_urdf, constant_errors, held_at_zero, setup_offsets
+from .calibration import calibrated_urdf, constant_errors, setup_offsets
 from .ranges import axis_range, not_one_turn, unwrapped_range
 from .significance import curve_not_significant, not_significant
 from .rotary_geometry import kinematics_files
@@ -72,8 +72,6 @@ class Compensation:
     setup_left_out : tuple of (effect name, reason)
         The set-up effects written as 0 in ``setup.json``: within their expanded uncertainty (k = 2),
         unless ``all_terms``.
-    held : FitResult or None
-        The fit with the machine's terms written as 0 held there (:func:`held_at_zero`): setup.json's, rotary geometry's.
     """
 
     result: FitResult
@@ -81,7 +79,6 @@ class Compensation:
     left_out: tuple
     setup_effects: tuple
     setup_left_out: tuple = ()
-    held: FitResult | None = None
 
 
 def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compensation:
@@ -95,8 +92,6 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     """
     machine = result.machine
     values = np.array(result.values, float)
-    dropped = np.zeros(len(values), bool)  # the machine's identified terms within their uncertainty, written as 0
-    zeroed = np.zeros(len(values), bool)  # left out of the machine's compensation
     left, setup, setup_left, k = [], [], [], 0
     # a size no machine has is not a machine's error: between the readings a fit may need any value (a period
     # that the readings sample at the same phase), and a table would move the axis by it there
@@ -106,7 +101,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
         k += e.n_params
         joint = machine.error_joint(e.code)
         ok = np.asarray(result.identifiable[sl], bool)
-        reason = small = None
+        reason = None
         if joint.axis in ("W", "T"):
             setup.append(e.name)
             reason = "set-up of the " + ("workpiece (board)" if joint.axis == "W" else "sensor (tool)") + \
@@ -129,12 +124,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
         if reason is not None:
             left.append((e.name, reason))
             values[sl] = np.where(ok, 0.0, values[sl])
-            zeroed[sl] = True
-        dropped[sl] = ok & (reason or "").startswith("not significant")
-    held = held_at_zero(result, dropped)
-    values = np.where(zeroed, values, held)  # the terms kept, as the fit has them without the dropped ones
-    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left),
-                        replace(result, values=held))
+    return Compensation(replace(result, values=values), result, tuple(left), tuple(setup), tuple(setup_left))
 
 
 def _effects_by_axis(result: FitResult):
@@ -393,7 +383,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
     controller = [entry for entry in controller if entry["file"] in outcome]
     for entry in controller:
         entry["never_worse"] = outcome[entry["file"]]
-    setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out), held=comp.held)
+    setup = setup_offsets(result, written_as_zero=dict(comp.setup_left_out))
     files["constants.json"] = json_text({"errors": constant_errors(result, comp)},
                                         path=Path(folder) / "constants.json")
     written.append("constants.json")

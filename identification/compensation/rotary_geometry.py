@@ -35,7 +35,7 @@ def location_errors(comp, *, sensor: bool = False) -> dict:
     """Error code -> value (µm / µrad) of the location errors a compensation keeps (a :class:`Compensation`):
     identified, significant (or every term, as the compensation was made), not the set-up (W, T); with
     ``sensor`` also the sensor's set-up (T) as ``setup.json`` holds it (a term within its uncertainty as 0)."""
-    result, left = comp.held or comp.fit, dict(comp.left_out)
+    result, left = comp.fit, dict(comp.left_out)
     zero = dict(comp.setup_left_out)
     machine = result.machine
     out, k = {}, 0
