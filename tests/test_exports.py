@@ -198,3 +198,33 @@ def test_kinid_own_csv_with_a_misspelt_column_is_named_by_its_own_reader(arm, ca
                     "P1,1,2,3,0,0,0,0,0,0\nP2,1,2,3,1,0,0,0,0,0\n")
     assert main(["identify", "--machine", str(urdf), "--data", str(path), "--out", str(d / "typo.json")]) == 2
     assert "typo.csv:1: missing column 'wx_mm'" in capsys.readouterr().err
+
+
+def test_plan_augment_reads_the_export_keeps_to_its_span_and_plans_for_the_fit_sigma(arm, capsys):
+    """identify's next command carries the export's options; plan --augment reads the export as identify did,
+    draws the candidates within the span the data read (not the URDF's travel) and plans for the fit's σ."""
+    d, urdf, machine, tm, free = arm
+    train, _, _, noise_mm = far.draw(machine, tm, free, 7, n_train=40, span_deg=60.0)
+    data = _tracker_file(d / "tracker_a.csv", train)
+    fit = d / "fit_a.json"
+    assert main(["identify", "--machine", str(urdf), "--data", str(data), "--point-unit", "mm", "--target-um", "1",
+                 "--out", str(fit)]) == 0
+    out = capsys.readouterr().out
+    said = [line for line in out.splitlines() if line.startswith("tool point: U")]
+    assert len(said) == 1 and "above the target 1 µm" in said[0], out
+    command = said[0].split("plan the alignments to add: ")[1].split()
+    assert command[:6] == ["kinid", "plan", "--augment", str(fit), "--data", str(data)] and "--point-unit" in command
+    u_um = float(said[0].split("U = ")[1].split()[0])
+    command[command.index("--target-um") + 1] = f"{0.8 * u_um:.4g}"
+    command[command.index("--out") + 1] = str(d / "more.csv")
+    assert main(command[1:]) == 0
+    out, err = capsys.readouterr()
+    assert "elbow_joint [rad] -> J3" in err and "added alignments written to" in out, out + err
+    sigma_um = load_fit(fit).noise_um
+    assert abs(sigma_um / (noise_mm * 1e3) - 1.0) < 0.35  # the fit's σ is the data's noise …
+    assert f"planned for the fit's σ = {sigma_um:.3g} µm" in out  # … and the plan is made for it, not for 1 µm
+    added = read_observations(d / "more.csv", machine, optional_axes=())
+    assert len(added) > 0
+    lo, hi = np.nanmin(train.axes, axis=0), np.nanmax(train.axes, axis=0)
+    assert np.all(added.axes >= lo - 1e-6) and np.all(added.axes <= hi + 1e-6)  # within the span the data read
+    assert "within the span the measured data read on J1, J2, J3, J4, J5, J6" in out

@@ -6,7 +6,8 @@ import sys
 
 from kinid.errors import DataError
 
-__all__ = ["add_export_options", "is_observation_file", "read_data", "refuse_export", "stated_std_of"]
+__all__ = ["add_export_options", "export_options_text", "is_observation_file", "read_data", "refuse_export",
+           "stated_std_of"]
 
 #: The export options, as argparse names them.
 _OPTIONS = ("point", "point_unit", "joint_unit", "target")
@@ -23,6 +24,14 @@ def add_export_options(p) -> None:
     g.add_argument("--target", default=None, metavar="LABEL",
                    help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one read, T1, T2 … "
                         "(default: every target; identify fits them together, each its own tool point)")
+
+
+def export_options_text(args) -> str:
+    """The export options given in ``args``, as a command line repeats them (`` --point x=a,y=b,z=c``), or ''."""
+    import shlex
+
+    return "".join(f" --{o.replace('_', '-')} {shlex.quote(str(getattr(args, o)))}" for o in _OPTIONS
+                   if getattr(args, o, None) is not None)
 
 
 def is_observation_file(path) -> bool:
@@ -45,7 +54,7 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
         The file (``--data``, ``--before``).
     machine : Machine
     args : argparse.Namespace
-        With ``allow_outside_limits`` and the export options.
+        With the export options, and ``allow_outside_limits`` where the verb has it (else the limits are checked).
     check_units : bool
         Warn of the unit mistakes an observation CSV shows.
     others : sequence of str
@@ -69,7 +78,7 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
 
     from ..data import is_observation_csv, parse_point_columns, read_export, read_observations
 
-    check_limits = not args.allow_outside_limits
+    check_limits = not getattr(args, "allow_outside_limits", False)
     given = [o for o in _OPTIONS if getattr(args, o, None) is not None]
     if is_observation_csv(path):
         if given and all(is_observation_csv(f) for f in others):

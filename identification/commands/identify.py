@@ -7,7 +7,8 @@ from pathlib import Path
 from kinid.errors import DataError
 from kinid.options import add_json_option, csv_rows, json_file
 from kinid.progress import step
-from .data_input import add_export_options, is_observation_file, read_data, refuse_export, stated_std_of
+from .data_input import (add_export_options, export_options_text, is_observation_file, read_data, refuse_export,
+                         stated_std_of)
 
 # NumPy and the modules that do the work are imported inside the function that runs the verb:
 # building the parsers (``kinid identify --help``) imports none of them.
@@ -360,7 +361,8 @@ def _target_line(result, obs, args) -> None:
         print(f"{said}: within the target {args.target_um:g} µm")
     else:
         print(f"{said}: above the target {args.target_um:g} µm; plan the alignments to add: kinid plan --augment "
-              f"{shlex.quote(args.out)} --data {shlex.quote(args.data)} --target-um {args.target_um:g}"
+              f"{shlex.quote(args.out)} --data {shlex.quote(args.data)}{export_options_text(args)} "
+              f"--target-um {args.target_um:g}"
               + (f" --noise-um {args.noise_um:g}" if args.noise_um is not None else "") + " --out more.csv")
 
 

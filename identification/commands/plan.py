@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from kinid.errors import DataError
 
+from .data_input import add_export_options, is_observation_file, read_data
+
 __all__ = ["register", "plan_text"]
 
 
@@ -24,7 +26,8 @@ def register(sub) -> None:
     p.add_argument("--range", action="append", default=[], metavar="AXIS=START:STOP:STEP",
                    help="the values of a preset axis (mm / deg, STOP included), e.g. B=-60:60:10; START:STOP for 9 values "
                         "(the range configurations are drawn from on an arm); VALUE for one (default: a turntable "
-                        "every 15°, a tilt axis every 10° within ±60°, others 9 values over the travel)")
+                        "every 15°, a tilt axis every 10° within ±60°, others 9 values over the travel; with --augment, "
+                        "as many over the span the measured data read)")
     p.add_argument("--solve", default=None, metavar="AXES",
                    help="axes that align the tool point with the mark, e.g. X,Y,Z (default: the three linear axes; "
                         "none on a machine without three, whose candidates are then joint configurations)")
@@ -37,7 +40,7 @@ def register(sub) -> None:
                    help="expanded uncertainty (k = 2) of a parameter in its unit (µm, µrad), e.g. EX0C=2")
     p.add_argument("--count", type=int, default=None, help="this many alignments (instead of targets), the best ones")
     p.add_argument("--noise-um", type=float, default=None,
-                   help="σ of one reading, µm (default 1)")
+                   help="σ of one reading, µm (default 1; with --augment, the fit's)")
     p.add_argument("--add", nargs="+", action="extend", default=[], metavar="EFFECT",
                    help="effects to identify besides the default model, e.g. EXX:periodic:10")
     p.add_argument("--detect", action="append", default=[], metavar="EFFECT=SIZE",
@@ -59,12 +62,17 @@ def register(sub) -> None:
                    help="plan the alignments to add to those already measured (--data) so that the target holds for "
                         "the model this fit found (its effects, and --add's): a sequential design "
                         "(docs/plan.md); --out gets the added alignments only")
-    p.add_argument("--data", default=None, metavar="OBS.csv", help="with --augment: the alignments already measured")
+    p.add_argument("--data", default=None, metavar="OBS.csv",
+                   help="with --augment: the alignments already measured (kinid's observation CSV or an instrument "
+                        "export)")
+    add_export_options(p)
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(run=_plan, outputs={"out": "file"})
 
 
-def _ranges(texts, machine, solve) -> dict:
+def _ranges(texts, machine, solve, measured=None) -> dict:
+    """The preset axes' values: --range's, else (with ``measured``, the readings of --augment's data) the span the
+    data read, else the default over the travel."""
     import numpy as np
 
     from ..model import axis_limits
@@ -100,6 +108,9 @@ def _ranges(texts, machine, solve) -> dict:
     for j, a in enumerate(machine.axes):
         if a.name in solve or a.name in out:
             continue
+        if measured is not None and np.isfinite(measured[:, j]).any():
+            out[a.name] = _measured_values(measured[:, j], a.kind == "revolute", turns[j])
+            continue
         lo, hi = limits[j]
         if turns[j]:
             out[a.name] = np.arange(0.0, 360.0, 15.0)
@@ -108,6 +119,22 @@ def _ranges(texts, machine, solve) -> dict:
         else:
             out[a.name] = np.linspace(lo, hi, 9) if np.isfinite(hi - lo) else np.linspace(-100.0, 100.0, 9)
     return out
+
+
+def _measured_values(readings, revolute: bool, turns: bool):
+    """A preset axis's values over the span its readings cover: the default grid (a table every 15°, a tilt every
+    10°, 9 values of a linear axis) within the readings' lowest and highest, both ends included; a table read all
+    the way round keeps its turn."""
+    import numpy as np
+
+    lo, hi = float(np.nanmin(readings)), float(np.nanmax(readings))
+    if turns and hi - lo >= 345.0:
+        return np.arange(0.0, 360.0, 15.0)
+    if not revolute or hi - lo < 1e-9:
+        return np.linspace(lo, hi, 9) if hi > lo else np.array([lo])
+    step = 15.0 if turns else 10.0
+    inner = np.arange(lo, hi, step)
+    return np.append(inner, hi) if hi - inner[-1] > 1e-6 else inner
 
 
 def _pairs(texts, option, machine=None, effect=False) -> dict:
@@ -168,7 +195,7 @@ def _plan(args) -> int:
         if args.detect:
             raise DataError("plans a first measurement; with --augment the fit has chosen its model",
                             parameter="--detect")
-        machine, loaded, measured = _augment_inputs(args.augment, args.data, args.machine)
+        machine, loaded, measured = _augment_inputs(args.augment, args.data, args.machine, args)
     elif args.machine is None:
         raise DataError("give the machine (--machine URDF), or --augment FIT.json --data OBS.csv", parameter="--machine")
     else:
@@ -188,14 +215,16 @@ def _plan(args) -> int:
         marks = np.array(args.marks_mm or PATENT_MARKS_MM, float)
     if not np.all(np.isfinite(marks)) or np.abs(marks).max() > 100_000:
         raise DataError("marks must be finite and within 100 m", parameter="--marks-mm")
-    presets = _ranges(args.range, machine, solve)
+    presets = _ranges(args.range, machine, solve, measured=None if args.augment is None else measured.axes)
     rng = np.random.default_rng(0)
     pool = candidate_poses(machine, marks, presets, solve=solve, samples=args.samples, rng=rng)
     travel = TravelModel(args.speed_mm_s, args.accel_mm_s2, args.speed_deg_s, args.accel_deg_s2, args.settle_s,
                          args.align_s)
     if args.augment is not None:
+        default = _ranges(args.range, machine, solve)
+        narrowed = [a for a, v in presets.items() if not np.array_equal(v, default[a])]
         return _run_augment(args, machine, loaded, measured, pool, presets, travel, _pairs(args.param, "param"),
-                           sampled=not solve)
+                            sampled=not solve, narrowed=narrowed)
     effects = model_effects(machine, args.add)
     noise_um = 1.0 if args.noise_um is None else args.noise_um
     wide = advice_pool(machine, marks, solve=solve, rng=rng)
@@ -250,7 +279,7 @@ def plan_text(plan, machine, presets=None, sampled: bool = False) -> str:
     lines.append(f"plan: {n} alignments ({k} chosen" + (f" + {repeats} repeats of a reference alignment" if repeats else "")
                  + ")")
     lines.append(f"tool point: U = {plan.u_tool_um:.3g} µm (k = 2, per coordinate, RMS over the candidates' poses; worst "
-                 f"pose {plan.u_tool_worst_um:.3g} µm) for reading noise σ = {plan.noise_um:g} µm"
+                 f"pose {plan.u_tool_worst_um:.3g} µm) for reading noise σ = {plan.noise_um:.3g} µm"
                  + (f" — target {plan.target_um:g} µm" if plan.target_um else ""))
     lines.append(f"  expected held-out 3-D RMS {plan.u_tool_um / 2 * 3**0.5:.3g} µm")
     for name, (u, t) in plan.u_params.items():
@@ -287,14 +316,15 @@ def _grid_text(v) -> str:
     return "{" + ", ".join(f"{x:g}" for x in v[:6]) + (" …}" if len(v) > 6 else "}")
 
 
-def _augment_inputs(fit_path, data_path, machine_path):
-    """(machine, fit, measured observations) of ``--augment``; DataError where they do not belong together: a
-    --machine other than the fit's, data with another machine's axis columns, a fit that does not describe the data."""
+def _augment_inputs(fit_path, data_path, machine_path, args):
+    """(machine, fit, measured observations) of ``--augment``, the data read as identify reads them (an instrument
+    export with the export options of ``args``, every target of several); DataError where they do not belong
+    together: a --machine other than the fit's, data with another machine's axis columns, a fit that does not
+    describe the data."""
     import csv
 
     import numpy as np
 
-    from ..data import read_observations
     from ..fitting import design, load_fit, residuals
     from ..model import evaluate, load_machine
 
@@ -312,15 +342,16 @@ def _augment_inputs(fit_path, data_path, machine_path):
         if not same:
             raise DataError(f"{machine_path} is not the machine {fit_path} was fitted on ({machine.path}, its URDF kept "
                             f"in the fit): leave --machine out, or give the fit of this machine", parameter="--machine")
-    with open(data_path, newline="", encoding="utf-8", errors="replace") as f:
-        header = next(csv.reader(line for line in f if line.strip() and not line.startswith("#")), [])
-    known = {a.column for a in machine.axes} | {"wx_mm", "wy_mm", "wz_mm", "mark_dx_mm", "mark_dy_mm", "mark_dz_mm"}
-    alien = [h for h in header if (h.endswith("_mm") or h.endswith("_deg")) and h not in known
-             and not h.startswith("shift_")]
-    if alien:
-        raise DataError(f"column {alien[0]!r} is an axis the machine of {fit_path} lacks (its axes: "
-                        f"{', '.join(a.column for a in machine.axes)}): data of another machine?", path=data_path)
-    measured = read_observations(data_path, machine)
+    if is_observation_file(data_path):
+        with open(data_path, newline="", encoding="utf-8", errors="replace") as f:
+            header = next(csv.reader(line for line in f if line.strip() and not line.startswith("#")), [])
+        known = {a.column for a in machine.axes} | {"wx_mm", "wy_mm", "wz_mm", "mark_dx_mm", "mark_dy_mm", "mark_dz_mm"}
+        alien = [h for h in header if (h.endswith("_mm") or h.endswith("_deg")) and h not in known
+                 and not h.startswith("shift_")]
+        if alien:
+            raise DataError(f"column {alien[0]!r} is an axis the machine of {fit_path} lacks (its axes: "
+                            f"{', '.join(a.column for a in machine.axes)}): data of another machine?", path=data_path)
+    measured, _ = read_data(data_path, machine, args, together=True)
     r = residuals(machine, design(machine, loaded.effects, measured), measured, loaded.theta, jacobian=False)
     typical = float(np.median(np.linalg.norm(r, axis=1))) / np.sqrt(3.0)
     scale = max(loaded.rms_um if np.isfinite(loaded.rms_um) else 0.0, loaded.noise_um, 1e-3)
@@ -331,14 +362,15 @@ def _augment_inputs(fit_path, data_path, machine_path):
     return machine, loaded, measured
 
 
-def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_targets, sampled: bool) -> int:
+def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_targets, sampled: bool,
+                 narrowed=()) -> int:
     from ..data import write_observations
     from ..model import model_effects
     from ..planning import augment_plan
 
     effects = tuple(loaded.effects) + tuple(e for e in model_effects(machine, args.add) if e not in loaded.effects
                                              and e.name not in loaded.effect_names)
-    noise_um = 1.0 if args.noise_um is None else args.noise_um
+    noise_um = loaded.noise_um if args.noise_um is None else args.noise_um
     aug = augment_plan(machine, measured, pool, effects, noise_um=noise_um, target_um=args.target_um,
                        param_targets=param_targets, count=args.count, travel=travel, blocks=args.blocks,
                        reference=not args.no_reference)
@@ -353,7 +385,13 @@ def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_t
         print(strict_json(summary, indent=1))
         return 0
     print(augment_text(aug, machine, presets, args.data, args.augment, sampled=sampled))
-    if abs(loaded.noise_um - noise_um) > 0.2 * noise_um:
+    if narrowed:
+        print(f"note: the candidates keep within the span the measured data read on {', '.join(narrowed)} "
+              f"(--range to go beyond)")
+    if args.noise_um is None:
+        print(f"note: planned for the fit's σ = {noise_um:.3g} µm (from its {loaded.noise_source}; --noise-um to plan "
+              f"for another)")
+    elif abs(loaded.noise_um - noise_um) > 0.2 * noise_um:
         print(f"note: the fit's σ is {loaded.noise_um:.3g} µm (from its {loaded.noise_source}); planned for "
               f"{noise_um:g} µm (--noise-um)")
     print(f"added alignments written to {args.out}" if len(aug.plan.obs) else f"nothing to add; {args.out} not written")
