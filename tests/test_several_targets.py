@@ -84,6 +84,8 @@ def test_three_targets_fitted_together_recover_their_points_and_halve_the_machin
     truth_um = {f"E{c}0T:target:{m}": t[k] * 1e3 for m, t in TARGETS.items() for k, c in enumerate("XYZ")}
     held_z = [m for m in TARGETS if not got[f"EZ0T:target:{m}"][2]]
     assert len(held_z) == 1 and got["EZ0J6"][2]  # the flange's z and the targets' z: one sum held
+    # EZ0J6 carries the held target's z (tens of mm): a set-up's size, not flagged as one no machine has
+    assert abs(got["EZ0J6"][0]) > 1000.0 and not result.implausible()
     z0 = truth_um[f"EZ0T:target:{held_z[0]}"]
     truth_um = {n: v - z0 if n.startswith("EZ0T") else v for n, v in truth_um.items()}
     truth_um["EZ0J6"] = errors["EZ0J6"] + z0

@@ -161,16 +161,24 @@ def implausible_effects(result, names=None) -> tuple:
 
 
 def _carried_set_ups(machine, aliases) -> dict:
-    """Effect name -> the held set-up joints (W, T) it alone carries: aliases with one partner, an error joint of
-    the set-up's own chain (the tool's for T, the workpiece's for W: EZ0J6 beside EZ0T on an arm; a table's EY0C
-    beside a spindle sensor's EY0T is a machine's error the plan cannot tell from the set-up, and keeps its limit)."""
+    """Effect name -> the held set-up joints (W, T) it alone carries: aliases with one partner of the machine's
+    own errors (other set-up partners aside: several targets' points share EZ0J6 with the held one), an error joint
+    of the set-up's own chain (the tool's for T, the workpiece's for W: EZ0J6 beside EZ0T on an arm; a table's
+    EY0C beside a spindle sensor's EY0T is a machine's error the plan cannot tell from the set-up, and keeps its
+    limit)."""
+    def setup(name):
+        code = name.split(":")[0]
+        return code in machine.error_codes and machine.error_joint(code).axis in _SETUP_PREFIX
+
     out = {}
     for a in aliases:
         code = a.name.split(":")[0]
-        if a.kind != "aliased" or len(a.partners) != 1 or code not in machine.error_codes or \
-                machine.error_joint(code).axis not in _SETUP_PREFIX:
+        if a.kind != "aliased" or not setup(a.name):
             continue
-        partner = a.partners[0][0]
+        own = [p for p, _ in a.partners if not setup(p)]
+        if len(own) != 1:
+            continue
+        partner = own[0]
         if partner.split(":")[0] in machine.error_codes and _same_chain(machine, code, partner.split(":")[0]):
             out.setdefault(partner, []).append(code)
     return out
