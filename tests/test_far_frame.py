@@ -90,6 +90,9 @@ def test_a_far_turned_frame_is_fitted_and_the_errors_recovered(arm, seed):
     result, converged, recovered, held_out_mm = far.outcome(machine, effects, train, test, errors)
     assert converged and recovered, result.table()
     assert result.start.startswith("started from the measurement frame")
+    # the fitted parameters keep their rank at the solution: no warning (a tool axis's tilt the solution would also
+    # determine, once the marker is off it, is no nonlinear aliasing of what was fitted; it warned on every draw)
+    assert "identifiable set changed" not in result.message, result.message
     assert held_out_mm < 1.0
     # metres and tens of degrees, a marker tens of mm: a set-up, not sizes no machine has (25 poses within ±30°
     # leave some joint errors undetermined, and those are flagged as such)
