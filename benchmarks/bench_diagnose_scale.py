@@ -32,8 +32,8 @@ def data_set(ident):
     effects = ident.default_model(m)
     rng = np.random.default_rng(5)
     theta = rng.normal(0, 15.0, sum(e.n_params for e in effects))
-    Observations = importlib.import_module(ident.__name__ + ".observations").Observations
-    base = importlib.import_module(ident.__name__ + ".simulate").patent_plan(m)
+    Observations = importlib.import_module(ident.__name__ + ".data.observations").Observations
+    base = importlib.import_module(ident.__name__ + ".fitting.simulate").patent_plan(m)
     plan = Observations(base.marks * 10, np.tile(base.w_mm, (10, 1)), np.tile(base.axes, (10, 1)))
     obs = ident.simulate(m, plan, effects, theta, noise_um=1.0, rng=rng)
     # the lead: the reading that put the tool on the mark is the one with x + e(x) = the aligned position
