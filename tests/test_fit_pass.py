@@ -95,3 +95,24 @@ def test_the_fit_stops_after_one_residual_check_at_the_optimum(monkeypatch):
     R_opt = model_pass_qr(m, d, obs, point(sol.x)).R[:, free]
     std_opt = np.sqrt(np.diag(np.linalg.inv(R_opt.T @ R_opt)))
     np.testing.assert_allclose(res.std[free], std_opt, rtol=1e-6)
+
+
+def test_the_placements_copied_a_pose_at_a_time_are_pinocchios_one_by_one():
+    m, obs = _readme_example()
+    placements = importlib.import_module("kinid.identification.model.placements")
+    machine_module = importlib.import_module("kinid.identification.model.machine")
+    obs = obs.subset(np.arange(0, len(obs), 5))
+    errors = np.random.default_rng(4).normal(0, 30, (len(obs), len(m.error_joints)))  # µm / µrad
+    qs = machine_module._configurations(m, machine_module.axes_to_si(m, obs.axes), errors * 1e-6)
+    data = m.model.createData()
+    first, last = 2, m.model.njoints - 1
+    copied = placements._read_placements(m, data, qs, first, last)
+    m.__dict__["_placements_view_cache"][id(data)] = (data, None)  # as where the view's layout is not Pinocchio's
+    one_by_one = placements._read_placements(m, data, qs, first, last)
+    assert copied.shape == (len(obs), last - first + 1, 12)
+    assert np.array_equal(copied, one_by_one)
+    expected = []
+    for q in qs:
+        pin.forwardKinematics(m.model, data, q)
+        expected.append([np.r_[data.oMi[j].rotation.ravel(order="F"), data.oMi[j].translation] for j in (first, last)])
+    assert np.array_equal(copied[:, [0, -1]], expected)
