@@ -60,7 +60,12 @@ def _components(mask, min_area, d_range, inside=None):
         ok &= ~np.any(far <= _RHO_MAX * mr - 0.5 * r_bound[:, None] - 1e-6, axis=1)
     found = []
     for j in np.flatnonzero(ok):
-        c = contours[outer[j]].reshape(-1, 2)
+        c = contours[outer[j]]
+        # at most area + perimeter / 2 + 1 pixels lie inside or on the outline (Pick's theorem; a
+        # part traced twice counts twice in the perimeter): too few for a blob, no labelling
+        if cv2.contourArea(c) + 0.5 * cv2.arcLength(c, True) + 1.0 < a_min * (1 - 1e-9):
+            continue
+        c = c.reshape(-1, 2)
         top = c[c[:, 1] == ya[j]]
         found.append((int(ya[j]), int(top[:, 0].min()), j))
     out = []

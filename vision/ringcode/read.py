@@ -192,7 +192,8 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     mid = bg + 0.5 * (ink - bg)
     if all_in:
         valid = None
-        f = (P > mid if ink > bg else P < mid).sum(axis=1) / n_angles
+        # counted as bytes (a boolean sum goes through int64)
+        f = np.add.reduce((P > mid if ink > bg else P < mid).view(np.uint8), axis=1, dtype=np.int32) / n_angles
     else:
         valid = ~np.isnan(P)
         f = (np.nan_to_num(P, nan=bg) > mid if ink > bg else np.nan_to_num(P, nan=bg) < mid).sum(axis=1)
@@ -274,7 +275,7 @@ def _read_profile(prof, n, n_angles):
     p0, p1 = prof[edges - 1], prof[edges]  # index -1: the last sample
     d = p1 - p0
     d[d == 0] = 1.0
-    frac = np.clip((0.5 - p0) / d, 0.0, 1.0)
+    frac = np.minimum(np.maximum((0.5 - p0) / d, 0.0), 1.0)  # clipped to [0, 1]
     t_edge = (edges - 1 + frac + 0.5) * (2 * np.pi / n_angles)  # angle of the crossing
     z = np.exp(1j * n * t_edge)
     zm = complex(np.add.reduce(z)) / z.size  # the mean (np.add.reduce: the same sum, less overhead)
@@ -316,7 +317,10 @@ def _refine_moments(img, X, Y, M, bg, ink, iterations=2):
         qx = (np.arange(xa, xb) - X)[None, :]  # broadcast over the window: no coordinate grids
         qy = (np.arange(ya, yb) - Y)[:, None]
         outwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) > 1.96
-        wgt = np.clip((img[ya:yb, xa:xb] - bg) * (1.0 / (ink - bg)), 0.0, 1.0).astype(np.float32)
+        wgt = np.subtract(img[ya:yb, xa:xb], bg, dtype=np.float32)
+        wgt *= np.float32(1.0 / (ink - bg))
+        np.maximum(wgt, 0.0, out=wgt)  # the ink fraction clipped to [0, 1] (np.clip's wrapper costs more)
+        np.minimum(wgt, 1.0, out=wgt)
         wgt[outwin] = 0.0
         mo = cv2.moments(wgt)  # sums in double precision
         tot = mo["m00"]
