@@ -37,6 +37,9 @@ class Marker:
     bits: str
 
 
+_CANONICAL = {}  # (value, n) -> canonical code, filled by canonical_code
+
+
 def canonical_code(bits_value: int, n=12) -> int:
     """Smallest value over the ``n`` cyclic rotations of an ``n``-bit value.
 
@@ -49,11 +52,17 @@ def canonical_code(bits_value: int, n=12) -> int:
     v = int(bits_value)
     if not 0 <= v < (1 << n):
         raise ValueError(f"bits_value must be in 0..{(1 << n) - 1} for n={n}, got {bits_value}")
+    key = (v, n)
+    best = _CANONICAL.get(key)
+    if best is not None:
+        return best
     mask = (1 << n) - 1
     best = v
     for _ in range(n - 1):
         v = ((v << 1) | (v >> (n - 1))) & mask
         best = min(best, v)
+    if len(_CANONICAL) < 1 << 16:  # bounded: the codes of 16-bit rings at most
+        _CANONICAL[key] = best
     return best
 
 
@@ -342,8 +351,10 @@ def _local_levels(img, X, Y, M, sign):
     h, w = img.shape
     d = A @ _UNIT_64
     # pixels at 0, 0.3, 0.5 radii (ink) and 1.4, 1.5 radii (background) on 64 rays
-    xi = np.clip(np.rint(X + _LEVEL_RADII[:, None] * d[0]).astype(int), 0, w - 1)
-    yi = np.clip(np.rint(Y + _LEVEL_RADII[:, None] * d[1]).astype(int), 0, h - 1)
+    xi = np.rint(X + _LEVEL_RADII[:, None] * d[0]).astype(int)
+    yi = np.rint(Y + _LEVEL_RADII[:, None] * d[1]).astype(int)
+    np.minimum(np.maximum(xi, 0, out=xi), w - 1, out=xi)  # clipped to the image
+    np.minimum(np.maximum(yi, 0, out=yi), h - 1, out=yi)
     v = img[yi, xi]
     ink = float(_median(v[:3].ravel()))
     bg = float(_median(v[3:].ravel()))
