@@ -175,9 +175,12 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     else:
         rho = np.linspace(band[0], band[1], min(16, max(5, int(np.ceil((band[1] - band[0]) * R)) + 1)))
     d = A @ _unit_rays(n_angles)  # (2, n_angles)
-    mx = (x + rho[:, None] * d[0][None, :]).astype(np.float32)
-    my = (y + rho[:, None] * d[1][None, :]).astype(np.float32)
-    P = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
+    # the sample points as one two-channel map (n_rho, n_angles, 2): x + rho d_x, y + rho d_y
+    xy = rho[:, None, None] * d.T[None, :, :]
+    xy += (x, y)
+    xy = xy.astype(np.float32)
+    mx, my = xy[..., 0], xy[..., 1]
+    P = cv2.remap(img, xy, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
     h, w = img.shape
     # every sample (and its interpolation neighbours) inside the image and a number: none is missing
     # (the samples' extent bounded first from the ellipse: no pass over them when far from the border)
