@@ -67,6 +67,30 @@ def test_decode_from_segments_rejects_inconsistent_input():
         decode_from_segments([3, 2], [180, 180])
 
 
+def test_canonical_code_equals_the_smallest_rotation_also_when_cached():
+    values = np.arange(1 << 12)
+    rotations = np.stack([((values << k) | (values >> (12 - k))) & 0xFFF for k in range(12)])
+    truth = rotations.min(axis=0)
+    for _ in range(2):  # the second pass answers from the cache
+        assert [canonical_code(int(v)) for v in values] == truth.tolist()
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), blur=st.floats(0.5, 6.0), level=st.floats(0.4, 0.6))
+def test_outline_bounds_the_pixel_count_of_a_component(seed, blur, level):
+    # the blob search skips a component whose outline area + half its perimeter + 1 is under the
+    # smallest blob area: that sum must never be below the component's pixel count
+    rng = np.random.default_rng(seed)
+    mask = (cv2.GaussianBlur(rng.random((120, 120)), (0, 0), blur) > level).astype(np.uint8)
+    contours, hier = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    for i in (np.flatnonzero(hier[0][:, 3] < 0) if hier is not None else []):
+        c = contours[i]
+        x, y = c[0, 0]
+        pixels = stats[labels[y, x], cv2.CC_STAT_AREA]
+        assert pixels <= cv2.contourArea(c) + 0.5 * cv2.arcLength(c, True) + 1.0
+
+
 def test_canonical_code_is_min_rotation():
     assert canonical_code(0b100000000000) == 1
     assert canonical_code(0b101, n=3) == 0b011

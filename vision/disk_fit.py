@@ -198,9 +198,12 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     lam = 1e-3
     converged = False
     message = "iteration limit reached"
+    diag = np.arange(npar) * (npar + 1)  # flat indices of the diagonal
     for _ in range(int(max_nfev)):
-        D = np.diag(np.maximum(np.diag(A), 1e-12))
-        step = _solve_spd(A + lam * D, gv)  # A + lam D: positive definite unless the model is degenerate
+        # A + lam D with D = diag(A) (at least 1e-12): positive definite unless the model is degenerate
+        AD = A.copy()
+        AD.flat[diag] += lam * np.maximum(A.flat[diag], 1e-12)
+        step = _solve_spd(AD, gv)
         if step is None:
             lam *= 10.0
             continue
@@ -232,10 +235,13 @@ def fit_disk_model(img, x0, y0, M0, *, window_px=None, gradient=None, max_nfev=5
     dof = max(N - npar, 1)
     s2 = cost / dof
     try:
-        try:  # the centre's two columns of the inverse normal matrix
-            cov = np.linalg.solve(A, np.eye(npar)[:, :2]) * s2
-        except np.linalg.LinAlgError:  # singular: the pseudo-inverse
-            cov = np.linalg.pinv(A) * s2
+        cov = _solve_spd(A, np.eye(npar)[:, :2])  # the centre's two columns of the inverse normal matrix
+        if cov is None:
+            try:
+                cov = np.linalg.solve(A, np.eye(npar)[:, :2])
+            except np.linalg.LinAlgError:  # singular: the pseudo-inverse
+                cov = np.linalg.pinv(A)
+        cov = cov * s2
         sigma = float(np.sqrt(max(0.5 * (cov[0, 0] + cov[1, 1]), 0.0)))
     except np.linalg.LinAlgError:  # pragma: no cover
         sigma = float("nan")

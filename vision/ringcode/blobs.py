@@ -16,7 +16,7 @@ __all__: list = []
 def _components(mask, min_area, d_range, inside=None):
     """The 8-connected components of ``mask`` whose bounding box allows a round blob of ``d_range``.
 
-    Returns ``[(labels, stats, k, (x0, y0))]`` in raster order of the components' first pixels:
+    Returns ``[(labels, stats, k, (x0, y0), holed)]`` in raster order of the components' first pixels:
     component ``k`` of ``connectedComponentsWithStats`` run on the box ``labels`` covers (from
     (x0, y0) in ``mask``). The outlines (``findContours``, far cheaper than labelling the whole
     mask) give every component's box; only the boxes that can hold a blob passing the tests of
@@ -60,7 +60,12 @@ def _components(mask, min_area, d_range, inside=None):
         ok &= ~np.any(far <= _RHO_MAX * mr - 0.5 * r_bound[:, None] - 1e-6, axis=1)
     found = []
     for j in np.flatnonzero(ok):
-        c = contours[outer[j]].reshape(-1, 2)
+        c = contours[outer[j]]
+        # at most area + perimeter / 2 + 1 pixels lie inside or on the outline (Pick's theorem; a
+        # part traced twice counts twice in the perimeter): too few for a blob, no labelling
+        if cv2.contourArea(c) + 0.5 * cv2.arcLength(c, True) + 1.0 < a_min * (1 - 1e-9):
+            continue
+        c = c.reshape(-1, 2)
         top = c[c[:, 1] == ya[j]]
         found.append((int(ya[j]), int(top[:, 0].min()), j))
     out = []
@@ -68,7 +73,8 @@ def _components(mask, min_area, d_range, inside=None):
         x0, y0 = int(xa[j]), int(ya[j])
         _, labels, stats, _ = cv2.connectedComponentsWithStats(
             mask[y0:y0 + int(bh[j]), x0:x0 + int(bw[j])], connectivity=8)
-        out.append((labels, stats, int(labels[y_first - y0, x_first - x0]), (x0, y0)))
+        holed = hier[0][outer[j], 2] >= 0  # an outer outline's children are the component's holes
+        out.append((labels, stats, int(labels[y_first - y0, x_first - x0]), (x0, y0), bool(holed)))
     return out
 
 
@@ -86,7 +92,7 @@ def _blobs(mask, scale, min_area, d_range=(0.0, np.inf), fill_holes=True, offset
     comps = _components(mask, min_area, d_range, None if marks is None else (scale, offset, marks))
     h, w = mask.shape
     out = []
-    for labels, stats, k, (ox, oy) in comps:
+    for labels, stats, k, (ox, oy), holed in comps:
         x, y, bw, bh, area = (int(v) for v in stats[k])
         # the cheap tests, exact on the component (noise and texture of a photo give many)
         d = np.sqrt(4.0 * area / np.pi)
@@ -97,7 +103,7 @@ def _blobs(mask, scale, min_area, d_range=(0.0, np.inf), fill_holes=True, offset
                 and area <= 0.95 * bw * bh):  # a filled rectangle (e.g. a cut-off corner of something): not a circle
             continue
         sub = (labels[y - oy:y - oy + bh, x - ox:x - ox + bw] == k).astype(np.uint8)
-        if fill_holes:
+        if fill_holes and holed:
             # a hole (a dot printed in the centre circle, a reflection) does not make it less round
             outside = cv2.copyMakeBorder(1 - sub, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=1)
             cv2.floodFill(outside, None, (0, 0), 2)

@@ -37,6 +37,9 @@ class Marker:
     bits: str
 
 
+_CANONICAL = {}  # (value, n) -> canonical code, filled by canonical_code
+
+
 def canonical_code(bits_value: int, n=12) -> int:
     """Smallest value over the ``n`` cyclic rotations of an ``n``-bit value.
 
@@ -49,11 +52,17 @@ def canonical_code(bits_value: int, n=12) -> int:
     v = int(bits_value)
     if not 0 <= v < (1 << n):
         raise ValueError(f"bits_value must be in 0..{(1 << n) - 1} for n={n}, got {bits_value}")
+    key = (v, n)
+    best = _CANONICAL.get(key)
+    if best is not None:
+        return best
     mask = (1 << n) - 1
     best = v
     for _ in range(n - 1):
         v = ((v << 1) | (v >> (n - 1))) & mask
         best = min(best, v)
+    if len(_CANONICAL) < 1 << 16:  # bounded: the codes of 16-bit rings at most
+        _CANONICAL[key] = best
     return best
 
 
@@ -166,9 +175,12 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     else:
         rho = np.linspace(band[0], band[1], min(16, max(5, int(np.ceil((band[1] - band[0]) * R)) + 1)))
     d = A @ _unit_rays(n_angles)  # (2, n_angles)
-    mx = (x + rho[:, None] * d[0][None, :]).astype(np.float32)
-    my = (y + rho[:, None] * d[1][None, :]).astype(np.float32)
-    P = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
+    # the sample points as one two-channel map (n_rho, n_angles, 2): x + rho d_x, y + rho d_y
+    xy = rho[:, None, None] * d.T[None, :, :]
+    xy += (x, y)
+    xy = xy.astype(np.float32)
+    mx, my = xy[..., 0], xy[..., 1]
+    P = cv2.remap(img, xy, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
     h, w = img.shape
     # every sample (and its interpolation neighbours) inside the image and a number: none is missing
     # (the samples' extent bounded first from the ellipse: no pass over them when far from the border)
@@ -192,7 +204,8 @@ def read_ring(img, x, y, M, bg, ink, n=12, *, n_angles=None, band=None):
     mid = bg + 0.5 * (ink - bg)
     if all_in:
         valid = None
-        f = (P > mid if ink > bg else P < mid).sum(axis=1) / n_angles
+        # counted as bytes (a boolean sum goes through int64)
+        f = np.add.reduce((P > mid if ink > bg else P < mid).view(np.uint8), axis=1, dtype=np.int32) / n_angles
     else:
         valid = ~np.isnan(P)
         f = (np.nan_to_num(P, nan=bg) > mid if ink > bg else np.nan_to_num(P, nan=bg) < mid).sum(axis=1)
@@ -274,7 +287,7 @@ def _read_profile(prof, n, n_angles):
     p0, p1 = prof[edges - 1], prof[edges]  # index -1: the last sample
     d = p1 - p0
     d[d == 0] = 1.0
-    frac = np.clip((0.5 - p0) / d, 0.0, 1.0)
+    frac = np.minimum(np.maximum((0.5 - p0) / d, 0.0), 1.0)  # clipped to [0, 1]
     t_edge = (edges - 1 + frac + 0.5) * (2 * np.pi / n_angles)  # angle of the crossing
     z = np.exp(1j * n * t_edge)
     zm = complex(np.add.reduce(z)) / z.size  # the mean (np.add.reduce: the same sum, less overhead)
@@ -316,7 +329,10 @@ def _refine_moments(img, X, Y, M, bg, ink, iterations=2):
         qx = (np.arange(xa, xb) - X)[None, :]  # broadcast over the window: no coordinate grids
         qy = (np.arange(ya, yb) - Y)[:, None]
         outwin = (M[0, 0] * qx * qx + 2 * M[0, 1] * qx * qy + M[1, 1] * qy * qy) > 1.96
-        wgt = np.clip((img[ya:yb, xa:xb] - bg) * (1.0 / (ink - bg)), 0.0, 1.0).astype(np.float32)
+        wgt = np.subtract(img[ya:yb, xa:xb], bg, dtype=np.float32)
+        wgt *= np.float32(1.0 / (ink - bg))
+        np.maximum(wgt, 0.0, out=wgt)  # the ink fraction clipped to [0, 1] (np.clip's wrapper costs more)
+        np.minimum(wgt, 1.0, out=wgt)
         wgt[outwin] = 0.0
         mo = cv2.moments(wgt)  # sums in double precision
         tot = mo["m00"]
@@ -338,8 +354,10 @@ def _local_levels(img, X, Y, M, sign):
     h, w = img.shape
     d = A @ _UNIT_64
     # pixels at 0, 0.3, 0.5 radii (ink) and 1.4, 1.5 radii (background) on 64 rays
-    xi = np.clip(np.rint(X + _LEVEL_RADII[:, None] * d[0]).astype(int), 0, w - 1)
-    yi = np.clip(np.rint(Y + _LEVEL_RADII[:, None] * d[1]).astype(int), 0, h - 1)
+    xi = np.rint(X + _LEVEL_RADII[:, None] * d[0]).astype(int)
+    yi = np.rint(Y + _LEVEL_RADII[:, None] * d[1]).astype(int)
+    np.minimum(np.maximum(xi, 0, out=xi), w - 1, out=xi)  # clipped to the image
+    np.minimum(np.maximum(yi, 0, out=yi), h - 1, out=yi)
     v = img[yi, xi]
     ink = float(_median(v[:3].ravel()))
     bg = float(_median(v[3:].ravel()))
