@@ -16,7 +16,7 @@ known better than it is large:
 What this replaced, as measured (benchmarks/proving_compensation.py, docs/compensation.md): each effect judged
 alone, its curve's RMS against k = 2 times the RMS of its standard deviation. That bounded nothing: a true curve
 about as large as its error passed only when the noise added to it (a B table's period of 51.4° read at four
-tilts: 13 % of 30 noise draws of one machine wrote it, each table worse than none; the fit's σ covered, χ² 1.97
+tilts: 13 % of 30 noise draws of one machine wrote it, each table worse than none; the fit's σ covered, mean χ² 1.97
 for 2 parameters). And an effect written without a correlated partner left out (``EBB:periodic:360`` beside
 ``EBB:poly1`` over a tilt of 100°, each alone uncertain, their sum known) wrote a value the fit found only with
 the partner: 4 310 µrad left where the truth was 287.
