@@ -214,7 +214,7 @@ def travels(n: int, rng, work: Path) -> None:
             status = kinid_main(["compensate", "--fit", str(work / f"tfit{k}.json"), "--out", str(out),
                                  "--format", "linuxcnc", "twincat", "sinumerik"])
         if status != 0:
-            refused.append(f"{what}: {err.getvalue().strip()[:160]}")
+            refused.append(f"travel {k}: {what}: {err.getvalue().strip()[:160]}")
             continue
         info = json.loads((out / "compensation.json").read_text())
         for t in info["tables"].values():
@@ -230,7 +230,7 @@ def travels(n: int, rng, work: Path) -> None:
         if len(WORSE_VS_TRUTH) > before:
             ranges = ", ".join(f"{a} {lo:.4g} .. {hi:.4g}" for a, (lo, hi) in result.axis_ranges.items()
                                if m.axis(a).kind == "revolute")
-            WORSE_VS_TRUTH.append(f"  ({what}; measured {ranges}; the fit "
+            WORSE_VS_TRUTH.append(f"  (travel {k}: {what}; measured {ranges}; the fit "
                                   f"{'converged' if result.success else 'did not converge'}: {result.message[:120]})")
     print(f"\n{n} travel scenarios (tight / wide ±10 rad / continuous rotary travels, partial rotary ranges, "
           f"rotary scale errors); file sets worse than none inside the measured range:")

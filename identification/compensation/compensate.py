@@ -39,7 +39,7 @@ from ..fitting import FitResult
 from .axis_numbers import AxisNumbers, controller_axis_numbers
 from .calibration import calibrated_urdf, constant_errors, setup_offsets
 from .ranges import axis_range, not_one_turn, unwrapped_range
-from .significance import curve_not_significant, not_significant
+from .significance import curves_not_significant, not_significant
 from .rotary_geometry import kinematics_files
 from .table_check import TableCheck, check_positions, check_tables
 from .table_grids import AxisRange, directions, extra_points, left_after, rms, table_grid, with_ends
@@ -96,6 +96,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     # a size no machine has is not a machine's error: between the readings a fit may need any value (a period
     # that the readings sample at the same phase), and a table would move the axis by it there
     odd = {o.effect: o for o in result.implausible()}
+    curves = {} if all_terms else curves_not_significant(result, odd)  # a joint's table is judged whole
     for e in result.effects:
         sl = slice(k, k + e.n_params)
         k += e.n_params
@@ -120,7 +121,7 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
             reason = (f"varies with {e.args[0]}: a cross compensation (the controller's table of "
                       f"{e.code} over {e.args[0]}), not written")
         elif not all_terms:
-            reason = not_significant(values[sl][ok], result.std[sl][ok]) or curve_not_significant(result, e, sl)
+            reason = curves[e.name] if e.name in curves else not_significant(values[sl][ok], result.std[sl][ok])
         if reason is not None:
             left.append((e.name, reason))
             values[sl] = np.where(ok, 0.0, values[sl])
