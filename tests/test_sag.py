@@ -118,3 +118,13 @@ def test_sag_candidates_for_the_carried_rotary_axes(arm):
     names = {e.name for e in candidate_library(arm, [], has_directions=False, has_time=False)}
     assert {"EB0J2:sag:J3", "EB0J2:sag:T", "EB0J3:sag:T", "EA0J3:sag:T"} <= names
     assert not any(n.startswith(("EX0J2:sag", "EC0J1:sag")) for n in names)
+
+
+def test_compensation_leaves_the_sag_out_saying_why(arm):
+    from kinid.identification.compensation.compensate import compensation_model
+    from kinid.identification.fitting import fit, model_effects
+
+    rng = np.random.default_rng(3)
+    result = fit(arm, _observations(arm, _poses(rng, 100, (-170, 10)), rng), model_effects(arm, ["EB0J2:sag:J3"]))
+    left = dict(compensation_model(result).left_out)
+    assert "no axis table holds it" in left["EB0J2:sag:J3"]
