@@ -128,3 +128,16 @@ def test_compensation_leaves_the_sag_out_saying_why(arm):
     result = fit(arm, _observations(arm, _poses(rng, 100, (-170, 10)), rng), model_effects(arm, ["EB0J2:sag:J3"]))
     left = dict(compensation_model(result).left_out)
     assert "no axis table holds it" in left["EB0J2:sag:J3"]
+
+
+def test_a_table_axis_carries_no_tool_point():
+    """On an A/C table the C axis carries the workpiece: no weight at the tool point (T) for its sag."""
+    from pathlib import Path
+
+    from kinid.identification.model import candidate_library, load_machine, parse_effect
+
+    machine = load_machine(Path(__file__).resolve().parents[1] / "urdf" / "five_axis_ac.urdf")
+    names = [e.name for e in candidate_library(machine, [], has_directions=False, has_time=False)]
+    assert not any(":sag:T" in n for n in names)
+    with pytest.raises(DataError, match="'T' is not carried by C; it carries no axis nor the tool point"):
+        parse_effect("EA0C:sag:T", machine)

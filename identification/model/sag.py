@@ -14,7 +14,8 @@ arm: the upper arm and forearm of a UR arm are ``EB0J2:sag:J3``, ``EB0J2:sag:J4`
 is driven by the whole pose (driver ``pose``: ``q`` is ``(machine, axes (N, n_axes))``); its values depend only on
 the joint's axis and the point, so every location joint of that axis shares them. It is registered when
 :mod:`~kinid.identification.model.effects` imports it; its candidates are the rotational location joints of every
-rotary axis carried by another, with the weight at each rotary axis it carries and at the tool point.
+rotary axis carried by another, with the weight at each axis it carries and, where it carries the tool (an arm's
+joint, not a table's axis), at the tool point.
 
 References: the joint-compliance (elastostatic) model of robot calibration, e.g. Dumas, Caro, Garnier & Furet,
 "Joint stiffness identification of six-revolute industrial serial robots", Robotics and Computer-Integrated
@@ -34,11 +35,12 @@ DOWN = np.array([0.0, 0.0, -1.0])
 
 
 def sag_points(machine, axis: str) -> list:
-    """The points a weight may hang at for a sag of ``axis``: the rotary axes it carries (in chain order), then T."""
+    """The points a weight may hang at for a sag of ``axis``: the axes it carries (in chain order), then T where
+    ``axis`` carries the tool (an arm's joint; a table's axis carries the workpiece, not the tool point)."""
     model = machine.model
     jid = model.getJointId(machine.axis(axis).joint)
     later = [a.name for a in machine.axes if a.name != axis and jid in model.supports[model.getJointId(a.joint)]]
-    return later + ["T"]
+    return later + (["T"] if machine.axis(axis).chain == "tool" else [])
 
 
 def _parse(m, ctx: BasisInput) -> dict:
@@ -48,7 +50,8 @@ def _parse(m, ctx: BasisInput) -> dict:
                        f"rotation of a rotary axis")
     points = sag_points(machine, ctx.axis)
     if point not in points:
-        raise ctx.fail(f"{point!r} is not carried by {ctx.axis}; the weight may hang at {', '.join(points)}")
+        where = f"the weight may hang at {', '.join(points)}" if points else "it carries no axis nor the tool point"
+        raise ctx.fail(f"{point!r} is not carried by {ctx.axis}; {where}")
     return {"args": (point,)}
 
 
