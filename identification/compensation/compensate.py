@@ -85,7 +85,8 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
     """Keep the machine's errors that a compensation should hold.
 
     Left out, each with its reason: the set-up of the workpiece and the sensor (pseudo-axes W and T,
-    they belong in the controller's work and tool offsets), drifts with time (no table holds them),
+    they belong in the controller's work and tool offsets), drifts with time and sags with the pose (no table holds
+    them),
     effects the data could not identify, effects of a size no machine has (``FitResult.implausible``: even
     with ``all_terms``), and — unless ``all_terms`` — effects not known better than they are large
     (:mod:`.significance`: no parameter beyond its expanded uncertainty, or a curve within its own).
@@ -117,6 +118,8 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
                       f"sample at one phase, poses that do not determine it, or observations that are inconsistent)")
         elif basis_of(e).driver == "time":
             reason = "a drift with time: no table holds it"
+        elif basis_of(e).driver == "pose":
+            reason = "follows the whole pose (a joint's sag under the weight it carries): no axis table holds it"
         elif basis_of(e).driver == "positions":
             reason = (f"varies with {e.args[0]}: a cross compensation (the controller's table of "
                       f"{e.code} over {e.args[0]}), not written")

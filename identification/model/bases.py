@@ -21,6 +21,8 @@ name                   value of the error joint                        parameter
                        in [a, b]: smooth, zero outside: a local error
 ``EA0C:on:A[:<k>]``    Σ a_n(cos nα − 1) + b_n sin nα, α = angle of A  2k
                        (:mod:`~kinid.identification.model.rotary_on`, registered when effects load)
+``EB0J2:sag:J4``       c · the torque about J2 of a unit weight at J4   1
+                       (:mod:`~kinid.identification.model.sag`)
 =====================  ==============================================  ==========
 
 A new kind is one :func:`register_basis` call with a :class:`Basis`; parsing, the fit, the
@@ -113,11 +115,12 @@ class Basis:
         bare code (constant).
     syntax : str
         The name as users write it, for messages: ``periodic:<P>``.
-    driver : {"none", "position", "direction", "time", "positions", "mark"}
+    driver : {"none", "position", "direction", "time", "positions", "mark", "pose"}
         What the value varies with: nothing, the position of the joint's axis, the approach
         direction of that axis, time (column ``t_s``), the positions of the joint's axis and of
         the other axis the effect names (``q`` is then (N, 2)), or the row's mark (``q`` is then the
-        marks, (N,) of str: one of several targets measured at each pose).
+        marks, (N,) of str: one of several targets measured at each pose), or the whole pose on the nominal
+        machine (``q`` is then ``(machine, axes (N, n_axes))``: a weight's lever, ``sag``).
     parse : callable (re.Match, BasisInput) -> dict
         The effect's fields beyond name, code, basis, axis and unit (``degree``, ``period``,
         ``knots``, ``args``); raises ``BasisInput.fail(...)`` for a bad value.
@@ -190,8 +193,9 @@ BASES = Registry("effect basis", Basis, key="kind", parameter="kind", variant_pa
 
 def register_basis(basis: Basis) -> Basis:
     """Add ``basis`` to :data:`BASES` (replacing one of the same kind) and return it."""
-    if isinstance(basis, Basis) and basis.driver not in ("none", "position", "direction", "time", "positions", "mark"):
-        raise DataError(f"must be none, position, direction, time, positions or mark, got {basis.driver!r}",
+    if isinstance(basis, Basis) and basis.driver not in ("none", "position", "direction", "time", "positions", "mark",
+                                                         "pose"):
+        raise DataError(f"must be none, position, direction, time, positions, mark or pose, got {basis.driver!r}",
                         parameter="driver")
     return BASES.register(basis)
 

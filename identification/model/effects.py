@@ -15,6 +15,7 @@ from kinid.errors import DataError
 from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse_name
 from .machine import Machine, joint_kind
 from .rotary_on import rotary_carriers  # registers the on:<rotary axis> basis, after those of bases
+from . import sag as _sag  # noqa: F401  registers the sag:<point> basis
 
 __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
            "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
@@ -90,7 +91,7 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         raise DataError(f"{source} {name!r}: {code!r} is not an error joint of this machine{hint}")
     joint = machine.error_joint(code)
     basis, fields = parse_name(name, joint, machine, source)
-    axis = joint.axis if basis.driver in ("position", "direction", "positions") else ""
+    axis = joint.axis if basis.driver in ("position", "direction", "positions", "pose") else ""
     effect = machine.parsed_effects[name] = Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
     return effect
 
@@ -150,7 +151,7 @@ def candidate_library(machine: Machine, model, *, has_directions: bool, has_time
         for basis in BASES.values():
             out += basis.candidates(j, kind, varying=j.code in varying, has_directions=has_directions,
                                     has_time=has_time, linear_axes=linear, carriers=carriers,
-                                    positions=positions)
+                                    positions=positions, machine=machine)
     out += position_tables(machine, positions or {})
     return [parse_effect(n, machine) for n in out if n not in have]
 
@@ -246,6 +247,8 @@ def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s
         if marks is None or len(marks) != n:
             raise DataError(f"effect {effect.name!r} needs the rows' marks (the target each row measured)")
         q = np.asarray(marks, dtype=object)
+    elif basis.driver == "pose":  # the whole pose on the nominal machine (a weight's lever: sag)
+        q = (machine, axes_user)
     else:
         q = np.zeros(n)
     return np.asarray(basis.values(effect, q, t, s), float).reshape(n, -1)
