@@ -267,7 +267,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                   [("fit_path", fit_path), ("the fit's machine", getattr(machine, "path", None))])
     check_output_folder(folder, foreign=_not_earlier_compensation)
     files = {}  # name -> text, in the order written
-    written, tables, skipped, controller, notes, checks = [], {}, [], [], [], []
+    written, tables, skipped, controller, notes, checks, csv_checks = [], {}, [], [], [], [], []
     for a in machine.axes:
         rotary = a.kind == "revolute"
         unit_q, unit = ("deg", "µrad") if rotary else ("mm", "µm")
@@ -304,7 +304,7 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
         files[f"{a.name}.csv"] = neutral_csv_text(a.column, q_ext, cols)
         written.append(f"{a.name}.csv")
         for column, read in csv_tables(files[f"{a.name}.csv"], rng.modulo).items():
-            checks.append((TableCheck(f"{a.name}.csv (column {column})", a.name, (unit_q, unit),
+            csv_checks.append((TableCheck(f"{a.name}.csv (column {column})", a.name, (unit_q, unit),
                                       lambda x, f=cols_at, c=column: f(x)[c][None],
                                       lambda x, t=read: applied(t, x)[None], floor=1e-3), checked_at, travel_ends))
         tables[a.name] = {"file": f"{a.name}.csv", "column": a.column, "from": float(rng.low), "to": float(rng.high),
@@ -377,7 +377,9 @@ def write_compensation(result: FitResult, folder, *, step_mm: float | None = Non
                 notes.append(f"{name}: the controller's interpolation leaves {left['rms']:.3g} {unit} RMS of the "
                              f"{error_rms:.3g} {unit} RMS error ({left['rms'] / error_rms:.0%}, more than "
                              f"{BOUND_SHARE:.0%}){': ' + why if why else ''}")
-    # never worse than none: every table applied as its controller applies it, before anything is written
+    # never worse than none: every table applied as its controller applies it, before anything is written (the axis
+    # tables of kinid's own CSV, always written, are refused rather than left out)
+    check_tables(csv_checks, by_name=True)
     outcome, worse = check_tables(checks, by_name=formats is not None)
     for name, why in worse:  # a default format that cannot follow the error is left out, the others written
         del files[name]
