@@ -82,14 +82,24 @@ def _observe(args) -> int:
 def _usable(fit, machine, obs, lever_mm):
     """(design, parameter values, which were left at 0) of the fit at the poses of ``obs``: a turn the images determine
     only to milliradians (the camera's tilt on the tool, EA0T, EB0T, often EC0T) would move the depth by its σ times the
-    laser's lever, so a turn whose σ × ``lever_mm`` exceeds the fit's noise is left at 0, as in the nominal pass."""
+    laser's lever, so a turn whose σ × ``lever_mm`` exceeds the fit's noise is left at 0, as in the nominal pass.
+
+    A machine term ``compensate`` writes as 0 because it is not significant (within its expanded uncertainty, or a
+    curve within its own; :func:`~kinid.identification.compensation.compensate.compensation_model`) is left at 0 too:
+    a tilt the fit cannot tell from 0 (the Z axis's EB0Z, 5 ± 5 µrad) turns the board's slope at every pose alike, so
+    its noise times the lever moved every depth by the same 0.2 µm, which the next fit took for a length that
+    compensate kept while it wrote the tilt as 0 (tests/test_sensor_models.py)."""
     import numpy as np
 
+    from ..compensation import compensation_model
     from ..fitting import design
 
     vague = np.array([u == "µrad" and not (np.isfinite(s) and s * lever_mm * 1e-3 <= fit.noise.value_um)
                       for u, s in zip(fit.units, fit.std)], dtype=bool)
-    return design(machine, fit.effects, obs), np.where(vague, 0.0, fit.theta), vague  # held parameters at 0 too
+    small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
+    zero = np.concatenate([np.full(e.n_params, e.name in small) for e in fit.effects]) if fit.effects else vague
+    values = np.where(vague | zero, 0.0, fit.theta)  # held parameters at 0 too
+    return design(machine, fit.effects, obs), values, vague
 
 
 #: The columns observe writes with the laser beside the camera, with which identify judges the depths again.
