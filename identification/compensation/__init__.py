@@ -14,7 +14,7 @@ _SOURCES = {
     "verification_report": "verify_report", "geometry_lines": "rotary_geometry",
 }
 
-__all__ = ["K_MOVED", "SCHEMES", "add_calibration", "compensation_model", "database_path", "geometry_lines", "history_text",
-           "machine_history", "plot_history", "verification_report", "verify", "write_compensation"]
+__all__ = ["K_MOVED", "SCHEMES", "add_calibration", "compensation_model", "database_path", "geometry_lines",
+           "history_text", "machine_history", "plot_history", "verification_report", "verify", "write_compensation"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)
