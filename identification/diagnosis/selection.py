@@ -235,7 +235,13 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         plausible_next = best is not None and best.p_value < dg.threshold
         if passed and plausible_next and dg.verdict != "noise":
             progress.say(f"  {'':<28} passed over: " + "; ".join(passed_over(*p) for p in passed[:3]))
-        if dg.verdict == "noise":
+        if instrument is not None:
+            against = f", the best candidate {best.effect}'s {best.statistic:.1f}" if best is not None else ""
+            stop = (f"the residual follows the offsets read more than any machine error explains it (χ² drop "
+                    f"{instrument.statistic:.1f}{against}): "
+                    f"{instrument.describe()}; an error of the instrument is not added as a machine error — "
+                    f"calibrate the instrument (or correct the offsets) and measure again")
+        elif dg.verdict == "noise":
             stop = dg.note or f"the residual is explained by noise of σ = {dg.noise}"
         elif passed and not plausible_next and passed[0][0].p_value < dg.threshold:  # only sizes no machine has
             stop = f"the best candidate, {passed_over(*passed[0])}: {passed[0][1].remedy}; not added"
@@ -247,11 +253,6 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
                     f"threshold {dg.threshold:.2g}" + (f"; {dg.note}" if dg.note else ""))
         elif inseparable:
             stop = f"the best candidate, {best.effect} (p = {best.p_value:.2g}), is not added: {dg.inseparable}"
-        elif instrument is not None:
-            stop = (f"the residual follows the offsets read more than any machine error explains it (χ² drop "
-                    f"{instrument.statistic:.1f}, the best candidate {best.effect}'s {best.statistic:.1f}): "
-                    f"{instrument.describe()}; an error of the instrument is not added as a machine error — "
-                    f"calibrate the instrument (or correct the offsets) and measure again")
         elif len(steps) > max_steps:
             stop = f"stopped after {max_steps} added effects (max_steps); the best next candidate is {best.effect}"
         elif folds:
@@ -313,14 +314,19 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
 
 
 def _instrument_first(machine, obs, dg, best):
-    """The instrument's errors when they explain the residual at least as well as the best significant candidate
-    and are significant themselves (:func:`~.instrument.instrument_errors`); None otherwise, and for alignments."""
-    if obs.offsets_mm is None or best is None or best.p_value >= dg.threshold:
+    """The instrument's errors when they are significant themselves (:func:`~.instrument.instrument_errors`) and
+    explain the residual at least as well as the best significant candidate, or no candidate is significant (a
+    laser's scale on an arm: the fit takes part of it into the joints' errors, no machine candidate stands out, and
+    the verdict said noise while the laser's scale dropped the χ² by thousands); None otherwise, and for
+    alignments."""
+    if obs.offsets_mm is None:
         return None
     from .instrument import instrument_errors
 
     found = instrument_errors(machine, obs, dg.fit, dg.noise_um)
-    if found is None or not found.named or found.p_value >= dg.threshold or found.statistic < best.statistic:
+    if found is None or not found.named or found.p_value >= dg.threshold:
+        return None
+    if best is not None and best.p_value < dg.threshold and found.statistic < best.statistic:
         return None
     return found
 
