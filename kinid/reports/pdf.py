@@ -388,6 +388,8 @@ def _opaque_pixels(png: Path):
 
     try:
         with Image.open(png) as im:
+            if im.mode == "RGB":  # kinid's figures (kinid.reports.figures.save_figure): opaque, read as they are
+                return np.asarray(im)
             pixels = np.asarray(im.convert("RGBA"))
     except (OSError, ValueError, SyntaxError, UnidentifiedImageError):
         return None
