@@ -39,8 +39,8 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = True) -> None:
     tight : bool
         Crop to the drawn content (``bbox_inches="tight"``): matplotlib then draws the figure twice, once to
         measure it. A figure laid out by :func:`fixed_layout` has everything inside it: save it with
-        ``tight=False``, drawn once, and written as RGB when every pixel is opaque (a report's figure: a PNG a tenth
-        smaller, encoded a quarter faster, and the PDF embeds it as it is).
+        ``tight=False``, drawn once, and written as RGB when every pixel is opaque (a report's figure: the PDF embeds
+        it as it is), at zlib level 3 (:func:`_write_png`).
     """
     _ticks_in_view(fig)
     _unlabelled_axes_unmeasured(fig)
@@ -72,7 +72,9 @@ def _write_png(fig, out, dpi: int) -> None:
     note = PngImagePlugin.PngInfo()
     note.add_text("Software", f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/")
     pixels = rgba[:, :, :3] if np.all(rgba[:, :, 3] == 255) else rgba
-    Image.fromarray(np.ascontiguousarray(pixels)).save(out, format="png", pnginfo=note, dpi=(dpi, dpi))
+    # zlib level 3, not PIL's 6: the demo's 12 PNGs encode in 0.16 s, not 0.27 s, and weigh 1.14 MB, not 1.09 MB
+    Image.fromarray(np.ascontiguousarray(pixels)).save(out, format="png", pnginfo=note, dpi=(dpi, dpi),
+                                                       compress_level=3)
 
 
 def _ticks_in_view(fig) -> None:
