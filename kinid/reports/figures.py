@@ -12,6 +12,7 @@ Examples
 """
 from __future__ import annotations
 
+import functools
 import io
 
 from ..files import atomic_write
@@ -38,12 +39,113 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = True) -> None:
     tight : bool
         Crop to the drawn content (``bbox_inches="tight"``): matplotlib then draws the figure twice, once to
         measure it. A figure laid out by :func:`fixed_layout` has everything inside it: save it with
-        ``tight=False``, drawn once.
+        ``tight=False``, drawn once, and written as RGB when every pixel is opaque (a report's figure: the PDF embeds
+        it as it is), at zlib level 3 (:func:`_write_png`).
     """
+    _ticks_in_view(fig)
+    _unlabelled_axes_unmeasured(fig)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight" if tight else None)
+    if tight:
+        fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    else:
+        _write_png(fig, buf, dpi)
     with atomic_write(path, "wb") as f:
         f.write(buf.getvalue())
+
+
+def _write_png(fig, out, dpi: int) -> None:
+    """Draw ``fig`` at ``dpi`` and write it to ``out`` as PNG, as ``fig.savefig(out, format="png", dpi=dpi)`` does
+    (the same pixels, resolution and Software note), but without the alpha channel when it is opaque throughout."""
+    import matplotlib
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image, PngImagePlugin
+
+    before = fig.dpi
+    try:
+        fig.set_dpi(dpi)
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        rgba = np.asarray(canvas.buffer_rgba())
+    finally:
+        fig.set_dpi(before)
+    note = PngImagePlugin.PngInfo()
+    note.add_text("Software", f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/")
+    pixels = rgba[:, :, :3] if np.all(rgba[:, :, 3] == 255) else rgba
+    # zlib level 3, not PIL's 6: the demo's 12 PNGs encode in 0.16 s, not 0.27 s, and weigh 1.14 MB, not 1.09 MB
+    Image.fromarray(np.ascontiguousarray(pixels)).save(out, format="png", pnginfo=note, dpi=(dpi, dpi),
+                                                       compress_level=3)
+
+
+def _ticks_in_view(fig) -> None:
+    """Give every axis of ``fig`` locators that return only the locations inside its view.
+
+    matplotlib makes a tick object (two lines, two texts: about 1 ms each) for every location a locator returns,
+    then draws only those inside the view: a log axis's minor locator returns every tick of the decades beyond it
+    (20 made, 11 drawn on a period axis from 1 to 60 mm), a linear one a tick past each end. The figure drawn is the
+    same; the ticks never drawn are never made.
+    """
+    from matplotlib.ticker import FixedLocator, NullLocator
+
+    in_view = _in_view_class()
+    as_given = (in_view, NullLocator, FixedLocator)  # wrapped (shared axes share locators), none, or chosen by hand
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if not isinstance(axis.get_major_locator(), as_given):
+                axis.set_major_locator(in_view(axis.get_major_locator()))
+            if not isinstance(axis.get_minor_locator(), as_given):
+                axis.set_minor_locator(in_view(axis.get_minor_locator()))
+
+
+def _unlabelled_axes_unmeasured(fig) -> None:
+    """Fix the place of every empty axis label, which nothing draws: matplotlib otherwise places each label below
+    (beside) the tick labels of its axis and of every axis sharing it, measuring them all, at every draw (the
+    panels of a row share their y axis and only the first is labelled: 5 panels measured 5 times each)."""
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if not axis.label.get_text():
+                axis.set_label_coords(0.5, 0.5)
+
+
+@functools.cache
+def _in_view_class():
+    """The locator class (made on first use: matplotlib is imported only when a figure is drawn)."""
+    from matplotlib.ticker import Locator
+
+    class InView(Locator):
+        """The locations of ``locator`` that matplotlib would draw: inside the axis's view interval, compared as
+        matplotlib's ``Axis._update_ticks`` does (in the scale's coordinates, to 1e-10 of the interval)."""
+
+        def __init__(self, locator):
+            self.locator = locator
+
+        def set_axis(self, axis):
+            super().set_axis(axis)
+            self.locator.set_axis(axis)
+
+        def __call__(self):
+            import numpy as np
+
+            locs = np.asarray(self.locator(), float)
+            if locs.size == 0 or self.axis is None:
+                return locs
+            to_scale = self.axis.get_transform()
+            lo, hi = sorted(to_scale.transform(sorted(self.axis.get_view_interval())))
+            tol = 1e-10 * (hi - lo)
+            with np.errstate(invalid="ignore"):
+                at = to_scale.transform(locs)
+                return locs[(at >= lo - tol) & (at <= hi + tol)]
+
+        def tick_values(self, vmin, vmax):
+            return self.locator.tick_values(vmin, vmax)
+
+        def nonsingular(self, v0, v1):
+            return self.locator.nonsingular(v0, v1)
+
+        def view_limits(self, vmin, vmax):
+            return self.locator.view_limits(vmin, vmax)
+
+    return InView
 
 
 #: The width a report page shows a figure at (its text column, about 1030 px), in inches at

@@ -74,22 +74,23 @@ class _Flow:
     """Pages being filled top to bottom; positions in points from the page's top-left corner."""
 
     def __init__(self):
-        from matplotlib.backends.backend_agg import RendererAgg
-
         self.width_pt, self.height_pt = A4_MM[0] * _PT_PER_MM, A4_MM[1] * _PT_PER_MM
         self.left = self.top = _MARGIN_MM * _PT_PER_MM
         self.right = self.width_pt - self.left
         self.bottom = self.height_pt - 16 * _PT_PER_MM
         self.pages = []
         self.y = self.bottom  # no page yet: the first draw opens one
-        self._measure = RendererAgg(1, 1, 72)
-        self._widths = {}  # (text, size, weight, family) -> width, pt: a table measures each cell twice
+        self._measure = _pdf_measure()
+        self._props = {}  # (size, weight, family) -> FontProperties
+        self._metrics = {}  # (text, size, weight, family) -> (width, height, descent), pt: a table measures each cell twice
 
     # -- geometry -------------------------------------------------------------------------------------
     def _new_page(self):
         from matplotlib.figure import Figure
 
         self.pages.append(Figure(figsize=(A4_MM[0] / 25.4, A4_MM[1] / 25.4)))
+        self._lines = _lines()
+        self.pages[-1].add_artist(self._lines)
         self.y = self.top
 
     def _room(self, height_pt: float) -> None:
@@ -103,8 +104,16 @@ class _Flow:
     def _xy(self, x_pt, y_pt):
         return x_pt / self.width_pt, 1 - y_pt / self.height_pt
 
-    def _put(self, x_pt, y_pt, s, size, **kw):
-        self.pages[-1].text(*self._xy(x_pt, y_pt), s, fontsize=size, va="top", parse_math=False, **kw)
+    def _put(self, x_pt, y_pt, s, size, *, weight="normal", family="sans-serif", color="black", ha="left"):
+        """Set ``s`` with its top at ``y_pt`` and its left (``ha="right"``: right) end at ``x_pt``, where
+        ``Figure.text(..., va="top")`` puts it: the baseline below the top by the height of "lp" (or of the string's
+        own glyphs, if taller) less their descent, measured as the PDF renderer measures (unhinted, 72 dpi)."""
+        w, h, d = self._metric(s, size, weight, family)
+        _, lp_h, lp_d = self._metric("lp", size, weight, family)
+        x = x_pt - w if ha == "right" else x_pt
+        prop = self._props.get((size, weight, family)) or self._props.setdefault(
+            (size, weight, family), _font(size, weight, family))
+        self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, prop, color)
 
     def _line(self, x0, x1, y, color=_RULE, lw=0.6):
         from matplotlib.lines import Line2D
@@ -124,13 +133,14 @@ class _Flow:
     def _width(self, s: str, size: float, weight="normal", family="sans-serif") -> float:
         if family == "monospace" and len(s) > 1:  # every character as wide as one: the text output's lines
             return len(s) * self._width("0", size, weight, family)
-        key = (s, size, weight, family)
-        if key not in self._widths:  # measuring shapes the text (libraqm): about 1 ms a string
-            from matplotlib.font_manager import FontProperties
+        return self._metric(s, size, weight, family)[0]
 
-            prop = FontProperties(size=size, weight=weight, family=family)
-            self._widths[key] = self._measure.get_text_width_height_descent(s, prop, ismath=False)[0]
-        return self._widths[key]
+    def _metric(self, s: str, size: float, weight="normal", family="sans-serif") -> tuple:
+        """Width, height and descent, pt, of ``s`` as the PDF renderer measures it (each string measured once)."""
+        key = (s, size, weight, family)
+        if key not in self._metrics:  # measuring shapes the text (libraqm): about 0.5 ms a string
+            self._metrics[key] = self._measure.get_text_width_height_descent(s, _font(size, weight, family), False)
+        return self._metrics[key]
 
     def _gap(self, before: str, after: str, size: float, weight, family) -> float:
         """The room, pt, between the ink of a word ending in ``before`` and one starting with ``after`` set after it
@@ -303,6 +313,52 @@ class _Flow:
         self.text(caption, 7.5, color=_GREY, after=10)
 
 
+def _font(size, weight, family):
+    from matplotlib.font_manager import FontProperties
+
+    return FontProperties(size=size, weight=weight, family=family)
+
+
+def _pdf_measure():
+    """A renderer measuring text as matplotlib's PDF backend does (its ``get_text_width_height_descent``: the
+    font unhinted at 72 dpi, one point a unit), without a PDF file to draw into."""
+    from matplotlib.backends._backend_pdf_ps import RendererPDFPSBase
+
+    class Measure(RendererPDFPSBase):
+        _use_afm_rc_name = "pdf.use14corefonts"
+
+    return Measure(1, 1)
+
+
+def _lines():
+    """An artist drawing a page's lines of text, each at a given baseline (fractions of the page), in one pass:
+    what ``Figure.text`` draws, without a text artist each that measures its string again to place it."""
+    from matplotlib.artist import Artist
+
+    class Lines(Artist):
+        zorder = 3  # where Figure.text draws: above the rules and boxes
+
+        def __init__(self):
+            super().__init__()
+            self.items = []
+
+        def add(self, x, y, s, prop, color):
+            self.items.append((x, y, s, prop, color))
+
+        def draw(self, renderer):
+            if not self.get_visible() or not self.items:
+                return
+            at = self.get_figure(root=True).transFigure.transform([(x, y) for x, y, *_ in self.items])
+            for (x, y), (_, _, s, prop, color) in zip(at, self.items):
+                gc = renderer.new_gc()
+                gc.set_foreground(color)
+                renderer.draw_text(gc, x, y, s, prop, 0.0, ismath=False)
+                gc.restore()
+            self.stale = False
+
+    return Lines()
+
+
 def _picture(pixels, box):
     """An artist drawing ``pixels`` (rows top to bottom) into ``box`` (left, bottom, width, height; fractions of the
     page) at their own resolution, as ``imshow(..., interpolation="none")`` in an axes of that box does, without
@@ -332,6 +388,8 @@ def _opaque_pixels(png: Path):
 
     try:
         with Image.open(png) as im:
+            if im.mode == "RGB":  # kinid's figures (kinid.reports.figures.save_figure): opaque, read as they are
+                return np.asarray(im)
             pixels = np.asarray(im.convert("RGBA"))
     except (OSError, ValueError, SyntaxError, UnidentifiedImageError):
         return None
