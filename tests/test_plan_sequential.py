@@ -15,6 +15,7 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench_plan  # noqa: E402
+import proving_loop  # noqa: E402
 
 from kinid.identification.model.machine import load_machine  # noqa: E402
 from kinid.urdf import path  # noqa: E402
@@ -50,17 +51,8 @@ def measured(machine, tm, obs, seed, noise_seed):
 
 def random_volume(machine, k, rng):
     """``k`` poses drawn over the candidates' volume: a mark anywhere on the ±40 mm square, B in ±60°, C anywhere;
-    the linear axes solved at the nominal machine."""
-    from kinid.identification.data.observations import Observations
-    from kinid.identification.fitting.alignment import solve_axes
-
-    names = machine.axis_names
-    axes = np.full((k, len(names)), np.nan)
-    axes[:, names.index("B")] = rng.uniform(-60.0, 60.0, k)
-    axes[:, names.index("C")] = rng.uniform(0.0, 360.0, k)
-    w = np.column_stack([rng.uniform(-40, 40, k), rng.uniform(-40, 40, k), np.zeros(k)])
-    obs = Observations(tuple("V" for _ in range(k)), w, axes, None, {}, (), "<volume>")
-    return solve_axes(machine, [], np.zeros(0), obs, ("X", "Y", "Z"))
+    the linear axes solved at the nominal machine (the loop's proving ground draws them so)."""
+    return proving_loop.volume(machine, k, rng)
 
 
 def held_out_2rms_um(machine, tm, result, volume, seed) -> float:
@@ -76,12 +68,7 @@ def held_out_2rms_um(machine, tm, result, volume, seed) -> float:
     return 2.0 * float(np.sqrt(np.mean(r**2)))
 
 
-def _concat(a, b):
-    from kinid.identification.data.observations import Observations
-
-    n = len(a) + len(b)
-    return Observations(a.marks + b.marks, np.vstack([a.w_mm, b.w_mm]), np.vstack([a.axes, b.axes]), None, {},
-                        tuple(range(2, n + 2)), "<both>")
+_concat = proving_loop._concat  # the measured and the added rows, as one run
 
 
 @pytest.fixture(scope="module")
