@@ -7,7 +7,7 @@ numpy, benchmarks/proving_truth.py, no kinid code):
 
 - X scale 20–60 µm/m (``EXX``), Y straightness along X, a parabola of 2–6 µm over the travel (``EYX``);
 - C two per turn 10–30 µrad or three per turn 5–15 µrad (``ECC``, one of them);
-- B scale 50–150 µrad/rad (``EBB``), B quadratic 10–30 µrad at ±60° (``EBB``).
+- the tilt axis's scale 50–150 µrad/rad, its quadratic 10–30 µrad at ±60° (``EBB`` on a B/C table, ``EAA`` on an A/C one; `--machine`).
 
 1 µm noise, target U = 0.5 µm (k = 2, per coordinate). Printed per scenario and summed: what each fit added, the
 held-out 2·RMS per coordinate over 300 random poses of the volume (noise-free truth) after the first and after the
@@ -33,18 +33,21 @@ import proving_truth as truth  # noqa: E402
 TARGET_UM = 0.5
 NOISE_UM = 1.0
 
-#: The hidden errors: name -> (the effect that describes it in kinid's words, formula of (readings, size, phase)).
+#: The hidden errors: name -> (the effect that describes it in kinid's words, the error joint, formula of (readings,
+#: size, phase)); "T" stands for the tilt axis (B of a B/C table, A of an A/C one).
 HIDDEN = {
     "X scale": ("EXX:poly1", "EXX", lambda r, s, ph: s * 1e-3 * r["X"]),
     "Y straightness along X": ("EYX:poly2", "EYX", lambda r, s, ph: s * 0.1 * ((r["X"] / 200.0) ** 2 - 1.0 / 3.0)),
     "C two per turn": ("ECC:periodic:180", "ECC", lambda r, s, ph: s * 0.5 * np.sin(np.radians(2.0 * r["C"]) + ph)),
     "C three per turn": ("ECC:periodic:120", "ECC", lambda r, s, ph: s * 0.25 * np.sin(np.radians(3.0 * r["C"]) + ph)),
-    "B scale": ("EBB:poly1", "EBB", lambda r, s, ph: s * np.radians(r["B"])),
-    "B quadratic": ("EBB:poly2", "EBB", lambda r, s, ph: s * 0.5 * (r["B"] / 60.0) ** 2),
+    "tilt scale": ("ETT:poly1", "ETT", lambda r, s, ph: s * np.radians(r["T"])),
+    "tilt quadratic": ("ETT:poly2", "ETT", lambda r, s, ph: s * 0.5 * (r["T"] / 60.0) ** 2),
 }
 #: Size ranges (the formula's unit: µm/m, µm, µrad, µrad/rad) of each hidden error.
 SIZES = {"X scale": (20, 60), "Y straightness along X": (20, 60), "C two per turn": (20, 60),
-         "C three per turn": (20, 60), "B scale": (50, 150), "B quadratic": (20, 60)}
+         "C three per turn": (20, 60), "tilt scale": (50, 150), "tilt quadratic": (20, 60)}
+#: The machines the loop runs on: shipped URDF -> its tilt axis.
+MACHINES = {"five_axis_bc": "B", "five_axis_ac": "A"}
 
 
 def draw(tm, rng):
@@ -62,45 +65,47 @@ def draw(tm, rng):
     return fixed, hidden
 
 
-def errors_at(fixed, hidden, readings, n) -> dict:
+def errors_at(fixed, hidden, readings, n, tilt) -> dict:
     out = {k: np.full(n, v) for k, v in fixed.items()}
+    r = dict(readings, T=readings[tilt])
     for name, size, phase in hidden:
-        joint, formula = HIDDEN[name][1], HIDDEN[name][2]
-        out[joint] = out.get(joint, np.zeros(n)) + formula(readings, size, phase)
+        joint, formula = HIDDEN[name][1].replace("T", tilt), HIDDEN[name][2]
+        out[joint] = out.get(joint, np.zeros(n)) + formula(r, size, phase)
     return out
 
 
-def measure(machine, tm, obs, fixed, hidden, rng):
+def measure(machine, tm, obs, fixed, hidden, rng, tilt):
     from kinid.identification.data.observations import Observations
 
     names = machine.axis_names
     readings = {a: obs.axes[:, j] for j, a in enumerate(names)}
-    p = truth.tool_point_mm(tm, readings, errors_at(fixed, hidden, readings, len(obs)), len(obs))
+    p = truth.tool_point_mm(tm, readings, errors_at(fixed, hidden, readings, len(obs), tilt), len(obs))
     p = p + rng.normal(0.0, NOISE_UM, (len(obs), 3)) * 1e-3
     return Observations(obs.marks, p, obs.axes, None, {}, tuple(range(2, len(obs) + 2)), "<simulated>")
 
 
-def volume(machine, k, rng):
-    """``k`` poses over the candidates' volume (a mark anywhere on the ±40 mm square, B in ±60°, C anywhere)."""
+def volume(machine, k, rng, tilt="B"):
+    """``k`` poses over the candidates' volume (a mark anywhere on the ±40 mm square, the tilt in ±60°, C
+    anywhere)."""
     from kinid.identification.data.observations import Observations
     from kinid.identification.fitting.alignment import solve_axes
 
     names = machine.axis_names
     axes = np.full((k, len(names)), np.nan)
-    axes[:, names.index("B")] = rng.uniform(-60.0, 60.0, k)
+    axes[:, names.index(tilt)] = rng.uniform(-60.0, 60.0, k)
     axes[:, names.index("C")] = rng.uniform(0.0, 360.0, k)
     w = np.column_stack([rng.uniform(-40, 40, k), rng.uniform(-40, 40, k), np.zeros(k)])
     return solve_axes(machine, [], np.zeros(0), Observations(tuple("V" * k), w, axes, None, {}, (), "<volume>"),
                       ("X", "Y", "Z"))
 
 
-def held_out_2rms_um(machine, tm, result, vol, fixed, hidden) -> float:
+def held_out_2rms_um(machine, tm, result, vol, fixed, hidden, tilt) -> float:
     from kinid.identification.data.observations import Observations
     from kinid.identification.fitting.residuals import design, residuals
 
     names = machine.axis_names
     readings = {a: vol.axes[:, j] for j, a in enumerate(names)}
-    p = truth.tool_point_mm(tm, readings, errors_at(fixed, hidden, readings, len(vol)), len(vol))
+    p = truth.tool_point_mm(tm, readings, errors_at(fixed, hidden, readings, len(vol), tilt), len(vol))
     v = Observations(vol.marks, p, vol.axes, None, {}, (), "<volume>")
     r = residuals(machine, design(machine, result.effects, v), v, result.theta, jacobian=False)
     return 2.0 * float(np.sqrt(np.mean(r**2)))
@@ -128,10 +133,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--machine", choices=sorted(MACHINES), default="five_axis_bc")
     args = ap.parse_args(argv)
-    machine = load_machine(path("five_axis_bc"))
+    machine, tilt = load_machine(path(args.machine)), MACHINES[args.machine]
     tm = truth.read_urdf(Path(machine.path).read_text())
-    pool = candidate_poses(machine, bench_plan.MARKS_MM, {"B": bench_plan.B_DEG, "C": bench_plan.C_DEG})
+    pool = candidate_poses(machine, bench_plan.MARKS_MM, {tilt: bench_plan.B_DEG, "C": bench_plan.C_DEG})
     rows = []
     with threadpool_limits(1):
         first = plan_measurement(machine, pool, target_um=TARGET_UM)
@@ -140,16 +146,17 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             rng = np.random.default_rng([args.seed, k])
             fixed, hidden = draw(tm, rng)
-            vol = volume(machine, 300, rng)
-            told = list(default_model(machine)) + [parse_effect(HIDDEN[h][0], machine) for h, _, _ in hidden]
+            vol = volume(machine, 300, rng, tilt)
+            told = list(default_model(machine)) + [parse_effect(HIDDEN[h][0].replace("T", tilt), machine)
+                                                   for h, _, _ in hidden]
             oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told)
-            d1 = measure(machine, tm, first.obs, fixed, hidden, rng)
+            d1 = measure(machine, tm, first.obs, fixed, hidden, rng, tilt)
             f1 = forward_select(machine, d1, default_model(machine))[-1].fit
             aug = augment_plan(machine, d1, pool, f1.effects, noise_um=NOISE_UM, target_um=TARGET_UM)
-            both = _concat(d1, measure(machine, tm, aug.plan.obs, fixed, hidden, rng)) if len(aug.plan.obs) else d1
+            both = _concat(d1, measure(machine, tm, aug.plan.obs, fixed, hidden, rng, tilt)) if len(aug.plan.obs) else d1
             f2 = forward_select(machine, both, default_model(machine))[-1].fit if len(aug.plan.obs) else f1
-            before = held_out_2rms_um(machine, tm, f1, vol, fixed, hidden)
-            after = held_out_2rms_um(machine, tm, f2, vol, fixed, hidden)
+            before = held_out_2rms_um(machine, tm, f1, vol, fixed, hidden, tilt)
+            after = held_out_2rms_um(machine, tm, f2, vol, fixed, hidden, tilt)
             total = len(first.obs) + len(aug.plan.obs)
             rows.append((after <= 1.1 * TARGET_UM, total / len(oracle.obs), before, after))
             added = lambda f: [e.name for e in f.effects if ":" in e.name]  # noqa: E731
@@ -162,7 +169,7 @@ def main(argv=None) -> int:
     met = np.array([r[0] for r in rows])
     ratio = np.array([r[1] for r in rows])
     after = np.array([r[3] for r in rows])
-    print(f"\n{len(rows)} scenarios (seed {args.seed}): target met (held-out 2·RMS ≤ {1.1 * TARGET_UM:g} µm) in "
+    print(f"\n{len(rows)} scenarios ({args.machine}, seed {args.seed}): target met (held-out 2·RMS ≤ {1.1 * TARGET_UM:g} µm) in "
           f"{met.mean():.0%}; mean held-out 2·RMS {after.mean():.3f} µm; alignments against the true model's "
           f"plan: median {np.median(ratio):.2f}×, worst {ratio.max():.2f}×, within 1.3× in {np.mean(ratio <= 1.3):.0%}")
     return 0
