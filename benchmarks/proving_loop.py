@@ -18,7 +18,10 @@ position-dependent errors of the machine's axes, each a plain formula of the rea
   1–3 µrad, and scale errors of J2, J3, 2–6 µrad/rad, each the location error about the joint's own axis varying
   with it; 2000 configurations within the proving ground's ranges.
 
-1 µm noise, target U = 0.5 µm (k = 2, per coordinate). Printed per scenario and summed: what each fit added, the
+1 µm noise, target U = 0.5 µm (k = 2, per coordinate). ``plan --augment`` is given the first fit's suspects (what
+its diagnosis hints at without establishing it: identification/planning/suspects.py), as the command finds them.
+Printed per scenario and summed: what each fit added, the suspects and the power the added alignments promise for
+each, the
 held-out 2·RMS per coordinate over 300 random poses of the volume (noise-free truth) after the first and after the
 second fit, the alignments measured in all against what the plan asks when told the true effects (its
 count, the bound of the relaxation beside it). A scenario meets the target when the second fit's held-out 2·RMS is
@@ -247,6 +250,7 @@ def main(argv=None) -> int:
     from kinid.identification.model.effects import default_model, parse_effect
     from kinid.identification.planning.augment import augment_plan
     from kinid.identification.planning.plan import plan_measurement
+    from kinid.identification.planning.suspects import suspects_of
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", type=int, default=10)
@@ -268,8 +272,9 @@ def main(argv=None) -> int:
             told = list(default_model(machine)) + [parse_effect(layout.hidden[h].effect, machine) for h, _, _ in hidden]
             oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told)
             d1 = measure(machine, tm, first.obs, layout, fixed, hidden, rng)
-            f1 = forward_select(machine, d1, default_model(machine))[-1].fit
-            aug = augment_plan(machine, d1, pool, f1.effects, noise_um=NOISE_UM, target_um=TARGET_UM)
+            last = forward_select(machine, d1, default_model(machine))[-1]
+            f1, hints = last.fit, suspects_of(last.diagnosis, last.fit.effects)
+            aug = augment_plan(machine, d1, pool, f1.effects, noise_um=NOISE_UM, target_um=TARGET_UM, suspects=hints)
             both = (_concat(d1, measure(machine, tm, aug.plan.obs, layout, fixed, hidden, rng)) if len(aug.plan.obs)
                     else d1)
             f2 = forward_select(machine, both, default_model(machine))[-1].fit if len(aug.plan.obs) else f1
@@ -279,7 +284,9 @@ def main(argv=None) -> int:
             rows.append((after <= 1.1 * TARGET_UM, total / len(oracle.obs), before, after))
             added = lambda f: [e.name for e in f.effects if ":" in e.name]  # noqa: E731
             print(f"{k:3d} hidden {', '.join(f'{h} {s:.3g}' for h, s, _ in hidden)}")
-            print(f"    first fit adds {added(f1)}: held-out 2·RMS {before:.3f} µm; +{len(aug.plan.obs)} "
+            powers = [f"{s.effect} {aug.plan.powers[s.effect][1]:.2f}" for s in hints if s.effect in aug.plan.powers]
+            print(f"    first fit adds {added(f1)}: held-out 2·RMS {before:.3f} µm; suspects (power) {powers}; "
+                  f"+{len(aug.plan.obs)} "
                   f"(bound {aug.plan.bound_count}); second fit {added(f2)}: {after:.3f} µm "
                   f"{'meets' if rows[-1][0] else 'MISSES'} the target; {total} alignments, the true model's plan "
                   f"{len(oracle.obs)} ({total / len(oracle.obs):.2f}×)  [{time.perf_counter() - t0:.0f} s]",
