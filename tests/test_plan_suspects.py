@@ -74,7 +74,8 @@ def test_what_the_first_fit_only_hints_at_is_planned_for_and_found(bc):
     """The loop's B/C scenario 15 of seed 1 (a Y straightness along X of 3.9 µm and a curvature of B of 29 µrad at
     ±60°, plain-numpy truth): the first fit on the plan's 84 alignments adds nothing (held-out 2·RMS 0.86 µm against
     the target 0.5) while its best candidates come within 10× the threshold. plan --augment with them as suspects
-    adds alignments that detect each at its estimated size with probability ≥ 0.9 (without them it added none);
+    adds alignments that detect each at its estimated size with probability ≥ SUSPECT_POWER (without them it
+    added none);
     the fit of all adds the curvature of B and meets the target, in no more than 1.3× the alignments the plan asks
     when told the true effects."""
     from kinid.identification.diagnosis.selection import forward_select
@@ -112,10 +113,12 @@ def test_what_the_first_fit_only_hints_at_is_planned_for_and_found(bc):
 def test_identify_names_the_suspects_and_plan_augment_plans_for_them(bc, tmp_path):
     """The same scenario as files: identify --auto --target-um 0.5 says its U is within the target but the data hint
     at effects the model lacks, and gives the --augment command; that command names each suspect with the power the
-    measured and added alignments detect it with (≥ 0.9), plans for the model with them and writes the added."""
+    measured and added alignments detect it with (≥ SUSPECT_POWER), plans for the model with them and writes the
+    added."""
     import subprocess
 
     from kinid.identification.data.observations import write_observations
+    from kinid.identification.planning.suspects import SUSPECT_POWER
 
     layout, machine, tm, pool, first = bc
     rng = np.random.default_rng([1, 15])
@@ -140,5 +143,13 @@ def test_identify_names_the_suspects_and_plan_augment_plans_for_them(bc, tmp_pat
     suspected = [line for line in r.stdout.splitlines() if line.startswith("  suspected: ")]
     assert suspected, r.stdout
     powers = [float(line.rsplit("probability ", 1)[1]) for line in suspected]
-    assert all(p >= 0.9 for p in powers), r.stdout
+    assert all(p >= SUSPECT_POWER for p in powers), r.stdout
     assert "added alignments written to more.csv" in r.stdout and (tmp_path / "more.csv").exists()
+
+
+def test_an_effect_the_model_absorbs_is_detected_at_the_level_only():
+    """An effect whose column is a model column (the model absorbs it whole): its test rejects at the rate α only,
+    whatever its size — the power is α, not 1 (a pseudo-inverse of the singular information said 1)."""
+    rng = np.random.default_rng(5)
+    J = rng.normal(0.0, 1.0, (30, 3, 4))
+    assert suspect_power(J, 3.0 * J[:, :, 1:2], np.array([10.0]), 1e-3) == pytest.approx(1e-3)

@@ -20,7 +20,7 @@ __all__ = ["Suspect", "suspects_of", "suspect_power", "estimated_columns", "add_
 #: A live candidate whose p-value is at most this many times the diagnosis's threshold is a suspect.
 SUSPECT_FACTOR = 10.0
 #: Probability with which the added alignments detect each suspect at its estimated size.
-SUSPECT_POWER = 0.9
+SUSPECT_POWER = 0.8
 #: Suspects planned for at most (the best p-values, one per error joint).
 MAX_SUSPECTS = 3
 
@@ -70,14 +70,13 @@ def suspects_of(diagnosis, model=(), factor: float = SUSPECT_FACTOR, at_most: in
 
 def _lambda(J_model, J_effect, coefficients) -> float:
     """Non-centrality of the test of an effect of these ``coefficients`` given the model (Jacobians whitened, the
-    rows measured): ``cᵀ S c``, ``S`` the information on the effect's parameters left after the model's."""
-    A = np.concatenate([J_model, J_effect], axis=2).reshape(-1, J_model.shape[2] + J_effect.shape[2])
-    k = J_effect.shape[2]
-    try:
-        cov_ee = np.linalg.pinv(A.T @ A)[-k:, -k:]
-        return float(coefficients @ np.linalg.solve(cov_ee, coefficients))
-    except np.linalg.LinAlgError:
-        return 0.0
+    rows measured): ``|R c|²``, ``R`` the effect's columns less their least-squares fit by the model's — the signal
+    the model cannot absorb (0 for an effect in the model's span)."""
+    X = J_model.reshape(-1, J_model.shape[2])
+    Z = J_effect.reshape(-1, J_effect.shape[2])
+    R = Z - X @ np.linalg.lstsq(X, Z, rcond=None)[0]
+    lam = float(np.sum((R @ coefficients) ** 2))
+    return lam if np.isfinite(lam) else 0.0
 
 
 def suspect_power(J_model, J_effect, coefficients, alpha: float) -> float:
