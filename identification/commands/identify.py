@@ -273,7 +273,7 @@ def _identify(args) -> int:
             print("pose advice (kinid plan):")
             print("\n".join(f"  - {line}" for line in advice))
     if args.target_um is not None:
-        _target_line(result, obs, args)
+        _target_line(result, obs, args, steps[-1].diagnosis if args.auto else None)
     print(f"fit written to {args.out}")
     return 0
 
@@ -347,20 +347,26 @@ def _target_lines(result, targets) -> list:
     return out
 
 
-def _target_line(result, obs, args) -> None:
+def _target_line(result, obs, args, diagnosis=None) -> None:
     """One line: the tool point's U the final model promises over the poses the data span, against --target-um; if
-    above it, the command that plans the alignments to add (a sequential design)."""
+    above it, or if ``diagnosis`` (--auto's last) has suspects, the command that plans the alignments to add."""
     import shlex
 
-    from ..planning import fit_volume_u_um
+    from ..planning import fit_volume_u_um, suspects_of
 
     u, poses = fit_volume_u_um(result, obs)
     said = (f"tool point: U = {u:.3g} µm (k = 2, per coordinate, RMS over the {poses} poses the data span) for this "
             f"model")
-    if u <= args.target_um:
+    hints = suspects_of(diagnosis, result.effects) if diagnosis is not None else ()
+    if hints:
+        said += (f" — but the data hint at {', '.join(h.effect for h in hints)} (p = "
+                 f"{', '.join(f'{h.p_value:.2g}' for h in hints)}, the threshold {hints[0].threshold:.2g}), which this "
+                 f"model lacks")
+    if u <= args.target_um and not hints:
         print(f"{said}: within the target {args.target_um:g} µm")
     else:
-        print(f"{said}: above the target {args.target_um:g} µm; plan the alignments to add: kinid plan --augment "
+        print(f"{said}: {'above' if u > args.target_um else 'within'} the target {args.target_um:g} µm; plan the "
+              f"alignments to add{' and settle what the data hint at' if hints else ''}: kinid plan --augment "
               f"{shlex.quote(args.out)} --data {shlex.quote(args.data)}{export_options_text(args)} "
               f"--target-um {args.target_um:g}"
               + (f" --noise-um {args.noise_um:g}" if args.noise_um is not None else "") + " --out more.csv")

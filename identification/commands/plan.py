@@ -371,20 +371,22 @@ def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_t
     effects = tuple(loaded.effects) + tuple(e for e in model_effects(machine, args.add) if e not in loaded.effects
                                              and e.name not in loaded.effect_names)
     noise_um = loaded.noise_um if args.noise_um is None else args.noise_um
+    hints = suspected(machine, measured, effects, args.noise_um)
     aug = augment_plan(machine, measured, pool, effects, noise_um=noise_um, target_um=args.target_um,
                        param_targets=param_targets, count=args.count, travel=travel, blocks=args.blocks,
-                       reference=not args.no_reference)
+                       reference=not args.no_reference, suspects=hints)
     if len(aug.plan.obs):
         write_observations(args.out, aug.plan.obs, machine)
     if args.json:
         from kinid.files import strict_json
 
         summary = plan_summary(aug.plan, machine) if len(aug.plan.obs) else {"alignments": 0}
+        summary.update(suspects={h.effect: {"p_value": h.p_value, "threshold": h.threshold} for h in hints})
         summary.update(measured=aug.measured, tool_point_U_k2_measured_um=aug.u_measured_um, effects=list(aug.effects),
                        settled_by_the_order=list(aug.settled), noise_um=noise_um, target_um=args.target_um)
         print(strict_json(summary, indent=1))
         return 0
-    print(augment_text(aug, machine, presets, args.data, args.augment, sampled=sampled))
+    print(augment_text(aug, machine, presets, args.data, args.augment, sampled=sampled, suspects=hints))
     if narrowed:
         print(f"note: the candidates keep within the span the measured data read on {', '.join(narrowed)} "
               f"(--range to go beyond)")
@@ -398,16 +400,31 @@ def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_t
     return 0
 
 
-def augment_text(aug, machine, presets, data_path, fit_path, sampled: bool = False) -> str:
+def suspected(machine, measured, effects, noise_um) -> tuple:
+    """The effects the measured data hint at without establishing them, given the fit's model: the diagnosis of
+    ``identify --auto`` (its score test) on the measured alignments (:func:`~kinid.identification.planning.suspects_of`)."""
+    from ..diagnosis import diagnose
+    from ..planning import suspects_of
+
+    return suspects_of(diagnose(machine, measured, effects, noise_um=noise_um), effects)
+
+
+def augment_text(aug, machine, presets, data_path, fit_path, sampled: bool = False, suspects=()) -> str:
     """What a user reads of a sequential design: the measured, the model planned for, the added and the promise of both."""
     from ..model import default_model
 
     plan = aug.plan
-    base = {e.name for e in default_model(machine)}
+    base = {e.name for e in default_model(machine)} | {h.effect for h in suspects}
     extra = [n for n in aug.effects if n not in base]
     model = "the default model" + (" + " + ", ".join(extra) if extra else "")
     lines = [f"measured: {aug.measured} alignments ({data_path}); the model of {fit_path}: {model}"
              + (f" ({', '.join(aug.settled)}: settled by the order, not by the poses)" if aug.settled else "")]
+    for h in suspects:
+        planned = plan.powers.get(h.effect)
+        lines.append(f"  suspected: {h.effect} (p = {h.p_value:.2g}, the diagnosis's threshold {h.threshold:.2g}): "
+                     + (f"planned for with the model; the measured and added detect it at its estimated size with "
+                        f"probability {planned[1]:.2f}" if planned else
+                        "driven by time or the approach direction: the order settles it, not the poses"))
     target = f" — target {plan.target_um:g} µm" if plan.target_um else ""
     lines.append(f"  measured alone: U = {aug.u_measured_um:.3g} µm (k = 2, per coordinate, RMS over the candidates' "
                  f"poses) for reading noise σ = {plan.noise_um:.3g} µm{target}")

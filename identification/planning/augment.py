@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from kinid.errors import DataError
-from ..model import Machine
+from ..model import Machine, parse_effect
 from ..data import Observations
 from .order import TravelModel, order_for_time
 from .plan import Candidates, Plan, _terms, tool_point_u_um, volume_weight
@@ -73,7 +73,7 @@ def _nominal(obs: Observations, source: str) -> Observations:
 def augment_plan(machine: Machine, measured: Observations, candidates: Observations, effects, *,
                  noise_um: float, target_um: float | None = None, param_targets: dict | None = None,
                  count: int | None = None, travel: TravelModel = TravelModel(), blocks: int | None = None,
-                 reference: bool = True, max_count: int = 2000) -> Augmented:
+                 reference: bool = True, max_count: int = 2000, suspects=()) -> Augmented:
     """The fewest candidates to add to ``measured`` so that the targets hold for ``effects`` (module docstring).
 
     Parameters
@@ -91,6 +91,11 @@ def augment_plan(machine: Machine, measured: Observations, candidates: Observati
         As :func:`~.plan.plan_measurement` (``count``: this many added alignments).
     travel, blocks, reference
         The order of the added alignments (:func:`~.order.order_for_time`).
+    suspects : sequence of Suspect
+        Effects the measured data hint at without establishing them (:func:`~.suspects.suspects_of`): the targets
+        are planned for the model with them (the fit of all may add them), and the added alignments make each
+        detectable at its estimated size with probability :data:`~.suspects.SUSPECT_POWER` (``plan.powers``), where
+        the candidates can. Those driven by time or the approach direction are left out.
 
     Raises
     ------
@@ -102,6 +107,9 @@ def augment_plan(machine: Machine, measured: Observations, candidates: Observati
     if count is None and target_um is None and not param_targets:
         raise DataError("give a target (--target-um or --param NAME=U) or a --count", parameter="target_um")
     effects, settled = planned_effects(tuple(effects))
+    suspects = _position_suspects(machine, suspects, effects)
+    model = effects
+    effects = effects + tuple(parse_effect(s.effect, machine) for s in suspects)
     m, n = len(measured), len(candidates)
     both = _nominal(candidates, "<candidates>")
     both = Observations(both.marks + tuple(measured.marks), np.vstack([both.w_mm, measured.w_mm]),
@@ -130,6 +138,9 @@ def augment_plan(machine: Machine, measured: Observations, candidates: Observati
                                 f"the {m} measured: ask less, give more candidates, or a lower --noise-um",
                                 parameter="target_um")
             index = trim(J, W, index, enough, keep=m)
+    powers = {}
+    if suspects:
+        index, powers = _detect_suspects(machine, both, n, model, index, suspects, noise_um, max_count)
     added = index[m:] - m  # candidate indices
     if added.size == 0:
         order = None
@@ -154,9 +165,39 @@ def augment_plan(machine: Machine, measured: Observations, candidates: Observati
     else:
         obs = candidates.subset(np.zeros(0, int))
     pool = Candidates(candidates, J_all[:n], names, held, f"{n} candidate alignments")
-    plan = Plan(obs, added, pool, u, worst, u_params, bound_count, float(efficiency), {}, order, held, (),
+    plan = Plan(obs, added, pool, u, worst, u_params, bound_count, float(efficiency), powers, order, held, (),
                 target_um, noise_um, travel)
     return Augmented(plan, m, u_alone, tuple(e.name for e in effects), settled)
+
+
+def _position_suspects(machine, suspects, effects) -> tuple:
+    """The suspects a choice of poses can settle: not driven by time or the approach direction, not in ``effects``."""
+    from ..model import basis_of
+
+    have = {e.name for e in effects}
+    return tuple(s for s in suspects if s.effect not in have
+                 and basis_of(parse_effect(s.effect, machine)).driver not in ("time", "direction"))
+
+
+def _detect_suspects(machine, both, n, model, index, suspects, noise_um, limit):
+    """``index`` (measured rows first) grown until each suspect is detectable, given the fit's ``model``
+    (:func:`~.suspects.add_until_detected`); ``both`` holds the candidates' rows, then the measured ones (``n``
+    candidates). Returns (index, {effect: (size, power)}), the size the norm of its estimated coefficients."""
+    from ..fitting import design, residuals
+    from .suspects import SUSPECT_POWER, add_until_detected, estimated_columns
+
+    J_all = candidate_jacobian(machine, model, both, noise_um)[0]
+    J = np.concatenate([J_all[n:], J_all[:n]])
+    blocks = {}
+    for s in suspects:
+        d = design(machine, [parse_effect(s.effect, machine)], both)
+        _, Je, _ = residuals(machine, d, both, np.zeros(d.n_params))
+        Je = np.concatenate([Je[n:], Je[:n]]) / noise_um
+        tested = estimated_columns(Je, s.coefficient_std)  # the others the diagnosis's model holds: nuisance, as there
+        blocks[s.effect] = (np.concatenate([J, Je[:, :, ~tested]], axis=2), Je[:, :, tested],
+                            np.asarray(s.coefficients)[tested], s.threshold)
+    index, reached = add_until_detected(index, blocks, SUSPECT_POWER, limit)
+    return index, {s.effect: (float(np.linalg.norm(s.coefficients)), reached[s.effect]) for s in suspects}
 
 
 def _bound_count(J, W, fixed, upper: int) -> int:
