@@ -54,7 +54,8 @@ def is_observation_file(path) -> bool:
     return Path(path).is_file() and is_observation_csv(path)
 
 
-def read_data(path, machine, args, *, check_units: bool = True, others=(), together: bool = False):
+def read_data(path, machine, args, *, check_units: bool = True, others=(), together: bool = False,
+              orientation: bool = False):
     """(observations, stated std) of ``path``: kinid's observation CSV, or an instrument export read with the
     export options of ``args`` (its mapping printed on standard error), one target of several chosen by
     ``--target``, or every target where the verb fits them ``together``.
@@ -73,6 +74,9 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
     together : bool
         Without ``--target``, read every target of several (the rows' marks ``T1``, ``T2`` …), and say so; else
         several targets without ``--target`` are refused.
+    orientation : bool
+        Read a measured orientation into rows of its own (the verbs that fit: identify, diagnose); else the points
+        only (``--orientation off``: the angle columns are named among the ignored).
 
     Returns
     -------
@@ -99,6 +103,8 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
     point = parse_point_columns(args.point) if args.point is not None else None
     turn = {k: getattr(args, k) for k in ("orientation", "orientation_mount_deg", "orientation_std_urad")
             if getattr(args, k, None) is not None}
+    if not orientation:
+        turn["orientation"] = "off"  # a verb that reads the points only (verify, plan)
     export = read_export(path, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
                          check_limits=check_limits, **turn)
     obs = export.observations

@@ -179,7 +179,7 @@ def _identify(args) -> int:
     _positive(args.target_um, "--target-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
-    read, stated = read_data(args.data, machine, args, check_units=False, together=True)
+    read, stated = read_data(args.data, machine, args, check_units=False, together=True, orientation=True)
     read = _without_duplicates(read)
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
@@ -458,7 +458,7 @@ def _diagnose(args) -> int:
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
     together = any(basis_of(e).driver == "mark" for e in loaded.effects)  # a fit of several targets together
-    obs = _without_duplicates(read_data(args.data, loaded.machine, args, together=together)[0])
+    obs = _without_duplicates(read_data(args.data, loaded.machine, args, together=together, orientation=True)[0])
     check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside
