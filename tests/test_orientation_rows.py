@@ -145,3 +145,16 @@ def test_orientation_without_std_is_left_out_with_a_note(arm, tmp_path):
     assert any("orientation not used" in line and "--orientation-std-urad" in line for line in export.notes())
     given = read_export(path, machine, orientation_std_urad=35.0)
     assert given.observations.rotation_rows.sum() == 10
+
+
+def test_the_example_file_is_drawn_from_this_truth(arm, tmp_path):
+    """examples/tracker_6dof.csv (docs/formats.md's example) is this module's export of 60 poses, seed 3."""
+    urdf, machine, tm, errors = arm
+    path = _export(tmp_path / "six_dof.csv", machine, tm, errors, 60, np.random.default_rng(3))
+    drawn, shipped = (p.read_text().splitlines() for p in (path, ROOT / "examples" / "tracker_6dof.csv"))
+    assert drawn[0] == shipped[0] and len(drawn) == len(shipped) == 61
+
+    def numbers(lines):
+        return np.array([[float(c.replace(",", ".")) for c in line.split(";")] for line in lines[1:]])
+
+    np.testing.assert_allclose(numbers(drawn), numbers(shipped), rtol=1e-8, atol=1e-9)
