@@ -17,6 +17,12 @@ and σ chosen once on all of it, so the folds share that choice) predicts its he
 sag too.
 Printed: the exit status, iterations and convergence of every fit; the held-out 3-D RMS of the other series and the
 folds (``--folds 0`` skips them).
+``--orientation``: the T-Mac's measured orientation too (its ``measurement_rx/_ry/_rz``, Euler XYZ in degrees, the
+probe turned on the flange as the Trafo file's rotation says: ``--orientation-mount-deg``), three rows more per pose
+(docs/formats.md, "Measured orientation"); without it the fits read the points only (``--orientation off``), as
+before. Printed besides: the check of the angles at the start, the fit's orientation residuals against the points'
+(identify's line), and on each other series the orientation left once the tracker's frame is refitted to its points
+(RMS per component, µrad, against the series' stated σ). The folds fit the points only.
 Published reference (Landgraf et al., IEEE CASE 2021 data; the frame fitted first): 0.40-0.49 mm held-out.
 """
 from __future__ import annotations
@@ -46,6 +52,36 @@ def probe_offset_mm(trafo: Path) -> tuple:
     values = [float(v) for v in trafo.read_text().replace("1.-", "1. -").split()]
     T = np.array(values[:16]).reshape(4, 4)
     return tuple(float(v) for v in -T[:3, :3].T @ T[:3, 3])
+
+
+def probe_mount_deg(trafo: Path) -> tuple:
+    """The probe's orientation on the flange (tool0), Euler XYZ, deg, from the Trafo file's rotation: the measured
+    orientation is the flange's times this turn (checked on the data: read so, series B's angles lie 0.2° RMS from
+    the nominal arm's at the frame fitted to the points; with no turn, 90°)."""
+    from scipy.spatial.transform import Rotation
+
+    values = [float(v) for v in trafo.read_text().replace("1.-", "1. -").split()]
+    R = np.array(values[:16]).reshape(4, 4)[:3, :3]
+    U, _, Vt = np.linalg.svd(R)  # the file's rotation to 8 digits: the nearest rotation
+    return tuple(float(v) for v in Rotation.from_matrix(U @ Vt).as_euler("XYZ", degrees=True))
+
+
+def held_out_orientation_urad(machine, effects, theta, obs, turned) -> tuple:
+    """(RMS per component of the orientation left on ``turned``'s poses, µrad; their median stated σ, µrad) once the
+    tracker's frame is the rigid transform of ``obs``'s points (the same poses, in the same order)."""
+    from kinid.identification.fitting import design, residuals, rigid_transform, rotation_residual_urad, tool_rotations
+    from kinid.identification.fitting import joint_values
+
+    d = design(machine, effects, obs)
+    th = np.array(theta, float)
+    th[[i for i, n in enumerate(d.param_names()) if n.endswith("0W")]] = 0.0
+    p = obs.w_mm + residuals(machine, d, obs, th, jacobian=False) / 1e3
+    R, _ = rigid_transform(p, obs.w_mm)
+    rows = turned.observations.rotation_rows
+    poses = turned.observations.subset(rows)
+    R_model = R @ tool_rotations(machine, poses.axes, joint_values(machine, design(machine, effects, poses), th))
+    omega = rotation_residual_urad(R_model, poses.rotations)
+    return float(np.sqrt(np.mean(omega**2))), float(np.median(turned.orientation["std_urad"]))
 
 
 def kinid(*args) -> subprocess.CompletedProcess:
@@ -97,6 +133,7 @@ def main(argv=None) -> int:
     ap.add_argument("--series", choices=sorted(SERIES), default="B", help="the series trained on (default B)")
     ap.add_argument("--train", type=int, default=None, help="fit on its first N poses (default all)")
     ap.add_argument("--folds", type=int, default=10)
+    ap.add_argument("--orientation", action="store_true", help="fit the measured orientation too (three rows a pose)")
     args = ap.parse_args(argv)
     from kinid.identification.data import read_export
     from kinid.identification.fitting import PRIOR_UM, PRIOR_URAD, choose_prior, fit, load_fit, model_effects, prior_std
@@ -118,10 +155,19 @@ def main(argv=None) -> int:
             train = tmp / f"{name}_train.csv"
             train.write_text("\n".join(lines[: args.train + 1]) + "\n")
         machine = load_machine(urdf)
-        series = {name: read_export(folder / SERIES[name], machine).observations for name in SERIES}
+        mount = probe_mount_deg(folder / "series_B_Trafo_TM_F_init.txt")
+        turn = ["--orientation-mount-deg", *(f"{v:.6f}" for v in mount)] if args.orientation else ["--orientation", "off"]
+        series = {name: read_export(folder / SERIES[name], machine, orientation="off").observations for name in SERIES}
+        turned = {name: read_export(folder / SERIES[name], machine, orientation_mount_deg=mount) for name in SERIES}
+        if args.orientation:
+            from kinid.identification.fitting import check_orientation
+
+            print(f"probe mount (Euler XYZ) from the Trafo file: {', '.join(f'{v:.4f}' for v in mount)}°")
+            for other in SERIES:
+                print(f"  {other}: {check_orientation(machine, turned[other]).line}")
         for extra in ([], ["--prior", "--no-check"], ["--add", *SAG], ["--prior", "--no-check", "--add", *SAG]):
             t0 = time.perf_counter()
-            out = kinid("identify", "--machine", urdf, "--data", train, "--out", tmp / "fit.json", *extra)
+            out = kinid("identify", "--machine", urdf, "--data", train, "--out", tmp / "fit.json", *turn, *extra)
             last = (out.stderr.strip().splitlines() or [""])[-1] if out.returncode else "fit written"
             print(f"kinid identify {' '.join(extra) or '(plain)'} on {name}: exit {out.returncode} in "
                   f"{time.perf_counter() - t0:.1f} s; {last[-160:]}")
@@ -132,10 +178,15 @@ def main(argv=None) -> int:
             trained = f"the first {args.train} trained on" if args.train else "all trained on"
             print(f"  {loaded.iterations} iterations, converged: {loaded.success}; {name} ({len(series[name])} poses, "
                   f"{trained}) 3-D RMS {held_out_mm(machine, effects, theta, series[name]):.3f} mm")
+            for line in out.stdout.splitlines():
+                if line.startswith("orientation residuals:"):
+                    print(f"  {line}")
             for other in sorted(set(SERIES) - {name}):
                 frame, both = (held_out_setup_mm(machine, effects, theta, series[other], point=p) for p in (False, True))
+                rot, stated = held_out_orientation_urad(machine, effects, theta, series[other], turned[other])
                 print(f"  {other} held out ({len(series[other])} poses): 3-D RMS {frame:.3f} mm with the tracker's "
-                      f"frame refitted, {both:.3f} mm with the frame and the probe point refitted")
+                      f"frame refitted, {both:.3f} mm with the frame and the probe point refitted; orientation left "
+                      f"{rot:.0f} µrad RMS per component (stated σ {stated:.0f} µrad, median)")
     if not args.folds:
         return 0
     # K-fold on the series: one prior choice on all of it, then a fit per fold

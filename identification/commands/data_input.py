@@ -10,7 +10,7 @@ __all__ = ["add_export_options", "export_options_text", "is_observation_file", "
            "stated_std_of"]
 
 #: The export options, as argparse names them.
-_OPTIONS = ("point", "point_unit", "joint_unit", "target")
+_OPTIONS = ("point", "point_unit", "joint_unit", "target", "orientation", "orientation_mount_deg", "orientation_std_urad")
 
 
 def add_export_options(p) -> None:
@@ -24,13 +24,24 @@ def add_export_options(p) -> None:
     g.add_argument("--target", default=None, metavar="LABEL",
                    help="with several targets per pose (x1/y1/z1, x2/y2/z2 …): the one read, T1, T2 … "
                         "(default: every target; identify fits them together, each its own tool point)")
+    g.add_argument("--orientation", default=None, metavar="SEQUENCE",
+                   help="the Euler sequence of the measured orientation's angles (measurement_rx/_ry/_rz, rx/ry/rz, "
+                        "a/b/c): XYZ (the default: intrinsic, R = Rx·Ry·Rz), xyz, ZYX, zyx, ZYZ, zyz; off: the points "
+                        "only")
+    g.add_argument("--orientation-mount-deg", type=float, nargs=3, default=None, metavar=("A1", "A2", "A3"),
+                   help="the measured body's orientation in the tool frame, the same sequence, deg (default 0 0 0)")
+    g.add_argument("--orientation-std-urad", type=float, default=None, metavar="S",
+                   help="σ of every pose's orientation, µrad (default: from the export's std columns)")
 
 
 def export_options_text(args) -> str:
     """The export options given in ``args``, as a command line repeats them (`` --point x=a,y=b,z=c``), or ''."""
     import shlex
 
-    return "".join(f" --{o.replace('_', '-')} {shlex.quote(str(getattr(args, o)))}" for o in _OPTIONS
+    def text(v):
+        return " ".join(f"{x:g}" for x in v) if isinstance(v, (list, tuple)) else shlex.quote(str(v))
+
+    return "".join(f" --{o.replace('_', '-')} {text(getattr(args, o))}" for o in _OPTIONS
                    if getattr(args, o, None) is not None)
 
 
@@ -43,7 +54,8 @@ def is_observation_file(path) -> bool:
     return Path(path).is_file() and is_observation_csv(path)
 
 
-def read_data(path, machine, args, *, check_units: bool = True, others=(), together: bool = False):
+def read_data(path, machine, args, *, check_units: bool = True, others=(), together: bool = False,
+              orientation: bool = False):
     """(observations, stated std) of ``path``: kinid's observation CSV, or an instrument export read with the
     export options of ``args`` (its mapping printed on standard error), one target of several chosen by
     ``--target``, or every target where the verb fits them ``together``.
@@ -62,6 +74,9 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
     together : bool
         Without ``--target``, read every target of several (the rows' marks ``T1``, ``T2`` …), and say so; else
         several targets without ``--target`` are refused.
+    orientation : bool
+        Read a measured orientation into rows of its own (the verbs that fit: identify, diagnose); else the points
+        only (``--orientation off``: the angle columns are named among the ignored).
 
     Returns
     -------
@@ -86,14 +101,25 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
                             f"observation CSV (its header has mark or wx_mm)")
         return read_observations(path, machine, check_limits=check_limits, check_units=check_units), {}
     point = parse_point_columns(args.point) if args.point is not None else None
+    turn = {k: getattr(args, k) for k in ("orientation", "orientation_mount_deg", "orientation_std_urad")
+            if getattr(args, k, None) is not None}
+    if not orientation:
+        turn["orientation"] = "off"  # a verb that reads the points only (verify, plan)
     export = read_export(path, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
-                         check_limits=check_limits)
+                         check_limits=check_limits, **turn)
     obs = export.observations
     std = {} if export.std_mm is None else {(ln, m): s for ln, m, s in zip(obs.lines, obs.marks, export.std_mm)}
     labels = [label for label, *_ in export.targets]
     if args.target is not None and args.target not in labels:
         raise DataError(f"--target {args.target!r}: the file's targets are {', '.join(labels)}")
     notes = export.notes()
+    if obs.rotation_rows.any():  # the angles' convention, unit and mount checked before any fit (one line if off)
+        from ..fitting import check_orientation
+
+        check = check_orientation(machine, export)
+        if not check.ok:
+            raise DataError(check.line, path=path)
+        notes.append(f"  {check.line}")
     if args.target is None and together and len(labels) > 1:
         notes.append(f"  targets {', '.join(labels)} fitted together: each its own point on the tool "
                      f"(E?0T:target:<mark>), the machine's errors and the measurement frame shared")

@@ -173,17 +173,17 @@ def _identify(args) -> int:
     from ..fitting import fit, model_effects
     from ..fitting import save_fit
     from ..model import load_machine
-    from ..data import check_row_count, warn_units
+    from ..data import ROTATION_MARK, check_row_count, warn_units
 
     _positive(args.noise_um, "--noise-um")
     _positive(args.target_um, "--target-um")
     machine = load_machine(args.machine)
     # the units are judged after the fit: a fit refused names the likely unit in its one line, else a warning
-    read, stated = read_data(args.data, machine, args, check_units=False, together=True)
+    read, stated = read_data(args.data, machine, args, check_units=False, together=True, orientation=True)
     read = _without_duplicates(read)
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
-    targets = () if is_observation_file(args.data) else tuple(dict.fromkeys(obs.marks))
+    targets = () if is_observation_file(args.data) else tuple(m for m in dict.fromkeys(obs.marks) if m != ROTATION_MARK)
     effects = model_effects(machine, args.add, targets=targets)
     from .board_settle import read_levers
 
@@ -257,7 +257,7 @@ def _identify(args) -> int:
                 diagnosis = diagnose(machine, obs, effects, noise_um=args.noise_um, result=result)
             with step(f"writing the report to {args.report}: figures, HTML and PDF"):
                 diagnosis_report(diagnosis, obs, args.report)
-    warn_units(machine, read)
+    warn_units(machine, read.subset(~read.rotation_rows))  # the orientation's rows hold no points
     result = _check_stated_std(result, obs, stated)
     save_fit(result, args.out)
     print(result.table())
@@ -265,6 +265,10 @@ def _identify(args) -> int:
         print("\n".join(_target_lines(result, targets)))
     if result.stated_std:
         print(result.stated_std["line"])
+    if obs.rotation_rows.any() and result.residuals_um is not None and len(result.residuals_um) == len(obs):
+        from ..fitting import orientation_residuals
+
+        print(orientation_residuals(obs, result.residuals_um).line)
     if result.aliases:
         from ..planning import data_advice
 
@@ -315,10 +319,14 @@ def _check_stated_std(result, obs, stated):
 
     from ..diagnosis import check_stated_std
 
-    std_mm = stated_std_of(obs, stated)
-    if std_mm is None or result.residuals_um is None or len(result.residuals_um) != len(obs):
+    if result.residuals_um is None or len(result.residuals_um) != len(obs):
         return result
-    check = check_stated_std(result.residuals_um, std_mm * 1e3, result.dof)
+    points = ~obs.rotation_rows  # the orientation's rows are checked on their own (orientation_residuals)
+    std_mm = stated_std_of(obs.subset(points), stated)
+    if std_mm is None:
+        return result
+    dof = result.dof if points.all() else int(result.dof * points.sum() / len(obs))  # the points' share
+    check = check_stated_std(result.residuals_um[points], std_mm * 1e3, dof)
     return result if check is None else replace(result, stated_std=check.summary())
 
 
@@ -456,7 +464,7 @@ def _diagnose(args) -> int:
     _positive(args.noise_um, "--noise-um")
     loaded = load_fit(args.fit)
     together = any(basis_of(e).driver == "mark" for e in loaded.effects)  # a fit of several targets together
-    obs = _without_duplicates(read_data(args.data, loaded.machine, args, together=together)[0])
+    obs = _without_duplicates(read_data(args.data, loaded.machine, args, together=together, orientation=True)[0])
     check_row_count(obs, "a diagnosis")
     aside_lines = {a.line for a in loaded.set_aside if a.line is not None}
     if aside_lines and obs.lines:  # the rows the fit set aside as gross errors stay aside

@@ -14,12 +14,19 @@ One rule, in this order:
 - several targets per pose give one row per target, its mark the target's label (``T1``, ``T2`` …);
 - standard deviations of the point (``measurement_std_x``, ``x1_std``) are read (``Export.std_mm``), not used as
   weights: the fit takes one σ for every coordinate, and ``kinid identify`` checks them against its residuals
-  (:mod:`~kinid.identification.diagnosis.stated_std`); every other column is ignored, with a note naming it.
+  (:mod:`~kinid.identification.diagnosis.stated_std`);
+- **measured orientation** (a 6-DoF probe's, a rigid body's): the first pattern found of
+  :data:`ORIENTATION_PATTERNS` (``measurement_rx/_ry/_rz``, ``rx/ry/rz``, ``a/b/c``, in degrees unless a ``_rad``
+  suffix says otherwise), three Euler angles in ``orientation`` (scipy's sequence: ``XYZ``, intrinsic x-y′-z″,
+  R = Rx·Ry·Rz, is the default), the measured body turned ``orientation_mount_deg`` in the tool frame: one more row
+  per pose (mark ``R``), whose residual is the model's orientation against it (:attr:`Observations.rotations`),
+  weighted by its σ (the columns' std, or ``orientation_std_urad``) against the points' (their median stated std);
+  every other column is ignored, with a note naming it.
 """
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +38,8 @@ from ..model import Machine
 from .axis_columns import check_travel
 from .observations import Observations
 
-__all__ = ["Export", "POINT_PATTERNS", "is_observation_csv", "read_export", "parse_point_columns"]
+__all__ = ["Export", "ORIENTATION_PATTERNS", "POINT_PATTERNS", "ROTATION_MARK", "is_observation_csv", "read_export",
+           "parse_point_columns", "euler_rotations", "EULER_SEQUENCES"]
 
 #: Factor to kinid's units (mm, deg) of each unit a column may be in.
 _TO_KINID = {"mm": 1.0, "m": 1e3, "deg": 1.0, "rad": 180.0 / np.pi}
@@ -46,6 +54,26 @@ POINT_PATTERNS = (
     ("measurement_{c}", "mm", "measurement_std_{c}"),
     ("{c}{k}", "m", "{c}{k}_std"),
 )
+
+#: The measured orientation's columns: (pattern with {c} for its three angles, the letters {c} takes, the pattern of
+#: the standard deviation's column); matched without case, after an optional ``_deg``/``_rad`` suffix.
+ORIENTATION_PATTERNS = (
+    ("measurement_r{c}", "xyz", "measurement_std_r{c}"),
+    ("r{c}", "xyz", "r{c}_std"),
+    ("{c}", "abc", "{c}_std"),
+)
+#: The mark of an orientation row.
+ROTATION_MARK = "R"
+#: The Euler sequences an orientation may be given in (scipy's: upper case intrinsic, lower case extrinsic).
+EULER_SEQUENCES = ("XYZ", "ZYX", "xyz", "zyx", "ZYZ", "zyz")
+
+
+def euler_rotations(angles_deg, sequence: str) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of Euler angles (N, 3) in degrees, in ``sequence`` (scipy's ``from_euler``:
+    ``XYZ`` intrinsic x-y′-z″, R = Rx(a)·Ry(b)·Rz(c); ``xyz`` extrinsic, R = Rz(c)·Ry(b)·Rx(a))."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler(sequence, np.atleast_2d(angles_deg), degrees=True).as_matrix()
 
 
 @dataclass(frozen=True)
@@ -67,7 +95,12 @@ class Export:
         Columns read neither as axes nor as the point.
     std_mm : array (N, 3) or None
         The point's stated standard deviations of each row of ``observations``, mm; None unless every target has
-        the three columns.
+        the three columns (the orientation rows, after the points', have none).
+    orientation : dict
+        The measured orientation read into rows (empty when none): ``columns``, ``std_columns``, ``unit``,
+        ``sequence``, ``mount_deg``, ``angles_deg`` (poses, 3: as read, in degrees), ``std_urad`` (poses,: the σ of
+        each pose's orientation), ``point_std_um`` (the points' σ it is weighed against); or ``left_out``: why the
+        columns found were not used.
     """
 
     observations: Observations
@@ -78,18 +111,28 @@ class Export:
     std_columns: tuple
     ignored: tuple
     std_mm: np.ndarray | None = None
+    orientation: dict = field(default_factory=dict)
 
     def notes(self) -> list:
         """Lines saying how the file was read: delimiter, the axes' mapping, the point, what was left out."""
         obs = self.observations
         sep = {";": "';'", "\t": "tab", ",": "','"}[self.delimiter]
+        points = len(obs) - int(obs.rotation_rows.sum())
         out = [f"{obs.source}: instrument export, {sep}-separated{' with decimal commas' if self.decimal_comma else ''}"
-               f", {len(obs)} rows ({len(obs) // max(len(self.targets), 1)} poses × {len(self.targets)} target(s))",
+               f", {points} rows ({points // max(len(self.targets), 1)} poses × {len(self.targets)} target(s))",
                "  axes: " + ", ".join(f"{c} [{u}] -> {a}" for c, a, u in self.axes)]
         out += [f"  point {label}: {', '.join(cols)} [{unit}]" for label, cols, unit in self.targets]
         if self.std_columns:
             out.append(f"  stated std, not used as weights (the fit takes one σ for every coordinate, --noise-um; "
                        f"identify checks them against its residuals): {', '.join(self.std_columns)}")
+        o = self.orientation
+        if o.get("left_out"):
+            out.append(f"  orientation not used: {o['left_out']}")
+        elif o:
+            out.append(f"  orientation: {', '.join(o['columns'])} [{o['unit']}], Euler {o['sequence']}, the measured "
+                       f"body turned {', '.join(f'{v:g}' for v in o['mount_deg'])}° in the tool frame: one row per pose "
+                       f"(mark {ROTATION_MARK}), σ {np.median(o['std_urad']):.3g} µrad (median; "
+                       f"{', '.join(o['std_columns']) or 'given'}) against the points' {o['point_std_um']:.3g} µm")
         if self.ignored:
             out.append(f"  ignored: {', '.join(self.ignored)}")
         return out
@@ -244,7 +287,9 @@ def _targets(header, point, point_unit, path, header_line):
 
 
 def read_export(path, machine: Machine, *, point: dict | None = None, point_unit: str | None = None,
-                joint_unit: str | None = None, check_limits: bool = True) -> Export:
+                joint_unit: str | None = None, check_limits: bool = True, orientation: str = "XYZ",
+                orientation_mount_deg=(0.0, 0.0, 0.0), orientation_std_urad: float | None = None,
+                point_std_um: float | None = None) -> Export:
     """Read an instrument export as observations (module docstring: the rule).
 
     Parameters
@@ -260,6 +305,16 @@ def read_export(path, machine: Machine, *, point: dict | None = None, point_unit
         The unit of reading columns without a suffix (default the URDF's: rad, m).
     check_limits : bool
         Refuse a reading outside its axis's URDF travel.
+    orientation : str
+        The Euler sequence of the measured orientation's angles (:data:`EULER_SEQUENCES`, scipy's naming), or
+        ``"off"``: the points only.
+    orientation_mount_deg : (3,) float
+        The measured body's orientation in the tool frame, the same sequence, deg: the measured orientation is the
+        tool's times this turn (a 6-DoF probe mounted turned on the flange).
+    orientation_std_urad : float, optional
+        σ of every pose's orientation, µrad (default: the RMS of each pose's three std columns).
+    point_std_um : float, optional
+        σ of the points the orientation rows are weighed against, µm (default: the median of the points' std).
 
     Raises
     ------
@@ -302,7 +357,77 @@ def read_export(path, machine: Machine, *, point: dict | None = None, point_unit
             line, k = np.argwhere(std_mm.reshape(n, m * 3) < 0)[0]
             raise DataError("a standard deviation cannot be negative", path=path, line=lines[line],
                             column=[s for t in targets for s in t[3]][k])
+    found = _orientation_columns(header, used | set(stds), orientation, path, header_line)
+    o = {}
+    if found:
+        o = _orientation(path, rows, header, found, decimal_comma, orientation, orientation_mount_deg,
+                         orientation_std_urad, point_std_um if point_std_um is not None else
+                         None if std_mm is None else float(np.median(std_mm)) * 1e3)
+        used |= set(found[0]) | set(found[2])
+    if "rotations" in o:
+        n_rows = len(obs)
+        obs = Observations(obs.marks + (ROTATION_MARK,) * n, np.vstack([obs.w_mm, np.zeros((n, 3))]),
+                           np.vstack([obs.axes, axes]), None, {}, obs.lines + lines, obs.source,
+                           rotations=np.concatenate([np.full((n_rows, 3, 3), np.nan), o.pop("rotations")]),
+                           rotation_um_per_urad=np.concatenate([np.zeros(n_rows), o["point_std_um"] / o["std_urad"]]))
     comma = decimal_comma and any("," in cells[k] for _, cells in rows for k in range(len(header)) if header[k] in used)
     return Export(obs, delimiter, bool(comma), tuple((c, machine.axes[j].name, u) for _, c, j, u in axis_cols),
                   tuple((label, cols, unit) for label, cols, unit, _ in targets), stds,
-                  tuple(h for h in header if h not in used and h not in stds), std_mm)
+                  tuple(h for h in header if h not in used and h not in stds), std_mm, o)
+
+
+def _orientation_columns(header, used, sequence, path, header_line):
+    """(angle columns, unit, std columns or ()) of the first of :data:`ORIENTATION_PATTERNS` the header has (its
+    columns not read otherwise), or None; DataError for an orientation sequence not known."""
+    if sequence == "off":
+        return None
+    if sequence not in EULER_SEQUENCES:
+        raise DataError(f"expected one of {', '.join(EULER_SEQUENCES)} or off, got {sequence!r}",
+                        parameter="--orientation")
+    lower = {}
+    for h in header:
+        if h not in used:
+            stem, unit = _unit_suffix(h, ("deg", "rad"))
+            lower.setdefault(stem.lower(), (h, unit))
+    for pattern, letters, std in ORIENTATION_PATTERNS:
+        cols = [lower.get(pattern.format(c=c)) for c in letters]
+        if None in cols:
+            continue
+        units = {u for _, u in cols}
+        if len(units) > 1:
+            raise DataError(f"the orientation's columns {', '.join(c for c, _ in cols)} are in different units",
+                            path=path, line=header_line)
+        stds = tuple(lower[std.format(c=c)][0] for c in letters if std.format(c=c) in lower)
+        return tuple(c for c, _ in cols), units.pop() or "deg", stds if len(stds) == 3 else ()
+    return None
+
+
+def _orientation(path, rows, header, found, decimal_comma, sequence, mount_deg, std_urad, point_std_um) -> dict:
+    """The orientation's rotations (poses, 3, 3) in the tool frame's terms and what :attr:`Export.orientation`
+    holds; ``left_out`` (and no rotations) where σ is not known."""
+    cols, unit, std_cols = found
+    info = dict(columns=cols, std_columns=std_cols if std_urad is None else (), unit=unit, sequence=sequence,
+                mount_deg=tuple(float(v) for v in mount_deg))
+    if std_urad is None and not std_cols:
+        return dict(info, left_out=f"{', '.join(cols)} have no std columns: give their σ (--orientation-std-urad)")
+    if point_std_um is None:
+        return dict(info, left_out="the points have no std columns to weigh the orientation against: give the "
+                                   "points' σ (point_std_um)")
+    for name, value in (("--orientation-std-urad", std_urad), ("point_std_um", point_std_um)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise DataError(f"must be a positive number, got {value!r}", parameter=name)
+    mount = np.asarray(mount_deg, float)
+    if mount.shape != (3,) or not np.all(np.isfinite(mount)):
+        raise DataError(f"expected three angles in degrees, got {mount_deg!r}", parameter="--orientation-mount-deg")
+    angles = np.column_stack([_numbers(path, rows, header.index(c), c, decimal_comma) for c in cols]) * _TO_KINID[unit]
+    if std_urad is None:
+        s = np.column_stack([_numbers(path, rows, header.index(c), c, decimal_comma) for c in std_cols])
+        bad = np.argwhere(~(s > 0))
+        if len(bad):
+            raise DataError("a standard deviation of the orientation must be positive (it weighs the row)", path=path,
+                            line=rows[bad[0][0]][0], column=std_cols[bad[0][1]])
+        sigma = np.sqrt(np.mean(s**2, axis=1)) * _TO_KINID[unit] * np.pi / 180 * 1e6
+    else:
+        sigma = np.full(len(rows), float(std_urad))
+    R = euler_rotations(angles, sequence) @ euler_rotations(mount, sequence)[0].T
+    return dict(info, angles_deg=angles, std_urad=sigma, point_std_um=float(point_std_um), rotations=R)

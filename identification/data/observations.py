@@ -59,6 +59,13 @@ class Observations:
     shifts_mm : dict source -> array (N, 3)
         For each shared source of uncertainty of the offsets (e.g. ``laser_offset_x``): how far the
         offsets move, tool frame, mm, when the source is one standard deviation off.
+    rotations : array (N, 3, 3) or None
+        On a row of a measured orientation (an instrument export's, docs/formats.md): the tool frame's measured
+        orientation in the workpiece (measurement) frame, its columns the tool's x, y, z; NaN on the other rows.
+        Such a row's residual is the small-angle vector of the model's orientation against it, in the workpiece
+        frame, µrad, times ``rotation_um_per_urad`` (its σ's ratio to the points'): three rows in µm like a point's.
+    rotation_um_per_urad : array (N,) or None
+        That factor (µm per µrad) on the orientation rows, 0 on the points' rows.
     """
 
     marks: tuple
@@ -70,6 +77,15 @@ class Observations:
     source: str = "<memory>"
     offsets_mm: np.ndarray | None = None
     shifts_mm: dict = field(default_factory=dict)
+    rotations: np.ndarray | None = None
+    rotation_um_per_urad: np.ndarray | None = None
+
+    @property
+    def rotation_rows(self) -> np.ndarray:
+        """(N,) bool: the rows of a measured orientation (``rotations``), not of a point."""
+        if self.rotation_um_per_urad is None:
+            return np.zeros(len(self), bool)
+        return self.rotation_um_per_urad > 0
 
     def __len__(self) -> int:
         return len(self.marks)
@@ -87,6 +103,8 @@ class Observations:
             lines=tuple(self.lines[i] for i in idx) if self.lines else (),
             offsets_mm=None if self.offsets_mm is None else self.offsets_mm[idx],
             shifts_mm={k: v[idx] for k, v in self.shifts_mm.items()},
+            rotations=None if self.rotations is None else self.rotations[idx],
+            rotation_um_per_urad=None if self.rotation_um_per_urad is None else self.rotation_um_per_urad[idx],
         )
 
 

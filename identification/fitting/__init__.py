@@ -19,14 +19,19 @@ _SOURCES = {
     "residuals": "residuals", "PATENT_MARKS_MM": "simulate", "errors_from_mapping": "simulate",
     "load_errors": "simulate", "load_plan": "simulate", "patent_plan": "simulate", "simulate": "simulate",
     "Start": "start", "closed_form_start": "start", "rigid_transform": "start",
+    "ORIENTATION_LIMIT_DEG": "orientation", "OrientationCheck": "orientation", "check_orientation": "orientation",
+    "OrientationResiduals": "orientation", "orientation_residuals": "orientation",
+    "tool_rotations": "residuals", "rotation_residual_urad": "residuals",
 }
 
-__all__ = ["FitResult", "MIN_GAIN_SE", "NOISE_RATIO_LIMIT", "Noise", "PATENT_MARKS_MM", "PRIOR_UM",
-           "PRIOR_URAD", "Start", "analyse", "axis_residuals", "choose_prior", "closed_form_start",
-           "cross_validate", "design", "effect_columns", "errors_from_mapping", "fit", "hat_diagonal",
-           "held_out_check", "joint_values", "load_errors", "load_fit", "load_plan", "load_trusted_fit",
-           "model_effects", "model_pass", "noise_from_replicates", "noise_ratio", "patent_plan", "prior_std",
-           "residuals", "resolve_noise", "rigid_transform", "save_fit", "set_aside_outliers",
-           "set_aside_with_fit", "simulate", "solve_axes", "studentized", "untrusted"]
+__all__ = ["FitResult", "MIN_GAIN_SE", "NOISE_RATIO_LIMIT", "Noise", "ORIENTATION_LIMIT_DEG", "OrientationCheck",
+           "OrientationResiduals", "PATENT_MARKS_MM", "PRIOR_UM", "PRIOR_URAD", "Start", "analyse",
+           "axis_residuals", "check_orientation", "choose_prior", "closed_form_start", "cross_validate", "design",
+           "effect_columns", "errors_from_mapping", "fit", "hat_diagonal", "held_out_check", "joint_values",
+           "load_errors", "load_fit", "load_plan", "load_trusted_fit", "model_effects", "model_pass",
+           "noise_from_replicates", "noise_ratio", "orientation_residuals", "patent_plan", "prior_std",
+           "residuals", "resolve_noise", "rigid_transform", "rotation_residual_urad", "save_fit",
+           "set_aside_outliers", "set_aside_with_fit", "simulate", "solve_axes", "studentized", "tool_rotations",
+           "untrusted"]
 
 __getattr__, __dir__ = _front_door(__name__, _SOURCES)

@@ -29,7 +29,7 @@ from .identifiability import RANK_TOL, analyse, identifiable_columns, observabil
 from .lm_step import below_noise, lm_step as _lm_step
 from .noise import Noise, shared_std
 from .residuals import design, residuals
-from .start import TURN_RAD, closed_form_start, turn_rad
+from .start import TURN_RAD, closed_form_start, frame_turn_rad
 
 __all__ = ["FitResult", "Noise", "fit", "evaluated_fit", "model_effects", "axis_readings", "FIT_FORMAT",
            "READING_DIGITS"]
@@ -458,7 +458,7 @@ def _frame_start(machine: Machine, d, obs: Observations, theta, ps, ident, lo, h
     the bounds and costs less than ``theta``; None otherwise. The parameters held are those ``ident`` holds at
     ``theta``: at the start a marker off the last joint's axis would trade the joint's zero for the marker's place
     about it, and the start puts its values on the parameters free here."""
-    if not turn_rad(obs.w_mm + ps.r * 1e-3, obs.w_mm) > TURN_RAD:
+    if not frame_turn_rad(obs, ps.r) > TURN_RAD:
         return None
     start = closed_form_start(machine, d, obs, theta, free=ident.identifiable, aliases=ident.aliases)
     if start is None or not start.turn_rad > TURN_RAD or not np.all((start.theta >= lo) & (start.theta <= hi)):

@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from ..model import Machine, evaluate
 from ..data import Observations
-from .residuals import Design, joint_values
+from .residuals import Design, joint_values, put_rotation_rows
 
 __all__ = ["Pass", "model_pass_qr", "reduced", "residuals_chunked", "jacobian_chunks", "chunks", "CHUNK_ROWS"]
 
@@ -65,12 +65,24 @@ def chunks(d: Design, obs: Observations, chunk: int):
 
 
 def _slices(d: Design, obs: Observations, chunk: int):
-    """(design, axes, marks, offsets) of consecutive chunks of at most ``chunk`` alignments: views, not copies."""
+    """(design, axes, marks, offsets, orientation rows) of consecutive chunks of at most ``chunk`` alignments: views,
+    not copies; the orientation rows (measured rotations, their weights) None without them."""
     n = len(obs)
     for lo in range(0, n, chunk):
         hi = min(lo + chunk, n)
         dc = d if (lo, hi) == (0, n) else replace(d, basis=d.basis[lo:hi])
-        yield dc, obs.axes[lo:hi], obs.w_mm[lo:hi], None if obs.offsets_mm is None else obs.offsets_mm[lo:hi]
+        turned = None if obs.rotations is None else (obs.rotations[lo:hi], obs.rotation_um_per_urad[lo:hi])
+        yield dc, obs.axes[lo:hi], obs.w_mm[lo:hi], None if obs.offsets_mm is None else obs.offsets_mm[lo:hi], turned
+
+
+def _evaluate(machine, axes, values, w, off, turned, **kw):
+    """:func:`~kinid.identification.model.evaluate` of a chunk, its orientation rows put in
+    (:func:`~kinid.identification.fitting.residuals.put_rotation_rows`)."""
+    out = evaluate(machine, axes, values, offsets_mm=off, **kw)
+    if turned is not None:
+        p, G = (out, None) if kw.get("jacobian", True) is False else out[:2]
+        put_rotation_rows(machine, axes, values, w, *turned, p, G, error_columns=kw.get("error_columns"))
+    return out
 
 
 #: Reduced machines kept per machine (one per set of error joints in use), at most.
@@ -117,8 +129,8 @@ def residuals_chunked(machine: Machine, d: Design, obs: Observations, theta, *, 
     """Residuals (N, 3), µm, evaluated a chunk at a time."""
     theta = np.asarray(theta, float)
     machine, d = reduced(machine, d)
-    parts = [(evaluate(machine, axes, joint_values(machine, dc, theta), jacobian=False, offsets_mm=off) - w) * 1e3
-             for dc, axes, w, off in _slices(d, obs, chunk)]
+    parts = [(_evaluate(machine, axes, joint_values(machine, dc, theta), w, off, turned, jacobian=False) - w) * 1e3
+             for dc, axes, w, off, turned in _slices(d, obs, chunk)]
     return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 
@@ -130,9 +142,9 @@ def jacobian_chunks(machine: Machine, d: Design, obs: Observations, theta, *, ch
     machine, d = reduced(machine, d)
     used, column = d.joints[:2]
     one_each = np.array_equal(column, np.arange(d.n_params))
-    for dc, axes, _, off in _slices(d, obs, chunk):
-        _, G, _ = evaluate(machine, axes, joint_values(machine, dc, theta), offsets_mm=off, error_columns=used,
-                           axes_jacobian=False)
+    for dc, axes, w, off, turned in _slices(d, obs, chunk):
+        _, G, _ = _evaluate(machine, axes, joint_values(machine, dc, theta), w, off, turned, error_columns=used,
+                            axes_jacobian=False)
         yield (G if one_each else G[:, :, column]) * dc.basis[:, None, :]
 
 
@@ -145,9 +157,9 @@ def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chun
     one_each = np.array_equal(column, np.arange(P))  # each parameter on its own joint, in order: no gather
     parts = []
     top = np.zeros((0, P + 1))
-    for dc, axes, w, off in _slices(d, obs, min(chunk, BLOCK_ROWS)):
-        p, G, _ = evaluate(machine, axes, joint_values(machine, dc, theta), offsets_mm=off, error_columns=used,
-                           axes_jacobian=False)
+    for dc, axes, w, off, turned in _slices(d, obs, min(chunk, BLOCK_ROWS)):
+        p, G, _ = _evaluate(machine, axes, joint_values(machine, dc, theta), w, off, turned, error_columns=used,
+                            axes_jacobian=False)
         n = len(p)
         stacked = np.empty((top.shape[0] + 3 * n, P + 1), order="F")  # LAPACK's order: qr's copy is a plain one
         stacked[: top.shape[0]] = top

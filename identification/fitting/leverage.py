@@ -10,7 +10,7 @@ import numpy as np
 
 from ..model import Machine, evaluate
 from ..data import Observations, exact_duplicates, row_groups
-from .residuals import design, effect_columns, joint_values
+from .residuals import design, effect_columns, joint_values, put_rotation_rows
 
 __all__ = ["model_pass", "hat_diagonal", "studentized", "noise_from_replicates", "axis_residuals"]
 
@@ -50,8 +50,10 @@ def model_pass(machine: Machine, obs: Observations, result, d_errors=None):
     d0 = design(machine, result.effects, obs)
     d_axes = None
     if d_errors is None:
-        _, d_errors, d_axes = evaluate(machine, obs.axes, joint_values(machine, d0, result.theta),
-                                       offsets_mm=obs.offsets_mm)
+        values = joint_values(machine, d0, result.theta)
+        p, d_errors, d_axes = evaluate(machine, obs.axes, values, offsets_mm=obs.offsets_mm)
+        put_rotation_rows(machine, obs.axes, values, obs.w_mm, obs.rotations, obs.rotation_um_per_urad, p, d_errors)
+        d_axes[obs.rotation_rows] = 0.0  # an orientation row's axis columns are not its point's: none given
     J0 = effect_columns(d_errors, d0).reshape(3 * len(obs), -1)[:, result.identifiable]
     Q0 = np.linalg.qr(J0, mode="reduced")[0] if J0.shape[1] else np.zeros((J0.shape[0], 0))
     return d_errors, d_axes, Q0

@@ -32,7 +32,7 @@ fit as before) and where the start's cost is below the current one (measured, no
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -40,7 +40,7 @@ from ..model import Machine, evaluate, rigid_transform
 from ..data import Observations
 from .residuals import Design, joint_values
 
-__all__ = ["Start", "closed_form_start", "frame_and_tool", "rigid_transform", "robust_rigid_transform", "turn_rad",
+__all__ = ["Start", "closed_form_start", "frame_and_tool", "frame_turn_rad", "rigid_transform", "robust_rigid_transform", "turn_rad",
            "TRIM_MADS", "ROUNDS", "TURN_RAD", "AGREE_MM"]
 
 #: Rows farther from the rigid transform than the median distance plus this many scaled median absolute
@@ -134,6 +134,13 @@ def turn_rad(p_mm, w_mm) -> float:
         return 0.0
     R = robust_rigid_transform(p, w_mm)[0]
     return float(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
+
+
+def frame_turn_rad(obs: Observations, r_um) -> float:
+    """:func:`turn_rad` of the points of ``obs`` (its orientation rows left out) from where the model puts them (the
+    residuals ``r_um`` (N, 3) away) to where they were measured."""
+    points = ~obs.rotation_rows
+    return turn_rad(obs.w_mm[points] + r_um[points] * 1e-3, obs.w_mm[points])
 
 
 def frame_and_tool(p_mm, G, w_mm) -> tuple | None:
@@ -347,6 +354,9 @@ def closed_form_start(machine: Machine, d: Design, obs: Observations, theta, *, 
     theta = np.asarray(theta, float).copy()
     free = np.ones(len(theta), bool) if free is None else np.asarray(free, bool)
     setup = _frame_setup(machine, d, free)
+    if obs.rotation_rows.any():  # the points' rows: the orientation's are no points (its check starts here)
+        points = ~obs.rotation_rows
+        d, obs = replace(d, basis=d.basis[points]), obs.subset(points)
     w = obs.w_mm
     if setup is None or len(obs) < 3 or not np.all(np.isfinite(obs.axes)):
         return None

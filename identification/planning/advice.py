@@ -109,7 +109,8 @@ def pose_advice(machine: Machine, effects, obs: Observations, pool: Observations
         return residuals(machine, d, o, np.zeros(d.n_params))[1] / noise_um
 
     Jp = jac(pool)
-    scale = np.sqrt(np.einsum("nip,nip->p", Jp, Jp) / len(Jp)) + 1e-300
+    scale = np.sqrt(np.einsum("nip,nip->p", Jp, Jp) / len(Jp))
+    scale[scale == 0] = 1.0  # a column the pool's points do not see (a tilt the data's orientation rows see): unscaled
     Jp = Jp / scale
     # the data's rows compressed to R of their QR (P × P: the same identifiability), a chunk at a time
     R0 = np.zeros((0, len(names))) if data_r is None else np.linalg.qr(data_r / noise_um / scale, mode="r")
