@@ -158,3 +158,29 @@ def test_the_example_file_is_drawn_from_this_truth(arm, tmp_path):
         return np.array([[float(c.replace(",", ".")) for c in line.split(";")] for line in lines[1:]])
 
     np.testing.assert_allclose(numbers(drawn), numbers(shipped), rtol=1e-8, atol=1e-9)
+
+
+def _turned_30(R):
+    """The angles of a body mounted turned 30° about the tool's z (R_measured = R_tool · Rz(30°))."""
+    c, s = np.cos(np.radians(30.0)), np.sin(np.radians(30.0))
+    return _xyz_deg(R @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
+
+
+def test_a_mount_not_given_is_taken_from_the_data_and_said(arm, tmp_path, capsys):
+    """The probe sits turned 30° on the tool and no mount is given: one turn on the tool explains the angles, so
+    ``identify`` takes it from the data (it is set-up, as the measurement frame is), says so with the caveat that
+    the tool's tilt is then carried by the mount, and fits; given explicitly wrong (0 0 0), it is refused in one line."""
+    urdf, machine, tm, errors = arm
+    path = _export(tmp_path / "six_dof.csv", machine, tm, errors, 40, np.random.default_rng(9), angles=_turned_30)
+    code = main(["identify", "--machine", str(urdf), "--data", str(path), "--out", str(tmp_path / "fit.json")])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    line = next(s for s in err.splitlines() if "mount on the tool taken from the data" in s)
+    mount = [float(v) for v in line.split("data: ")[1].split("°")[0].split()]
+    assert abs(mount[2] - 30.0) < 0.5 and abs(mount[0]) < 0.5 and abs(mount[1]) < 0.5, line
+    assert "carried by the mount" in line
+    code = main(["identify", "--machine", str(urdf), "--data", str(path), "--orientation-mount-deg", "0", "0", "0",
+                 "--out", str(tmp_path / "fit0.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "give that mount" in err and "Traceback" not in err, err
+    assert not (tmp_path / "fit0.json").exists()

@@ -29,7 +29,8 @@ def add_export_options(p) -> None:
                         "a/b/c): XYZ (the default: intrinsic, R = Rx·Ry·Rz), xyz, ZYX, zyx, ZYZ, zyz; off: the points "
                         "only")
     g.add_argument("--orientation-mount-deg", type=float, nargs=3, default=None, metavar=("A1", "A2", "A3"),
-                   help="the measured body's orientation in the tool frame, the same sequence, deg (default 0 0 0)")
+                   help="the measured body's orientation in the tool frame, the same sequence, deg (default: 0 0 0, "
+                        "or the turn the data show when 0 0 0 does not fit; a note says so)")
     g.add_argument("--orientation-std-urad", type=float, default=None, metavar="S",
                    help="σ of every pose's orientation, µrad (default: from the export's std columns)")
 
@@ -52,6 +53,16 @@ def is_observation_file(path) -> bool:
     from ..data import is_observation_csv
 
     return Path(path).is_file() and is_observation_csv(path)
+
+
+def _mount_from_data(check, args) -> bool:
+    """Whether the measured body's mount is taken from the data: none was given, the angles as read are beyond what a
+    machine's errors explain, no other sequence or unit fits, and one turn on the tool does
+    (:class:`~kinid.identification.fitting.OrientationCheck`)."""
+    from ..fitting import ORIENTATION_LIMIT_DEG
+
+    return (not check.ok and getattr(args, "orientation_mount_deg", None) is None
+            and check.readings[0][1] > ORIENTATION_LIMIT_DEG and check.spread_deg <= ORIENTATION_LIMIT_DEG)
 
 
 def read_data(path, machine, args, *, check_units: bool = True, others=(), together: bool = False,
@@ -117,6 +128,15 @@ def read_data(path, machine, args, *, check_units: bool = True, others=(), toget
         from ..fitting import check_orientation
 
         check = check_orientation(machine, export)
+        if _mount_from_data(check, args):  # no mount given, and one turn on the tool explains the angles: a set-up
+            mount = tuple(round(v, 2) for v in check.mount_deg)
+            export = read_export(path, machine, point=point, point_unit=args.point_unit, joint_unit=args.joint_unit,
+                                 check_limits=check_limits, **{**turn, "orientation_mount_deg": mount})
+            obs, notes = export.observations, export.notes()
+            check = check_orientation(machine, export)
+            notes.append(f"  the measured body's mount on the tool taken from the data: "
+                         f"{' '.join(f'{v:g}' for v in mount)}° (no --orientation-mount-deg given; a tilt of the tool "
+                         f"is then carried by the mount: give the mount from its drawing to identify the tilt)")
         if not check.ok:
             raise DataError(check.line, path=path)
         notes.append(f"  {check.line}")
