@@ -98,7 +98,10 @@ def _usable(fit, machine, obs, lever_mm):
                       for u, s in zip(fit.units, fit.std)], dtype=bool)
     small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
     zero = np.concatenate([np.full(e.n_params, e.name in small) for e in fit.effects]) if fit.effects else vague
-    tool_side = np.concatenate([np.full(e.n_params, not _turns_the_board(machine, e.name)) for e in fit.effects])
+    # the board's slope from the turns of the chain that carries it: one the fit tells only through its lever on the
+    # tool point (a head's tilt) may stand for an effect the model lacks, and turns the slope that far
+    tool_side = (np.concatenate([np.full(e.n_params, not _turns_the_board(machine, e.name)) for e in fit.effects])
+                 if fit.effects else np.zeros(len(fit.param_names), dtype=bool))
     values = np.where(vague | zero | tool_side, 0.0, fit.theta)  # held parameters at 0 too
     return design(machine, fit.effects, obs), values, vague
 
