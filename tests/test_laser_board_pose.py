@@ -119,7 +119,8 @@ def on_axis(runs):
     return _dz_rms_um(folder / "obs0.csv", truth_rows), added, held
 
 
-_PASS = re.compile(r"board pose: pass (\d) moved mark_dz_mm by ([0-9.]+) µm RMS, (within|more than) the noise ([0-9.]+) µm")
+_PASS = re.compile(r"board pose: pass (\d) moved mark_dz_mm by ([0-9.]+) µm RMS, (within|more than) ([0-9.]+) µm \(the noise "
+                   r"([0-9.]+) µm over √\d+ rows\)")
 
 
 @pytest.mark.slow
@@ -225,7 +226,7 @@ def test_data_without_the_lever_columns_give_the_old_fit_and_no_line(tmp_path, c
     _run(tmp_path, "identify", "--machine", MACHINE, "--data", str(tmp_path / "levers.csv"), "--out",
          str(tmp_path / "levers.json"))
     said = _PASS.findall(capsys.readouterr().out)
-    assert [(k, move, how) for k, move, how, _ in said] == [("1", "0.00", "within")]
+    assert [(k, move, how) for k, move, how, *_ in said] == [("1", "0.000", "within")]
     values_l, std_l, fit_l = _params(tmp_path / "levers.json")
     assert values_l == values
     assert np.allclose(np.array(std_l, float), np.array(std, float), rtol=1e-12, equal_nan=True)

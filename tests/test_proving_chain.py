@@ -48,10 +48,70 @@ def test_the_two_runs_share_their_images_and_differ_only_in_the_laser(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [pytest.param(SEED, id=name) for name, SEED in (("bc-telecentric", 0),)])
-def test_the_laser_beside_the_camera_holds_the_on_axis_accuracy(seed):
-    rec = pc.run(seed, layouts=("five_axis_bc",), lenses=("telecentric",))
+@pytest.mark.parametrize("seed, layouts, lenses", [
+    pytest.param(0, ("five_axis_bc",), ("telecentric",), id="bc-telecentric"),
+    # a sag of X along Z, the laser 21 mm aside: its depths settled within the noise 1.4 µm but not within the
+    # noise over √72 left the held-out error at 1.370 µm against 0.496 µm on the axis (the proving ground's seed 3)
+    pytest.param(300009, pc.LAYOUTS, pc.LENSES, id="bc-telecentric-sag"),
+])
+def test_the_laser_beside_the_camera_holds_the_on_axis_accuracy(seed, layouts, lenses):
+    rec = pc.run(seed, layouts=layouts, lenses=lenses)
     print(pc.line(rec))
     assert rec["offset"]["held_out_um"] <= 1.5 * rec["axis"]["held_out_um"]
     assert rec["offset"]["held_out_um"] < rec["uncompensated_um"] / 10  # the chain compensates at all
     assert not rec["offset"]["spurious"] and rec["pass"]
+
+
+def test_the_board_slope_takes_the_turns_of_the_chain_that_carries_the_board():
+    """The turns between the machine's base and the workpiece (the board's set-up, the table's axes) turn the board;
+    the head's and the linear axes' (on this B head) and the camera's tilt on the tool do not enter its slope; the
+    camera's turn EC0T does, as the frame of a drawing's offset."""
+    from kinid.identification.commands.observe import _turns_the_board
+    from kinid.identification.model import load_machine
+    from kinid.urdf import path
+
+    machine = load_machine(path("five_axis_bhead_c"))
+    on = {code for code in machine.error_codes if _turns_the_board(machine, code)}
+    assert {"EA0W", "EB0W", "EC0W", "EA0C", "EB0C", "EC0T"} <= on
+    assert not on & {"EA0B", "EC0B", "EA0T", "EB0T", "EA0Z", "EB0Z"}
+    assert _turns_the_board(machine, "EXC:poly1") and not _turns_the_board(machine, "EYB:poly1")
+
+
+@pytest.mark.slow
+def test_settled_depths_beside_a_b_head_are_not_turned_by_a_head_tilt_the_fit_misattributes(tmp_path, monkeypatch):
+    """A B head with a hidden straightness of Y along Z, the laser 27 mm beside the camera: the default model explains
+    the straightness with the head's tilt EA0B (257 µrad where it is 37), whose turn of the tool, taken into the
+    board's slope, put every settled mark_dz_mm 4.0 µm (mean) off the renderer's truth and the tool's length with it.
+    Taken from the turns of the workpiece's chain alone, the settled depths are 0.9 µm off (the head's true 10–40
+    µrad turns times the lever)."""
+    from kinid.identification.commands.board_settle import read_levers, settle
+    from kinid.identification.data import read_observations
+    from kinid.identification.fitting import fit, model_effects
+    from kinid.identification.model import load_machine
+    from kinid.urdf import path
+
+    sc = pc.draw(67, ("five_axis_bhead_c",), ("telecentric",))
+    tm = pc._machine(sc.layout)
+    frames = []
+    render = cam.render_at
+
+    def spy(pw, Rw, pt, Rt, rng, **kw):
+        frames.append((pw, Rw, pt, Rt))
+        return render(pw, Rw, pt, Rt, rng, **kw)
+
+    monkeypatch.setattr(cam, "render_at", spy)
+    log, sensor = pc.write_run(tmp_path, sc, tm, np.random.default_rng([67, 1]))["offset"]
+    machine_path = str(path(sc.layout))
+    pc._kinid("observe", "--machine", machine_path, "--board", tmp_path / "board.json", "--sensor", sensor,
+              "--data", log, "--out", tmp_path / "obs.csv")
+    machine = load_machine(machine_path)
+    obs = read_observations(tmp_path / "obs.csv", machine)
+    effects = model_effects(machine, ())
+    settled = settle(machine, obs, read_levers(tmp_path / "obs.csv", obs),
+                     lambda o: fit(machine, o, effects, noise_um=None), say=lambda line: None).obs
+    images = [row["image"] for row in csv.DictReader(open(tmp_path / "obs.csv"))]
+    err_um = []
+    for i, image in enumerate(images):
+        pw, Rw, pt, Rt = frames[int(Path(image).stem)]
+        err_um.append((settled.offsets_mm[i, 2] - (Rt.T @ (pw + Rw @ settled.w_mm[i] - pt))[2]) * 1e3)
+    assert abs(np.mean(err_um)) < 1.5, np.mean(err_um)  # 4.0 µm with the head's fitted tilt

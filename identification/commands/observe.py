@@ -98,8 +98,26 @@ def _usable(fit, machine, obs, lever_mm):
                       for u, s in zip(fit.units, fit.std)], dtype=bool)
     small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
     zero = np.concatenate([np.full(e.n_params, e.name in small) for e in fit.effects]) if fit.effects else vague
-    values = np.where(vague | zero, 0.0, fit.theta)  # held parameters at 0 too
+    # the board's slope from the turns of the chain that carries it: one the fit tells only through its lever on the
+    # tool point (a head's tilt) may stand for an effect the model lacks, and turns the slope that far
+    tool_side = (np.concatenate([np.full(e.n_params, not _turns_the_board(machine, e.name)) for e in fit.effects])
+                 if fit.effects else np.zeros(len(fit.param_names), dtype=bool))
+    values = np.where(vague | zero | tool_side, 0.0, fit.theta)  # held parameters at 0 too
     return design(machine, fit.effects, obs), values, vague
+
+
+def _turns_the_board(machine, effect_name: str) -> bool:
+    """Whether the error joint of ``effect_name`` (``EA0C``, ``EYB:poly1``) lies on the chain from the machine's base
+    to the workpiece (the board's set-up and the table's axes), or is the camera's turn on the tool (``EC0T``, the
+    frame of a drawing's offset)."""
+    code = effect_name.split(":")[0]
+    if code == "EC0T":
+        return True
+    if code not in machine.error_codes:
+        return False
+    model = machine.model
+    joint = next(j for j in range(1, model.njoints) if model.idx_qs[j] == machine.error_joint(code).q_index)
+    return joint in model.supports[model.frames[machine.workpiece_frame].parentJoint]
 
 
 #: The columns observe writes with the laser beside the camera, with which identify judges the depths again.
