@@ -39,6 +39,10 @@ from .score_sums import (EXACT_COLUMNS, Memo, basis_values_once, column_groups, 
 __all__ = ["Candidate", "FitSide", "fit_side", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
 
 
+#: log 10, as numpy gives it (the p-values' digits as before).
+_LN10 = np.log(10)
+
+
 #: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
 ALIAS_TOL = 1e-6
 
@@ -205,7 +209,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         if group.joint != joint:  # the groups come joint by joint: one joint's series at a time
             joint = group.joint
             series = side.joint_series(joint)
-        norm2, A, bvec, grams = group_sums(group, series, n)
+        norm2, A, bvec, grams = group_sums(group, series, n, side.memo)
         for (i, e, ix), unit, gram in zip(group.members, units, grams):
             norm_c = np.sqrt(norm2[ix])
             if not np.any(norm_c > visible_floor):
@@ -215,7 +219,7 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
             # rather than blow its rounding noise up to unit length
             alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
             scale = np.where(alive, norm_c, 1.0)
-            pending.append((i, e, unit, alive, scale, gram - A[:, ix].T @ A[:, ix], joint, bvec[ix]))
+            pending.append((i, e, unit, alive, scale, gram, joint, bvec[ix]))
     # the eigen-decompositions of the normalized Gram matrices and the tests, all candidates of one size at once
     for k in sorted({item[1].n_params for item in pending}):
         items = [item for item in pending if item[1].n_params == k]
@@ -288,29 +292,30 @@ class _Test:
         # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
         beta = -np.einsum("mij,mj->mi", V, proj / sk) / scale  # r is model − measurement
         cov = np.einsum("mij,mj,mlj->mil", V, np.where(keep, 1.0 / sk**2, 0.0), V) / (scale[:, :, None] * scale[:, None, :])
-        rms_after = np.sqrt(np.maximum(rss - delta, 0.0) / M) * sigma
+        rms_after = (np.sqrt(np.maximum(rss - delta, 0.0) / M) * sigma).tolist()
+        coef_std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)).tolist()
+        deltas, kept, coefficients = delta.tolist(), kk.tolist(), beta.tolist()
         out = []
         for m, (e, unit) in enumerate(zip(effects, units)):
             if aliased[m]:
                 out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit,
                                      self._aliases(products[m](), k)))
                 continue
-            d, kd = float(delta[m]), int(kk[m])
+            d, kd = deltas[m], kept[m]
             if self.sigma_known:
                 log_sf = _chi2_logsf(d, kd)
             else:
                 dof2 = M - result.rank - kd
                 F = (d / kd) / max((rss - d) / dof2, 1e-300)
                 log_sf = f_logsf(F, kd, dof2)
-                if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
+                if not math.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
                     log_sf = _chi2_logsf(F * kd, kd)
             basis = basis_of(e)
             size, size_std = basis.size(e, beta[m], cov[m])
             note = "" if basis.note is None or not self.notes else basis.note(e, beta[m], _axis_unit(machine, e.axis))
-            out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / np.log(10)),
-                                 float(rms_after[m]), size, size_std, unit, note=note,
-                                 coefficients=tuple(float(v) for v in beta[m]),
-                                 coefficient_std=tuple(float(v) for v in np.sqrt(np.maximum(np.diag(cov[m]), 0.0)))))
+            out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / _LN10), rms_after[m],
+                                 size, size_std, unit, note=note, coefficients=tuple(coefficients[m]),
+                                 coefficient_std=tuple(coef_std[m])))
         return out
 
     def _aliases(self, BJ, k) -> tuple:
