@@ -151,8 +151,9 @@ def joint_series(col, Q0, r, q0r) -> tuple:
 
 def group_sums(group: Columns, series, n: int, memo: Memo | None = None) -> tuple:
     """For the columns of ``group``: squared norms (width,), products with the model's orthonormal basis
-    (rank, width), the projected columns' product with the residual (width,), and each member's Gram matrix
-    projected off the model, CᵀC − AᵀA; summed over chunks of alignments whose basis values fit SCORE_BLOCK_BYTES.
+    (rank, width), the projected columns' product with the residual (width,), and the members' Gram matrices
+    projected off the model, CᵀC − AᵀA, by their number of columns k: {k: (the members' places in
+    ``group.members``, their matrices (members, k, k))}; summed over chunks of alignments whose basis values fit SCORE_BLOCK_BYTES.
 
     Members of their own columns have their Gram blocks from one product of the joint's series with the products of
     their pairs of basis columns (the same for every joint of an axis with the same candidates: kept in ``memo``);
@@ -187,22 +188,18 @@ def group_sums(group: Columns, series, n: int, memo: Memo | None = None) -> tupl
             P = products() if memo is None else memo.get(("pairs", group.key, c.start, c.stop), products)
             gram += nrm[c] @ P
     bvec = rwB - A.T @ s0  # (C − Q0 A)ᵀ r, with Q0ᵀ r ≈ 0
-    grams = [None] * len(group.members)
     if group.shared:
         gram -= A.T @ A  # projected off the model once: each window's block is a sub-block
-        for k, ms in sizes.items():
-            for m, block in zip(ms, gram[index[k][:, :, None], index[k][:, None, :]]):
-                grams[m] = block
-        return norm2, A, bvec, grams
+        return norm2, A, bvec, {k: (ms, gram[index[k][:, :, None], index[k][:, None, :]]) for k, ms in sizes.items()}
     on_diagonal = left == right
     norm2[left[on_diagonal]] = gram[on_diagonal]
     edges = np.cumsum([0] + [ix.size**2 for _, _, ix in group.members])
+    blocks = {}
     for k, ms in sizes.items():
         Ak = A[:, index[k]]  # (rank, members, k)
-        blocks = np.array([gram[edges[m]:edges[m + 1]] for m in ms]).reshape(len(ms), k, k)
-        for m, block in zip(ms, blocks - np.einsum("rmi,rmj->mij", Ak, Ak)):
-            grams[m] = block
-    return norm2, A, bvec, grams
+        own = np.array([gram[edges[m]:edges[m + 1]] for m in ms]).reshape(len(ms), k, k)
+        blocks[k] = (ms, own - np.einsum("rmi,rmj->mij", Ak, Ak))
+    return norm2, A, bvec, blocks
 
 
 #: Alignments per chunk of the explicitly projected columns (memory flat in N), and columns projected at once (a
