@@ -153,7 +153,8 @@ def group_sums(group: Columns, series, n: int, memo: Memo | None = None) -> tupl
     """For the columns of ``group``: squared norms (width,), products with the model's orthonormal basis
     (rank, width), the projected columns' product with the residual (width,), and the members' Gram matrices
     projected off the model, CᵀC − AᵀA, by their number of columns k: {k: (the members' places in
-    ``group.members``, their matrices (members, k, k))}; summed over chunks of alignments whose basis values fit SCORE_BLOCK_BYTES.
+    ``group.members``, their matrices (members, k, k))}; summed over chunks of alignments whose basis values fit
+    SCORE_BLOCK_BYTES.
 
     Members of their own columns have their Gram blocks from one product of the joint's series with the products of
     their pairs of basis columns (the same for every joint of an axis with the same candidates: kept in ``memo``);

@@ -198,7 +198,8 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     test = _Test(machine, result, sigma, sigma_known, M, rss, J0, side.model_names, side.G0, notes)
     n = len(obs)
     out = [None] * len(candidates)
-    pending = {}  # by k: chunks of (positions, effects, units, alive, scale, projected Gram matrices, joint, products with r)
+    # by k: chunks of (positions, effects, units, alive, scale, projected Gram matrices, joint, products with r)
+    pending = {}
     joint, series = None, None
     for group in column_groups(machine, obs, candidates, side.memo):
         units = [e.param_units(machine)[-1] for _, e, _ in group.members]  # a polynomial sizes its highest term
