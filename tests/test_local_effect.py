@@ -72,3 +72,26 @@ def test_local_windows_count_positions_not_the_jitter_of_repeated_readings(bc):
     for w in windows:
         inside = np.count_nonzero((distinct_positions(x) > w.knots[0]) & (distinct_positions(x) < w.knots[-1]))
         assert inside > w.n_params, (w.name, inside)
+
+
+def test_windows_resting_on_readings_judged_at_once_as_one_by_one():
+    """The windows of one knot grid that rest on the readings, judged for all at once, are those the rule for one
+    window keeps: supports at and around the bar, positions on knots (the window's ends exclude them) and off."""
+    import importlib
+
+    le = importlib.import_module("kinid.identification.diagnosis.local_errors")
+    rng = np.random.default_rng(3)
+    windows = 0
+    for _ in range(150):
+        count = int(rng.integers(3, 40))
+        knots = np.arange(count) * rng.choice([0.5, 1.0, 2.5]) + rng.normal(0, 3)
+        support = rng.choice([0.0, 1.0, le.MAP_MIN_SUPPORT - 0.1, le.MAP_MIN_SUPPORT, 5.0], count)
+        distinct = np.unique(np.r_[knots[rng.integers(0, count, 3)],
+                                   rng.uniform(knots[0] - 1, knots[-1] + 1, rng.integers(0, 30))])
+        for width in le.LOCAL_WIDTHS:
+            at_once = le._rest_on_readings(support, distinct, knots, width)
+            one_by_one = [bool(le._rests_on_readings(support[i:i + width + 1], distinct, knots[i], knots[i + width]))
+                          for i in range(count - width)]
+            assert at_once.tolist() == one_by_one
+            windows += len(one_by_one)
+    assert windows > 5_000

@@ -189,6 +189,19 @@ def _rests_on_readings(support, distinct, lo: float, hi: float) -> bool:
     return np.min(support[2:width - 1]) >= MAP_MIN_SUPPORT and inside >= width - 3 + LOCAL_SPARE_POSITIONS
 
 
+def _rest_on_readings(support, distinct, knots, width: int) -> np.ndarray:
+    """For each window of ``width`` knot intervals on ``knots`` (the one from knot i, i < len(knots) − width):
+    whether it rests on the readings, as :func:`_rests_on_readings` says of it, for every window at once (its
+    B-splines' ``support`` at each knot, the ``distinct`` positions ascending)."""
+    count = len(knots) - width
+    if count <= 0:
+        return np.zeros(0, bool)
+    inner = np.lib.stride_tricks.sliding_window_view(support[2:], width - 3)[:count].min(axis=1)
+    inside = (np.searchsorted(distinct, knots[width:], side="left")
+              - np.searchsorted(distinct, knots[:count], side="right"))  # positions strictly inside each window
+    return (inner >= MAP_MIN_SUPPORT) & (inside >= width - 3 + LOCAL_SPARE_POSITIONS)
+
+
 def window_found_on(machine, obs, result, windows, d_errors=None):
     """Of the local errors ``windows``, the one the score test finds likeliest in the residuals of ``result`` on
     ``obs`` (σ from the residuals; with the error-joint Jacobian ``d_errors`` if given), or None; only windows that
@@ -309,9 +322,7 @@ def _windows_at(code: str, step: float, lo: float, hi: float, q, distinct, machi
     support = _bspline_support(q, knots[0], step, len(knots))  # of the B-spline centred at each knot
     out = []
     for width in LOCAL_WIDTHS:
-        for i in range(0, len(knots) - width):
-            if not _rests_on_readings(support[i:i + width + 1], distinct, knots[i], knots[i + width]):
-                continue
+        for i in np.flatnonzero(_rest_on_readings(support, distinct, knots, width)).tolist():
             try:
                 out.append(parse_effect(f"{code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
             except DataError:

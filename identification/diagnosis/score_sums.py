@@ -61,6 +61,9 @@ class Columns:
     shared : bool
         The members share columns (windows of one knot grid): their Gram matrices are sub-blocks of the group's.
         Otherwise each member's columns are its own, and only its block of the Gram matrix is summed.
+    key : tuple
+        The members' axes and names after their joint's code: groups of the same key (joints of one axis with the
+        same candidates) have the same basis values.
     """
 
     joint: int
@@ -68,6 +71,7 @@ class Columns:
     width: int
     values: object
     shared: bool
+    key: tuple = ()
 
 
 def column_groups(machine, obs, candidates, memo: Memo) -> list:
@@ -91,20 +95,27 @@ def column_groups(machine, obs, candidates, memo: Memo) -> list:
     def basis(e, c):
         return basis_values_once(machine, obs, e, c, memo)
 
+    def shape(effects) -> tuple:  # the same for every joint of an axis with the same candidates
+        return tuple((e.axis, e.name.partition(":")[2]) for e in effects)
+
     groups = []
     for j, members in plain.items():
         effects = [e for _, e in members]
         edges = np.cumsum([0] + [e.n_params for e in effects])
         groups.append(Columns(j, [(i, e, np.arange(a, b)) for (i, e), a, b in zip(members, edges[:-1], edges[1:])],
-                              int(edges[-1]), lambda c, effects=effects: np.concatenate([basis(e, c) for e in effects],
-                                                                                        axis=1), False))
-    for (j, axis, _), members in grids.items():
+                              int(edges[-1]), lambda c, effects=effects, key=shape(effects): memo.get(
+                                  ("columns", key, c.start, c.stop),
+                                  lambda: np.concatenate([basis(e, c) for e in effects], axis=1)), False,
+                              shape(effects)))
+    for (j, axis, grid), members in grids.items():
         effects = [e for _, e in members]
         q = obs.axes[:, machine.axis_names.index(axis)]
-        index = local_column_index(effects, q)
+        key = shape(effects)
+        index = memo.get(("local index", key), lambda: tuple(local_column_index(effects, q)))
         groups.append(Columns(j, [(i, e, ix) for (i, e), ix in zip(members, index)],
                               local_columns(effects, q, slice(0, 0)).shape[1],
-                              lambda c, effects=effects, q=q: local_columns(effects, q, c), True))
+                              lambda c, effects=effects, q=q, key=key: memo.get(
+                                  ("local", key, c.start, c.stop), lambda: local_columns(effects, q, c)), True, key))
     groups.sort(key=lambda g: g.joint)  # stable: in the candidates' order within a joint
     return groups
 
@@ -138,40 +149,58 @@ def joint_series(col, Q0, r, q0r) -> tuple:
     return nrm, rw, g, q0r
 
 
-def group_sums(group: Columns, series, n: int) -> tuple:
+def group_sums(group: Columns, series, n: int, memo: Memo | None = None) -> tuple:
     """For the columns of ``group``: squared norms (width,), products with the model's orthonormal basis
-    (rank, width), the projected columns' product with the residual (width,), and each member's Gram matrix
-    CᵀC (not yet projected); summed over chunks of alignments whose basis values fit SCORE_BLOCK_BYTES."""
+    (rank, width), the projected columns' product with the residual (width,), and the members' Gram matrices
+    projected off the model, CᵀC − AᵀA, by their number of columns k: {k: (the members' places in
+    ``group.members``, their matrices (members, k, k))}; summed over chunks of alignments whose basis values fit
+    SCORE_BLOCK_BYTES.
+
+    Members of their own columns have their Gram blocks from one product of the joint's series with the products of
+    their pairs of basis columns (the same for every joint of an axis with the same candidates: kept in ``memo``);
+    members that share columns (windows of one grid), from sub-blocks of the group's Gram matrix, projected once."""
     nrm, rw, g, s0 = series
     width = group.width
-    rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 4 * max(width, 1))))
-    norm2, A, rwB = np.zeros(width), np.zeros((g.shape[1], width)), np.zeros(width)
-    # members by their number of columns: their blocks of the Gram matrix summed at once
+    # members by their number of columns: their blocks gathered and projected at once
     sizes = {}
     for m, (_, _, ix) in enumerate(group.members):
         sizes.setdefault(ix.size, []).append(m)
-    gram = np.zeros((width, width)) if group.shared else {k: np.zeros((len(ms), k, k)) for k, ms in sizes.items()}
+    index = {k: np.array([group.members[m][2] for m in ms]).reshape(len(ms), k) for k, ms in sizes.items()}
+    if group.shared:
+        pairs = 0
+    else:  # each member's pairs of columns (i, j), member after member
+        left = np.concatenate([np.repeat(ix, ix.size) for _, _, ix in group.members])
+        right = np.concatenate([np.tile(ix, ix.size) for _, _, ix in group.members])
+        pairs = left.size
+    rows = max(64, int(SCORE_BLOCK_BYTES // (8 * 4 * max(width + pairs, 1))))
+    norm2, A, rwB = np.zeros(width), np.zeros((g.shape[1], width)), np.zeros(width)
+    gram = np.zeros((width, width)) if group.shared else np.zeros(pairs)
     for a in range(0, n, rows):
         c = slice(a, min(a + rows, n))
         B = group.values(c)
-        norm2 += nrm[c] @ (B * B)
         A += g[c].T @ B
         rwB += rw[c] @ B
         if group.shared:
+            norm2 += nrm[c] @ (B * B)
             gram += (B * nrm[c, None]).T @ B
         else:
-            for k, ms in sizes.items():
-                Bk = B[:, np.array([group.members[m][2] for m in ms])]  # (rows, members, k)
-                gram[k] += np.einsum("nmi,nmj->mij", Bk * nrm[c, None, None], Bk)
+            def products(B=B):
+                return B[:, left] * B[:, right]
+            P = products() if memo is None else memo.get(("pairs", group.key, c.start, c.stop), products)
+            gram += nrm[c] @ P
     bvec = rwB - A.T @ s0  # (C − Q0 A)ᵀ r, with Q0ᵀ r ≈ 0
     if group.shared:
-        grams = [gram[np.ix_(ix, ix)] for _, _, ix in group.members]
-    else:
-        grams = [None] * len(group.members)
-        for k, ms in sizes.items():
-            for m, block in zip(ms, gram[k]):
-                grams[m] = block
-    return norm2, A, bvec, grams
+        gram -= A.T @ A  # projected off the model once: each window's block is a sub-block
+        return norm2, A, bvec, {k: (ms, gram[index[k][:, :, None], index[k][:, None, :]]) for k, ms in sizes.items()}
+    on_diagonal = left == right
+    norm2[left[on_diagonal]] = gram[on_diagonal]
+    edges = np.cumsum([0] + [ix.size**2 for _, _, ix in group.members])
+    blocks = {}
+    for k, ms in sizes.items():
+        Ak = A[:, index[k]]  # (rank, members, k)
+        own = np.array([gram[edges[m]:edges[m + 1]] for m in ms]).reshape(len(ms), k, k)
+        blocks[k] = (ms, own - np.einsum("rmi,rmj->mij", Ak, Ak))
+    return norm2, A, bvec, blocks
 
 
 #: Alignments per chunk of the explicitly projected columns (memory flat in N), and columns projected at once (a

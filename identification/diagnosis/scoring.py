@@ -39,6 +39,10 @@ from .score_sums import (EXACT_COLUMNS, Memo, basis_values_once, column_groups, 
 __all__ = ["Candidate", "FitSide", "fit_side", "score_candidates", "ALIAS_TOL", "INVISIBLE_LEVER_M"]
 
 
+#: log 10, as numpy gives it (the p-values' digits as before).
+_LN10 = np.log(10)
+
+
 #: A candidate whose block keeps less than this fraction of its norm after projection is aliased.
 ALIAS_TOL = 1e-6
 
@@ -194,7 +198,8 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
     test = _Test(machine, result, sigma, sigma_known, M, rss, J0, side.model_names, side.G0, notes)
     n = len(obs)
     out = [None] * len(candidates)
-    pending = []  # (position, effect, unit, alive, scale, projected Gram matrix, joint, projected product with r)
+    # by k: chunks of (positions, effects, units, alive, scale, projected Gram matrices, joint, products with r)
+    pending = {}
     joint, series = None, None
     for group in column_groups(machine, obs, candidates, side.memo):
         units = [e.param_units(machine)[-1] for _, e, _ in group.members]  # a polynomial sizes its highest term
@@ -205,45 +210,55 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         if group.joint != joint:  # the groups come joint by joint: one joint's series at a time
             joint = group.joint
             series = side.joint_series(joint)
-        norm2, A, bvec, grams = group_sums(group, series, n)
-        for (i, e, ix), unit, gram in zip(group.members, units, grams):
-            norm_c = np.sqrt(norm2[ix])
-            if not np.any(norm_c > visible_floor):
-                out[i] = Candidate(e.name, "invisible", e.n_params, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit)
+        norm2, A, bvec, blocks = group_sums(group, series, n, side.memo)
+        for k, (ms, grams) in blocks.items():  # the members of k columns at once
+            index = np.array([group.members[m][2] for m in ms]).reshape(len(ms), k)
+            norm_c = np.sqrt(norm2[index])
+            visible = np.any(norm_c > visible_floor, axis=1)
+            for m in np.flatnonzero(~visible).tolist():
+                i, e, _ = group.members[ms[m]]
+                out[i] = Candidate(e.name, "invisible", e.n_params, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan,
+                                   units[ms[m]])
+            if not visible.any():
                 continue
+            kept = np.flatnonzero(visible)
+            norm_c = norm_c[kept]
             # a column that vanishes on this plan (a sine sampled at its zeros) carries nothing: drop it
             # rather than blow its rounding noise up to unit length
-            alive = norm_c > max(visible_floor, 1e-9 * float(norm_c.max()))
-            scale = np.where(alive, norm_c, 1.0)
-            pending.append((i, e, unit, alive, scale, gram - A[:, ix].T @ A[:, ix], joint, bvec[ix]))
+            alive = norm_c > np.maximum(visible_floor, 1e-9 * norm_c.max(axis=1))[:, None]
+            members = [ms[m] for m in kept.tolist()]
+            pending.setdefault(k, []).append((
+                [group.members[m][0] for m in members], [group.members[m][1] for m in members],
+                [units[m] for m in members], alive, np.where(alive, norm_c, 1.0), grams[kept], joint,
+                bvec[index[kept]]))
     # the eigen-decompositions of the normalized Gram matrices and the tests, all candidates of one size at once
-    for k in sorted({item[1].n_params for item in pending}):
-        items = [item for item in pending if item[1].n_params == k]
-        alive = np.array([item[3] for item in items])
-        scale = np.array([item[4] for item in items])
+    for k in sorted(pending):
+        chunks = pending[k]
+        positions = [i for chunk in chunks for i in chunk[0]]
+        effects = [e for chunk in chunks for e in chunk[1]]
+        joints = [chunk[6] for chunk in chunks for _ in chunk[0]]
+        alive, scale, grams, bvec = (np.concatenate([chunk[f] for chunk in chunks]) for f in (3, 4, 5, 7))
         both = alive[:, :, None] & alive[:, None, :]
-        gs = np.where(both, np.array([item[5] for item in items]) / (scale[:, :, None] * scale[:, None, :]), 0.0)
+        gs = np.where(both, grams / (scale[:, :, None] * scale[:, None, :]), 0.0)
         w, V = np.linalg.eigh(gs)
-        bvec = np.array([item[7] for item in items])
-        products = [None] * len(items)
+        products = [None] * len(effects)
         exact = {}  # the sums lose the digits a projection off a model that nearly explains the candidate cancels
         for m in np.flatnonzero(w.min(axis=1) < EXACT_BELOW):
-            exact.setdefault(items[m][6], []).append(m)
+            exact.setdefault(joints[m], []).append(m)
         batch = max(EXACT_COLUMNS // k, 1)  # one joint's candidates of k parameters projected together, so many
         for j, ms in [(j, ms[a:a + batch]) for j, ms in exact.items() for a in range(0, len(ms), batch)]:
             col = d_errors[:, :, j] / sigma
-            basis = np.concatenate([basis_values_once(machine, obs, items[m][1], slice(0, n), side.memo) for m in ms],
+            basis = np.concatenate([basis_values_once(machine, obs, effects[m], slice(0, n), side.memo) for m in ms],
                                    axis=1)
-            grams, bvec[ms] = projected_exactly(col, basis, k, Q0, r)
-            for m, gram, b in zip(ms, grams, range(0, basis.shape[1], k)):
+            grams_m, bvec[ms] = projected_exactly(col, basis, k, Q0, r)
+            for m, gram, b in zip(ms, grams_m, range(0, basis.shape[1], k)):
                 gs[m], w[m], V[m] = _normalized(gram, alive[m], scale[m])
                 # the product with the model's columns serves only aliased candidates, all scored exactly (an
                 # aliased candidate's eigenvalues are below ALIAS_TOL² < EXACT_BELOW)
                 products[m] = lambda col=col, basis=basis[:, b:b + k]: model_products(col, basis, J0)
-        judged = test.judge([item[1] for item in items], [item[2] for item in items], alive, scale, gs, w, V, bvec,
-                            products)
-        for item, c in zip(items, judged):
-            out[item[0]] = c
+        judged = test.judge(effects, [u for chunk in chunks for u in chunk[2]], alive, scale, gs, w, V, bvec, products)
+        for i, c in zip(positions, judged):
+            out[i] = c
     return out
 
 
@@ -288,29 +303,30 @@ class _Test:
         # directions the data see (a column that degenerates on this plan adds nothing, not 1e15)
         beta = -np.einsum("mij,mj->mi", V, proj / sk) / scale  # r is model − measurement
         cov = np.einsum("mij,mj,mlj->mil", V, np.where(keep, 1.0 / sk**2, 0.0), V) / (scale[:, :, None] * scale[:, None, :])
-        rms_after = np.sqrt(np.maximum(rss - delta, 0.0) / M) * sigma
+        rms_after = (np.sqrt(np.maximum(rss - delta, 0.0) / M) * sigma).tolist()
+        coef_std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)).tolist()
+        deltas, kept, coefficients = delta.tolist(), kk.tolist(), beta.tolist()
         out = []
         for m, (e, unit) in enumerate(zip(effects, units)):
             if aliased[m]:
                 out.append(Candidate(e.name, "aliased", k, 0.0, 1.0, 0.0, result.rms_um, np.nan, np.nan, unit,
                                      self._aliases(products[m](), k)))
                 continue
-            d, kd = float(delta[m]), int(kk[m])
+            d, kd = deltas[m], kept[m]
             if self.sigma_known:
                 log_sf = _chi2_logsf(d, kd)
             else:
                 dof2 = M - result.rank - kd
                 F = (d / kd) / max((rss - d) / dof2, 1e-300)
                 log_sf = f_logsf(F, kd, dof2)
-                if not np.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
+                if not math.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
                     log_sf = _chi2_logsf(F * kd, kd)
             basis = basis_of(e)
             size, size_std = basis.size(e, beta[m], cov[m])
             note = "" if basis.note is None or not self.notes else basis.note(e, beta[m], _axis_unit(machine, e.axis))
-            out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / np.log(10)),
-                                 float(rms_after[m]), size, size_std, unit, note=note,
-                                 coefficients=tuple(float(v) for v in beta[m]),
-                                 coefficient_std=tuple(float(v) for v in np.sqrt(np.maximum(np.diag(cov[m]), 0.0)))))
+            out.append(Candidate(e.name, "live", k, d, float(np.exp(log_sf)), float(log_sf / _LN10), rms_after[m],
+                                 size, size_std, unit, note=note, coefficients=tuple(coefficients[m]),
+                                 coefficient_std=tuple(coef_std[m])))
         return out
 
     def _aliases(self, BJ, k) -> tuple:
