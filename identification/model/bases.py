@@ -39,7 +39,7 @@ import numpy as np
 from kinid.errors import DataError
 from kinid.registry import Registry
 
-from .bsplines import _bsplines, local_grid
+from .bsplines import _local_values, _map_values, local_grid
 
 __all__ = ["Basis", "BasisInput", "BASES", "register_basis", "basis_of", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG",
            "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name",
@@ -370,27 +370,6 @@ def map_knots(ctx: BasisInput, step_text, lo_text, hi_text) -> tuple:
         raise ctx.fail(f"{n} knots, more than {MAX_MAP_KNOTS}; use a larger step or give the measured range as "
                        f"{ctx.name.split(':map:')[0]}:map:{step_text}:<from>:<to> ({unit})")
     return tuple(float(lo + step * k) for k in range(max(n, 2)))
-
-
-def _map_values(e, q, t, s):
-    """Hat functions: linear between knots, constant beyond the ends."""
-    knots = np.asarray(e.knots)
-    n = q.shape[0]
-    step = knots[1] - knots[0]
-    x = np.clip((q - knots[0]) / step, 0.0, len(knots) - 1.0)
-    i = np.minimum(np.floor(x).astype(int), len(knots) - 2)
-    frac = x - i
-    out = np.zeros((n, len(knots)))
-    out[np.arange(n), i] = 1.0 - frac
-    out[np.arange(n), i + 1] += frac
-    return out
-
-
-def _local_values(e, q, t, s):
-    """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside. (The diagnosis scores the windows
-    of one knot grid from that grid's B-splines at once, :mod:`~kinid.identification.model.bsplines`.)"""
-    knots = np.asarray(e.knots)
-    return _bsplines(np.asarray(q, float), knots[2:-2], float(knots[1] - knots[0]))
 
 
 def _peak(e, beta, cov):
