@@ -23,6 +23,8 @@ name                   value of the error joint                        parameter
                        (:mod:`~kinid.identification.model.rotary_on`, registered when effects load)
 ``EB0J2:sag:J4``       c · the torque about J2 of a unit weight at J4   1
                        (:mod:`~kinid.identification.model.sag`)
+``EZZ:step:Y:40``      a jump of s where Y passes 40 (zero at Y = 0)    1
+                       (:mod:`~kinid.identification.model.step`)
 =====================  ==============================================  ==========
 
 A new kind is one :func:`register_basis` call with a :class:`Basis`; parsing, the fit, the
@@ -151,6 +153,9 @@ class Basis:
     extent : callable (effect, theta) -> float
         The largest value the effect reaches (its size judged against what a machine can have); a drift,
         per second, over :data:`DRIFT_HORIZON_S`.
+    axis_named : bool
+        The name says which axis drives it, any error joint's, set-up joints' too (``step:<axis>:<at>``):
+        :attr:`parse` returns it as ``axis``, the effect's :attr:`Effect.axis`.
     """
 
     kind: str
@@ -170,6 +175,7 @@ class Basis:
     chosen: str = ""
     window_grid: Callable | None = None
     extent: Callable = _largest_value
+    axis_named: bool = False
 
     @property
     def tabulated(self) -> bool:
@@ -469,8 +475,8 @@ def parse_name(name: str, joint, machine, source: str) -> tuple:
         m = None if basis.grammar is None else re.fullmatch(basis.grammar, rest)
         if basis.grammar is not None and m is None:
             continue
-        if basis.driver in ("position", "direction", "positions") and (joint.axis in ("W", "T")
-                                                          or joint.axis not in machine.axis_names):
+        if basis.driver in ("position", "direction", "positions") and not basis.axis_named and (
+                joint.axis in ("W", "T") or joint.axis not in machine.axis_names):
             raise ctx.fail(f"a {rest.split(':')[0]} basis needs the position of an axis; {code} is a set-up error")
         return basis, basis.parse(m, ctx)
     syntaxes = [b.syntax for b in BASES.values() if b.grammar is not None]
