@@ -65,7 +65,8 @@ def test_the_basis_jumps_at_its_position_and_is_zero_at_the_axis_zero(stage):
 
 @pytest.mark.parametrize("name, message", [
     ("EZ0J3:step:Q:40", "'Q' is not an axis of this machine"),
-    ("EZ0J3:step:J2:400", r"inside the travel of J2 \(-200 to 200 mm\)"),
+    ("EZ0J3:step:T:40", "'T' is not an axis of this machine"),
+    ("EZ0J3:step:J2:1e999", "must be a finite number"),
     ("EZ0J3:step:40", "unknown basis"),
 ])
 def test_a_bad_step_is_named(stage, name, message):

@@ -198,7 +198,7 @@ def found_steps(machine, obs, result, scored, sigma, known, d_errors, q0, side) 
             break
         try:
             effect = parse_effect(cut.effect, machine)
-        except DataError:  # a position beyond the URDF's travel
+        except DataError:  # (a position the basis refuses)
             continue
         if effect.name not in have and not any(_same(cut, other) for other in found):  # coinciding joints: one
             effects.append(effect)
@@ -239,5 +239,5 @@ def step_found_on(machine, obs, result, name: str, d_errors=None):
         return name
     try:
         return parse_effect(cuts[0].effect, machine).name
-    except DataError:  # a position beyond the URDF's travel
+    except DataError:  # (a position the basis refuses)
         return name
