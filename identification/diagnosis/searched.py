@@ -1,7 +1,7 @@
 """The candidates a diagnosis scores (:func:`score_all`): the library's, and those found by search rather than
-listed — the best free period of the position-dependent joints and warm-up time constants off the library's grid,
-each with its p-value multiplied by the trials the search made — and the refined time constant of a warm-up the
-selection adds. All are judged by the score test (:func:`~kinid.identification.diagnosis.scoring.score_candidates`)."""
+listed — the best free period of the position-dependent joints, warm-up time constants off the library's grid and
+steps at a searched position (:mod:`~kinid.identification.diagnosis.steps`), each with its p-value multiplied by
+the trials the search made — and the refined time constant of a warm-up the selection adds. All are judged by the score test (:func:`~kinid.identification.diagnosis.scoring.score_candidates`)."""
 from __future__ import annotations
 
 import math

@@ -114,8 +114,9 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
 
 def what_is_left(steps) -> str:
     """For the final model of a selection: what share of the starting model's residual it explains, whether
-    anything structured remains (a significant candidate, the neighbour test, the residual against σ), and where
-    the model holds an error at each of an axis's few positions, that it is not measured between them."""
+    anything structured remains (a significant candidate, the neighbour test, the residual against σ), where
+    the model holds an error at each of an axis's few positions, that it is not measured between them, and where it
+    holds a step, the two readings it lies between."""
     return _explained(steps) + _between_positions(steps[-1])
 
 

@@ -101,7 +101,8 @@ def _deltas(beyond_zero, below, total, q0r):
 
 
 def search_steps(machine, obs, joint_series, codes=None, axes=None, lever=None, lever_floor: float = 0.0) -> list:
-    """The best cut of every (error joint, axis) pair, best first (:class:`StepCut`).
+    """The best cut of every (error joint, axis) pair the data can test (a cut not aliased with the model), best
+    first (:class:`StepCut`).
 
     Parameters
     ----------
@@ -115,8 +116,8 @@ def search_steps(machine, obs, joint_series, codes=None, axes=None, lever=None, 
     out = []
     cuts_of = {}
     for k, a in enumerate(machine.axes):
-        if axes is not None and a.name not in axes:
-            continue
+        if (axes is not None and a.name not in axes) or not np.all(np.isfinite(obs.axes[:, k])):
+            continue  # (an axis the data do not read)
         q = positions_of(obs.axes[:, k])
         order = np.argsort(q, kind="stable")
         qs = q[order]
