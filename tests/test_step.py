@@ -121,3 +121,14 @@ def test_compensation_tables_a_step_of_its_own_axis_and_leaves_out_another(stage
     left = dict(compensation_model(other).left_out)
     assert "varies with J2: a cross compensation" in left["EZ0J3:step:J2:40"]
     assert "EZ0J3_um" not in axis_error_columns(compensation_model(other).result, "J2", np.array([0.0, 60.0]))
+
+
+def test_the_figure_draws_a_step_at_another_axis_over_that_axis(stage, tmp_path):
+    from kinid.identification.fitting import fit, model_effects
+    from kinid.identification.reporting import figures
+
+    result = fit(stage, _observations(7, STEP_UM), model_effects(stage, ["EZ0J3:poly2", "EZ0J3:step:J2:40"]),
+                 noise_um=1.0)
+    assert set(figures._varying_joints(result)) == {("EZ0J3", "J3"), ("EZ0J3", "J2")}
+    assert figures.plot_identified_errors(result, _observations(7, STEP_UM), tmp_path / "errors.png")
+    assert (tmp_path / "errors.png").stat().st_size > 0
