@@ -654,7 +654,6 @@ def test_an_arms_tilt_with_the_carrying_joints_angle_is_modelled():
 
 @pytest.mark.parametrize("seed, family, named", [
     (7 * 100003 + 5, "smooth-2", "C"),  # a B-head's workpiece tilt with Z × C: named on C
-    (7 * 100003 + 6, "step", "V"),  # a gantry's yaw stepping along V: a local error of V, named
 ])
 def test_a_shape_nobody_named_is_named_on_its_axis(seed, family, named):
     """Seeded scenarios of the families that pass by the verdict: whatever the model it ends with, its
@@ -663,6 +662,15 @@ def test_a_shape_nobody_named_is_named_on_its_axis(seed, family, named):
     v = pg.verdict_of(sc)
     assert sc.result["verdict"] == "missing-effect" and named in sc.result["named"], _line(sc)
     assert named in sc.hidden[0].axes and v["pass"], _line(sc)
+
+
+def test_a_gantrys_yaw_stepping_along_v_is_modelled_as_a_step():
+    """A gantry's yaw stepping along V passed by its verdict (a local error of V added, V named); the step at a searched
+    position now models it: a step of V added, the held-out error within 1.5× the oracle's."""
+    sc = pg.run(7 * 100003 + 6, kinds=["step"])
+    r, v = sc.result, pg.verdict_of(sc)
+    assert "V" in sc.hidden[0].axes and any(":step:V:" in n for n in r["added"]), _line(sc)
+    assert r["held_out_um"] <= 1.5 * r["oracle_um"] and v["pass"] and not v["worse_than_default"], _line(sc)
 
 
 def test_the_cameras_scale_is_named_not_replaced_by_a_machine_error():

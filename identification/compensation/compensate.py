@@ -123,6 +123,8 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
         elif basis_of(e).driver == "positions":
             reason = (f"varies with {e.args[0]}: a cross compensation (the controller's table of "
                       f"{e.code} over {e.args[0]}), not written")
+        elif e.axis and e.axis != joint.axis:  # a step at another axis's position
+            reason = f"varies with {e.axis}: a cross compensation (a table of {e.code} over {e.axis}), not written"
         elif not all_terms:
             reason = curves[e.name] if e.name in curves else not_significant(values[sl][ok], result.std[sl][ok])
         if reason is not None:
@@ -132,11 +134,12 @@ def compensation_model(result: FitResult, *, all_terms: bool = False) -> Compens
 
 
 def _effects_by_axis(result: FitResult):
-    """Axis -> list of (effect, its parameter values), for bases driven by that axis's position or direction."""
+    """Axis -> list of (effect, its parameter values), for bases driven by that axis's position or direction (of the
+    joint's own axis: a step at another axis's is a cross compensation, not in the axis's tables)."""
     out, k = {}, 0
     theta = result.theta
     for e in result.effects:
-        if basis_of(e).tabulated:
+        if basis_of(e).tabulated and result.machine.error_joint(e.code).axis == e.axis:
             out.setdefault(e.axis, []).append((e, theta[k:k + e.n_params]))
         k += e.n_params
     return out

@@ -69,7 +69,7 @@ def curves_not_significant(result, implausible=()) -> dict:
         sl = slice(k, k + e.n_params)
         k += e.n_params
         if basis_of(e).positional and e.axis in result.axis_ranges and np.any(result.identifiable[sl]):
-            joints.setdefault(e.code, []).append((e, sl))
+            joints.setdefault((e.code, e.axis), []).append((e, sl))  # a step at another axis's position: its own
     out, corr, std = {}, np.asarray(corr, float), np.asarray(result.std, float)
     for members in joints.values():
         names = [e.name for e, _ in members]

@@ -1,7 +1,7 @@
 """The candidates a diagnosis scores (:func:`score_all`): the library's, and those found by search rather than
-listed — the best free period of the position-dependent joints and warm-up time constants off the library's grid,
-each with its p-value multiplied by the trials the search made — and the refined time constant of a warm-up the
-selection adds. All are judged by the score test (:func:`~kinid.identification.diagnosis.scoring.score_candidates`)."""
+listed — the best free period of the position-dependent joints, warm-up time constants off the library's grid and
+steps at a searched position (:mod:`~kinid.identification.diagnosis.steps`), each with its p-value multiplied by
+the trials the search made — and the refined time constant of a warm-up the selection adds. All are judged by the score test (:func:`~kinid.identification.diagnosis.scoring.score_candidates`)."""
 from __future__ import annotations
 
 import math
@@ -195,9 +195,11 @@ def period_found_on(machine: Machine, obs: Observations, result: FitResult, code
 
 def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: float, known: bool, d_errors, q0,
               side=None) -> list:
-    """The candidates scored at ``result``: the library's, and the free periods and time constants found (the
-    diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.diagnosis.local_errors`)."""
+    """The candidates scored at ``result``: the library's, and the free periods, time constants and step positions
+    found (the diagnosis adds the proposed maps and local errors, :mod:`~kinid.identification.diagnosis.local_errors`)."""
     from ..data import positions_per_axis
+    from .scoring import fit_side
+    from .steps import found_steps
 
     library = candidate_library(machine, result.effects, has_directions=bool(obs.directions),
                                 has_time=obs.t_s is not None, positions=positions_per_axis(machine, obs))
@@ -205,4 +207,6 @@ def score_all(machine: Machine, obs: Observations, result: FitResult, sigma: flo
                               side=side)
     scored += found_periods(machine, obs, result, scored, sigma, known, d_errors, q0, side)
     scored += found_time_constants(machine, obs, result, scored, sigma, known, d_errors, q0, side)
+    scored += found_steps(machine, obs, result, scored, sigma, known, d_errors, q0,
+                          side or fit_side(machine, obs, result, sigma, d_errors, q0))
     return scored

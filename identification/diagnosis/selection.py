@@ -114,8 +114,9 @@ def forward_select(machine: Machine, obs: Observations, effects, *, noise_um=Non
 
 def what_is_left(steps) -> str:
     """For the final model of a selection: what share of the starting model's residual it explains, whether
-    anything structured remains (a significant candidate, the neighbour test, the residual against σ), and where
-    the model holds an error at each of an axis's few positions, that it is not measured between them."""
+    anything structured remains (a significant candidate, the neighbour test, the residual against σ), where
+    the model holds an error at each of an axis's few positions, that it is not measured between them, and where it
+    holds a step, the two readings it lies between."""
     return _explained(steps) + _between_positions(steps[-1])
 
 
@@ -132,9 +133,10 @@ def _between_positions(step) -> str:
     positions = positions_per_axis(machine, step.data)
     names = set(position_tables(machine, positions))
     tables = [e for e in step.fit.effects if e.name in names]
+    steps = [e for e in step.fit.effects if chosen_of(e.name) == "step position"]
     few = [e for e in step.fit.effects if e.name not in names and e.axis in positions and basis_of(e).positional
-           and 1 < positions[e.axis] <= max(TABLE_POSITIONS)]
-    text = ""
+           and 1 < positions[e.axis] <= max(TABLE_POSITIONS) and e not in steps]
+    text = "".join(_step_place(machine, step.data, e) for e in steps)
     if tables:
         axes = sorted({e.axis for e in tables})
         where = " and ".join(f"the {positions[a]} positions of {a}" for a in axes)
@@ -149,6 +151,19 @@ def _between_positions(step) -> str:
                  f"{where}: between the {positions[axis]} {where} of {axis} the model is interpolation, not a "
                  f"measurement — measure {axis} at more {where} to know it there")
     return text
+
+
+def _step_place(machine, data, e) -> str:
+    """Where the data place the step ``e``, in words: between the two readings of its axis either side of it."""
+    from .steps import step_interval
+
+    low, high = step_interval(machine, data, e.name)
+    unit = " mm" if machine.axis(e.axis).kind == "prismatic" else "°"
+    if low is None or high is None:
+        return f"; {e.name} has readings of {e.axis} on one side only: it is not measured"
+    return (f"; {e.name} jumps between the readings {e.axis} = {low:.6g} and {high:.6g}{unit}, where in between is not "
+            f"measured (the name's {e.args[0]:g} is a point of that interval) — measure {e.axis} between them to place "
+            f"it")
 
 
 def _explained(steps) -> str:
@@ -388,9 +403,20 @@ def _time_constant_again(machine, obs, name, result, start, sigma):
         refined_time_constant(machine, train, turn, start, sigma, d_errors=d_errors), machine)
 
 
+def _step_again(machine, obs, name, result, start, sigma):
+    """A step's position, searched again between the turn's readings of its axis
+    (:func:`~kinid.identification.diagnosis.steps.step_found_on`); the candidate itself where the turn places it in
+    the same interval."""
+    from ..model import parse_effect
+    from .steps import step_found_on
+
+    return lambda train, turn, d_errors: parse_effect(step_found_on(machine, train, turn, name, d_errors), machine)
+
+
 #: How the held-out check's turns choose again what the data chose, by the kind of candidate (the choice's name
 #: and the gain it must bring: :data:`~kinid.identification.fitting.crossval.CHOSEN_AGAIN`).
-CHOOSERS = {"period": _period_again, "window": _window_again, "time constant": _time_constant_again}
+CHOOSERS = {"period": _period_again, "window": _window_again, "time constant": _time_constant_again,
+            "step position": _step_again}
 
 
 def _first_determined(dg):

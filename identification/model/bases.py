@@ -23,6 +23,8 @@ name                   value of the error joint                        parameter
                        (:mod:`~kinid.identification.model.rotary_on`, registered when effects load)
 ``EB0J2:sag:J4``       c · the torque about J2 of a unit weight at J4   1
                        (:mod:`~kinid.identification.model.sag`)
+``EZZ:step:Y:40``      a jump of s where Y passes 40 (zero at Y = 0)    1
+                       (:mod:`~kinid.identification.model.step`)
 =====================  ==============================================  ==========
 
 A new kind is one :func:`register_basis` call with a :class:`Basis`; parsing, the fit, the
@@ -39,7 +41,7 @@ import numpy as np
 from kinid.errors import DataError
 from kinid.registry import Registry
 
-from .bsplines import _bsplines, local_grid
+from .bsplines import _local_values, _map_values, local_grid
 
 __all__ = ["Basis", "BasisInput", "BASES", "register_basis", "basis_of", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG",
            "MIN_PERIOD_MM", "MIN_PERIOD_DEG", "MAX_PERIODS_OVER_TRAVEL", "MAX_MAP_KNOTS", "NUMBER", "parse_name",
@@ -151,6 +153,9 @@ class Basis:
     extent : callable (effect, theta) -> float
         The largest value the effect reaches (its size judged against what a machine can have); a drift,
         per second, over :data:`DRIFT_HORIZON_S`.
+    axis_named : bool
+        The name says which axis drives it, any error joint's, set-up joints' too (``step:<axis>:<at>``):
+        :attr:`parse` returns it as ``axis``, the effect's :attr:`Effect.axis`.
     """
 
     kind: str
@@ -170,6 +175,7 @@ class Basis:
     chosen: str = ""
     window_grid: Callable | None = None
     extent: Callable = _largest_value
+    axis_named: bool = False
 
     @property
     def tabulated(self) -> bool:
@@ -372,27 +378,6 @@ def map_knots(ctx: BasisInput, step_text, lo_text, hi_text) -> tuple:
     return tuple(float(lo + step * k) for k in range(max(n, 2)))
 
 
-def _map_values(e, q, t, s):
-    """Hat functions: linear between knots, constant beyond the ends."""
-    knots = np.asarray(e.knots)
-    n = q.shape[0]
-    step = knots[1] - knots[0]
-    x = np.clip((q - knots[0]) / step, 0.0, len(knots) - 1.0)
-    i = np.minimum(np.floor(x).astype(int), len(knots) - 2)
-    frac = x - i
-    out = np.zeros((n, len(knots)))
-    out[np.arange(n), i] = 1.0 - frac
-    out[np.arange(n), i + 1] += frac
-    return out
-
-
-def _local_values(e, q, t, s):
-    """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside. (The diagnosis scores the windows
-    of one knot grid from that grid's B-splines at once, :mod:`~kinid.identification.model.bsplines`.)"""
-    knots = np.asarray(e.knots)
-    return _bsplines(np.asarray(q, float), knots[2:-2], float(knots[1] - knots[0]))
-
-
 def _peak(e, beta, cov):
     """The peak value of the map (the part the model does not already hold)."""
     i = int(np.argmax(np.abs(beta)))
@@ -490,8 +475,8 @@ def parse_name(name: str, joint, machine, source: str) -> tuple:
         m = None if basis.grammar is None else re.fullmatch(basis.grammar, rest)
         if basis.grammar is not None and m is None:
             continue
-        if basis.driver in ("position", "direction", "positions") and (joint.axis in ("W", "T")
-                                                          or joint.axis not in machine.axis_names):
+        if basis.driver in ("position", "direction", "positions") and not basis.axis_named and (
+                joint.axis in ("W", "T") or joint.axis not in machine.axis_names):
             raise ctx.fail(f"a {rest.split(':')[0]} basis needs the position of an axis; {code} is a set-up error")
         return basis, basis.parse(m, ctx)
     syntaxes = [b.syntax for b in BASES.values() if b.grammar is not None]

@@ -1,5 +1,6 @@
 """Cubic B-splines on knot grids: the basis of a local error (``CODE:local:<step>:<from>:<to>``), computed once per
-grid for all the windows on it (the diagnosis scores hundreds of windows on the same readings)."""
+grid for all the windows on it (the diagnosis scores hundreds of windows on the same readings); and a map's hat
+functions (``CODE:map:<step>``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -40,7 +41,7 @@ def _grid_index(e, first: float, step: float, count: int) -> np.ndarray:
 def local_columns(effects, q, rows=slice(None)) -> np.ndarray:
     """The values (rows, c) at readings ``q[rows]`` of the B-splines of local errors ``effects`` on one knot grid
     (:func:`local_grid`), computed once for all of them; :func:`local_column_index` says which are whose.
-    They are the numbers the local basis gives (``bases._local_values``, each window's own B-splines), to rounding."""
+    They are the numbers the local basis gives (:func:`_local_values`, each window's own B-splines), to rounding."""
     q = np.asarray(q, float)
     if q.size == 0 or not np.all(np.isfinite(q)):  # as _local_values: each effect's own B-splines
         return np.concatenate([_bsplines(q[rows], np.asarray(e.knots)[2:-2], local_grid(e)[0]) for e in effects],
@@ -61,3 +62,24 @@ def local_column_index(effects, q) -> list:
     step, phase = local_grid(effects[0])
     first, count = _grid_span(q, step, phase)
     return [_grid_index(e, first, step, count) for e in effects]
+
+
+def _map_values(e, q, t, s):
+    """Hat functions: linear between knots, constant beyond the ends."""
+    knots = np.asarray(e.knots)
+    n = q.shape[0]
+    step = knots[1] - knots[0]
+    x = np.clip((q - knots[0]) / step, 0.0, len(knots) - 1.0)
+    i = np.minimum(np.floor(x).astype(int), len(knots) - 2)
+    frac = x - i
+    out = np.zeros((n, len(knots)))
+    out[np.arange(n), i] = 1.0 - frac
+    out[np.arange(n), i + 1] += frac
+    return out
+
+
+def _local_values(e, q, t, s):
+    """Cubic B-splines whose support lies inside [from, to]: smooth, zero outside. (The diagnosis scores the windows
+    of one knot grid from that grid's B-splines at once, :mod:`~kinid.identification.model.bsplines`.)"""
+    knots = np.asarray(e.knots)
+    return _bsplines(np.asarray(q, float), knots[2:-2], float(knots[1] - knots[0]))

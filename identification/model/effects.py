@@ -16,6 +16,7 @@ from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse
 from .machine import Machine, joint_kind
 from .rotary_on import rotary_carriers  # registers the on:<rotary axis> basis, after those of bases
 from . import sag as _sag  # noqa: F401  registers the sag:<point> basis
+from . import step as _step  # noqa: F401  registers the step:<axis>:<at> basis
 
 __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
            "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
@@ -91,7 +92,7 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
         raise DataError(f"{source} {name!r}: {code!r} is not an error joint of this machine{hint}")
     joint = machine.error_joint(code)
     basis, fields = parse_name(name, joint, machine, source)
-    axis = joint.axis if basis.driver in ("position", "direction", "positions", "pose") else ""
+    axis = fields.pop("axis", joint.axis if basis.driver in ("position", "direction", "positions", "pose") else "")
     effect = machine.parsed_effects[name] = Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
     return effect
 

@@ -283,11 +283,12 @@ def _covariance(fit_result, obs) -> np.ndarray:
 
 
 def _varying_joints(fit_result) -> dict:
-    """Error code -> list of (effect, parameter slice) for effects driven by an axis position."""
+    """(error code, axis) -> list of (effect, parameter slice) for effects driven by an axis position (a step at
+    another axis's position is a curve over that axis)."""
     out, k = {}, 0
     for e in fit_result.effects:
         if basis_of(e).positional:
-            out.setdefault(e.code, []).append((e, slice(k, k + e.n_params)))
+            out.setdefault((e.code, e.axis), []).append((e, slice(k, k + e.n_params)))
         k += e.n_params
     return out
 
@@ -323,8 +324,7 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
     theta = fit_result.theta
     fig = new_figure((7.5, 2.9 * len(joints) + 0.4))
     axes = fig.subplots(len(joints), 1, squeeze=False)[:, 0]
-    for ax, (code, parts) in zip(axes, joints.items()):
-        axis = parts[0][0].axis
+    for ax, ((code, axis), parts) in zip(axes, joints.items()):
         q = obs.axes[:, machine.axis_names.index(axis)]
         grid = np.linspace(np.nanmin(q), np.nanmax(q), 600)
         B = _basis_at(machine, parts, axis, grid, theta.size)
