@@ -511,13 +511,17 @@ def _truth_effects(machine, hidden, readings, t_s) -> list:
 
 
 def _named_axes(effect: str, machine) -> set:
-    """The axes a candidate effect names: its joint's axis letter(s), time for a drift."""
+    """The axes a candidate effect names: its joint's axis letter(s), time for a drift, and the other axis its basis
+    names (``on:A``, ``with:Z``, ``step:Y:40``: the error changes with that axis, and the words say so)."""
     code, _, basis = effect.partition(":")
     out = set()
     if basis.startswith("drift") or basis.startswith("warmup"):
         out.add("time")
     tail = code[2:]
     axes = {a.name for a in machine.axes}
+    kind, _, rest = basis.partition(":")
+    if kind in ("on", "with", "step") and rest.split(":")[0] in axes:
+        out.add(rest.split(":")[0])
     for a in axes:
         if tail.endswith(a) or tail == a or f"@{a}" in basis:
             out.add(a)
