@@ -151,6 +151,17 @@ def detect_power(J_model: np.ndarray, J_effect: np.ndarray, size: float, alpha: 
     return float(1.0 - ncfdtr(k, dof, lam, fdtri(k, dof, 1.0 - alpha)))
 
 
+def covariance_if_added(A: np.ndarray, index, k: int) -> np.ndarray:
+    """The covariance (candidates, k, k) of the last ``k`` columns of ``A`` (candidates, 3, P) fitted over the rows
+    ``index``, were each candidate's three rows added to them (a rank-3 update of the information, whitened rows)."""
+    X = A[index].reshape(-1, A.shape[2])
+    Minv = np.linalg.pinv(X.T @ X)
+    B = A @ Minv  # (N, 3, P)
+    G = A @ B.transpose(0, 2, 1) + np.eye(3)
+    Be = B[:, :, -k:]
+    return Minv[-k:, -k:] - Be.transpose(0, 2, 1) @ np.linalg.solve(G, Be)
+
+
 def _terms(J, names, noise_um, target_um, param_targets):
     """(weight matrix, φ target, label) of each target, φ ≤ target meaning met."""
     terms = []
@@ -297,14 +308,7 @@ def _keep_detectable(machine, effects, candidates, J, index, detect, noise_um, p
         if powers[weakest] >= power:
             return np.array(index, int), {n: (blocks[n][1], p) for n, p in powers.items()}
         Je, s = blocks[weakest]
-        A = np.concatenate([J, Je], axis=2)
-        X = A[index].reshape(-1, A.shape[2])
-        Minv = np.linalg.pinv(X.T @ X)
-        k = Je.shape[2]
-        B = A @ Minv  # (N, 3, P + k)
-        G = A @ B.transpose(0, 2, 1) + np.eye(3)
-        Be = B[:, :, -k:]
-        new_ee = Minv[-k:, -k:] - Be.transpose(0, 2, 1) @ np.linalg.solve(G, Be)
+        new_ee = covariance_if_added(np.concatenate([J, Je], axis=2), index, Je.shape[2])
         score = -np.linalg.eigvalsh(new_ee)[:, -1]
         score[index] = -np.inf
         index.append(int(np.argmax(score)))

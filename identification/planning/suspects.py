@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .plan import covariance_if_added
+
 __all__ = ["Suspect", "suspects_of", "suspect_power", "estimated_columns", "add_until_detected", "SUSPECT_FACTOR",
            "SUSPECT_POWER", "MAX_SUSPECTS"]
 
@@ -119,14 +121,7 @@ def add_until_detected(index, blocks: dict, power: float, limit: int):
         weakest = min(short, key=short.get)
         J, Je, c, _ = reachable[weakest]
         c = np.asarray(c, float)
-        A = np.concatenate([J, Je], axis=2)
-        X = A[index].reshape(-1, A.shape[2])
-        Minv = np.linalg.pinv(X.T @ X)
-        k = Je.shape[2]
-        B = A @ Minv  # (N, 3, P + k)
-        G = A @ B.transpose(0, 2, 1) + np.eye(3)
-        Be = B[:, :, -k:]
-        new_ee = Minv[-k:, -k:] - Be.transpose(0, 2, 1) @ np.linalg.solve(G, Be)  # the effect's covariance, row added
+        new_ee = covariance_if_added(np.concatenate([J, Je], axis=2), index, Je.shape[2])  # the effect's, row added
         score = np.einsum("i,nij,j->n", c, np.linalg.pinv(new_ee), c)
         score[index] = -np.inf
         index.append(int(np.argmax(score)))
