@@ -14,7 +14,6 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..model import Machine, basis_values, evaluate
 from ..data import Observations
@@ -146,6 +145,8 @@ def tool_rotations(machine: Machine, axes_user, errors_user, *, jacobian: bool =
 
 def rotation_residual_urad(R_model, R_measured) -> np.ndarray:
     """ω (N, 3), µrad: ``R_model = exp([ω]×) R_measured``, in the frame both are expressed in."""
+    from scipy.spatial.transform import Rotation  # here: a fit without orientation rows does not import scipy
+
     return Rotation.from_matrix(np.einsum("nij,nkj->nik", R_model, R_measured)).as_rotvec() * 1e6
 
 
