@@ -66,17 +66,25 @@ def _xyz_angles(R):
     return np.arctan2(-R[1, 2], R[2, 2]), np.arcsin(np.clip(R[0, 2], -1, 1)), np.arctan2(-R[0, 1], R[0, 0])
 
 
+def far_errors(rng, free, distance_mm: float | None = None, turn_deg: float | None = None) -> dict:
+    """The arm's errors {code: µm / µrad}: ~100 of each of ``free``'s machine terms, and the measurement frame
+    ``distance_mm`` away (default: drawn over 1–5 m) turned ``turn_deg`` about a random axis (default: 10–60°)."""
+    errors = {code: rng.normal(0, 100.0) for code in free if not code.endswith(("W", "T"))}
+    shift = rng.normal(size=3)
+    shift *= (rng.uniform(1000, 5000) if distance_mm is None else distance_mm) / np.linalg.norm(shift)
+    axis = rng.normal(size=3)
+    angles = _xyz_angles(_rotation(axis, np.radians(rng.uniform(10, 60) if turn_deg is None else turn_deg)))
+    errors.update({f"E{d}0W": v * 1e3 for d, v in zip("XYZ", shift)})
+    errors.update({f"E{d}0W": v * 1e6 for d, v in zip("ABC", angles)})
+    return errors
+
+
 def draw(machine, tm, free, seed, n_train=60, n_test=200, span_deg=120.0):
     """(training observations, held-out observations, truth {code: µm / µrad}, noise mm) of one seeded draw."""
     from kinid.identification.data.observations import Observations
 
     rng = np.random.default_rng(seed)
-    errors = {code: rng.normal(0, 100.0) for code in free if not code.endswith(("W", "T"))}
-    shift = rng.normal(size=3)
-    shift *= rng.uniform(1000, 5000) / np.linalg.norm(shift)
-    angles = _xyz_angles(_rotation(rng.normal(size=3), np.radians(rng.uniform(10, 60))))
-    errors.update({f"E{d}0W": v * 1e3 for d, v in zip("XYZ", shift)})
-    errors.update({f"E{d}0W": v * 1e6 for d, v in zip("ABC", angles)})
+    errors = far_errors(rng, free)
     tool = rng.uniform(10, 60, 3) * rng.choice([-1, 1], 3)
     errors.update({"EX0T": tool[0] * 1e3, "EY0T": tool[1] * 1e3, "EZ0J6": errors.get("EZ0J6", 0.0) + tool[2] * 1e3})
     noise_mm = rng.uniform(0.05, 0.3)

@@ -34,14 +34,7 @@ TILT_URAD = {"EA0T": 2000.0, "EB0T": -1500.0}
 def arm(ur_arm):
     """(URDF path, machine, plain-numpy truth machine, errors {code: µm / µrad})."""
     urdf, machine = ur_arm
-    rng = np.random.default_rng(5)
-    free = far.arm()[3]
-    errors = {code: rng.normal(0, 100.0) for code in free if not code.endswith(("W", "T"))}
-    shift = rng.normal(size=3)
-    shift *= 3000.0 / np.linalg.norm(shift)
-    angles = far._xyz_angles(far._rotation(rng.normal(size=3), np.radians(35.0)))
-    errors.update({f"E{c}0W": v * 1e3 for c, v in zip("XYZ", shift)})
-    errors.update({f"E{c}0W": v * 1e6 for c, v in zip("ABC", angles)})
+    errors = far.far_errors(np.random.default_rng(5), far.arm()[3], distance_mm=3000.0, turn_deg=35.0)
     errors.update(TILT_URAD)
     return urdf, machine, truth.read_urdf(urdf.read_text()), errors
 

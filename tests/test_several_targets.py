@@ -37,14 +37,8 @@ def arm(tmp_path_factory, ur_arm):
     """(folder, URDF path, machine, plain-numpy truth machine, errors {code: µm / µrad})."""
     d = tmp_path_factory.mktemp("targets_arm")
     urdf, machine = ur_arm
-    rng = np.random.default_rng(7)
-    free = far.arm()[3]  # the default model's terms one target identifies (the others alias with them)
-    errors = {code: rng.normal(0, 100.0) for code in free if not code.endswith(("W", "T"))}
-    shift = rng.normal(size=3)
-    shift *= 3000.0 / np.linalg.norm(shift)
-    angles = far._xyz_angles(far._rotation(rng.normal(size=3), np.radians(35.0)))
-    errors.update({f"E{c}0W": v * 1e3 for c, v in zip("XYZ", shift)})
-    errors.update({f"E{c}0W": v * 1e6 for c, v in zip("ABC", angles)})
+    # the default model's terms one target identifies (the others alias with them), the frame 3 m away turned 35°
+    errors = far.far_errors(np.random.default_rng(7), far.arm()[3], distance_mm=3000.0, turn_deg=35.0)
     return d, urdf, machine, truth.read_urdf(urdf.read_text()), errors
 
 
