@@ -11,7 +11,9 @@ One rule, in this order:
 - **measured point**: the columns given (``point={"x": ..., "y": ..., "z": ...}``), else the first pattern found
   of :data:`POINT_PATTERNS` — ``measurement_x/_y/_z`` (mm, a tracker's export), ``x1/y1/z1``, ``x2/y2/z2`` … (m,
   one target each, motion capture); ``point_unit`` overrides the unit;
-- several targets per pose give one row per target, its mark the target's label (``T1``, ``T2`` …);
+- several targets per pose give one row per target, its mark the target's label (``T1``, ``T2`` …); a target
+  whose point equals an earlier one's on every row is a copy (a capture export repeating its last marker) and
+  is left out, with a note;
 - standard deviations of the point (``measurement_std_x``, ``x1_std``) are read (``Export.std_mm``), not used as
   weights: the fit takes one σ for every coordinate, and ``kinid identify`` checks them against its residuals
   (:mod:`~kinid.identification.diagnosis.stated_std`);
@@ -96,6 +98,9 @@ class Export:
     std_mm : array (N, 3) or None
         The point's stated standard deviations of each row of ``observations``, mm; None unless every target has
         the three columns (the orientation rows, after the points', have none).
+    copies : tuple of (label, (x, y, z columns), label of the target it repeats)
+        Targets left out: their point equals an earlier target's on every row (a copy is no second measurement; read
+        twice it would count one point's error twice and make σ look smaller).
     orientation : dict
         The measured orientation read into rows (empty when none): ``columns``, ``std_columns``, ``unit``,
         ``sequence``, ``mount_deg``, ``angles_deg`` (poses, 3: as read, in degrees), ``std_urad`` (poses,: the σ of
@@ -112,6 +117,7 @@ class Export:
     ignored: tuple
     std_mm: np.ndarray | None = None
     orientation: dict = field(default_factory=dict)
+    copies: tuple = ()
 
     def notes(self) -> list:
         """Lines saying how the file was read: delimiter, the axes' mapping, the point, what was left out."""
@@ -122,6 +128,8 @@ class Export:
                f", {points} rows ({points // max(len(self.targets), 1)} poses × {len(self.targets)} target(s))",
                "  axes: " + ", ".join(f"{c} [{u}] -> {a}" for c, a, u in self.axes)]
         out += [f"  point {label}: {', '.join(cols)} [{unit}]" for label, cols, unit in self.targets]
+        out += [f"  {', '.join(cols)}: the same numbers as {first}'s on every row, a copy, not another target (left "
+                f"out)" for label, cols, first in self.copies]
         if self.std_columns:
             out.append(f"  stated std, not used as weights (the fit takes one σ for every coordinate, --noise-um; "
                        f"identify checks them against its residuals): {', '.join(self.std_columns)}")
@@ -344,7 +352,12 @@ def read_export(path, machine: Machine, *, point: dict | None = None, point_unit
         check_travel(machine, axes, lines, path)
     points = np.stack([np.column_stack([_numbers(path, rows, header.index(c), c, decimal_comma) for c in cols])
                        * _TO_KINID[unit] for _, cols, unit, _ in targets], axis=1)  # (n, m, 3)
-    used = {c for _, c, _, _ in axis_cols} | {c for t in targets for c in t[1]}
+    copies = _copies(points, targets)
+    if copies:  # a target equal to an earlier one on every row is that point written twice: read once
+        keep = [k for k, (label, *_) in enumerate(targets) if label not in copies]
+        targets, points, m = [targets[k] for k in keep], points[:, keep], len(keep)
+    used = ({c for _, c, _, _ in axis_cols} | {c for t in targets for c in t[1]}
+            | {c for _, t in copies.values() for c in t[1] + t[3]})
     stds = tuple(s for t in targets for s in t[3])
     marks = tuple(label for _ in range(n) for label, *_ in targets)
     obs = Observations(marks, points.reshape(n * m, 3), np.repeat(axes, m, axis=0), None, {},
@@ -373,7 +386,21 @@ def read_export(path, machine: Machine, *, point: dict | None = None, point_unit
     comma = decimal_comma and any("," in cells[k] for _, cells in rows for k in range(len(header)) if header[k] in used)
     return Export(obs, delimiter, bool(comma), tuple((c, machine.axes[j].name, u) for _, c, j, u in axis_cols),
                   tuple((label, cols, unit) for label, cols, unit, _ in targets), stds,
-                  tuple(h for h in header if h not in used and h not in stds), std_mm, o)
+                  tuple(h for h in header if h not in used and h not in stds), std_mm, o,
+                  tuple((label, t[1], first) for label, (first, t) in copies.items()))
+
+
+def _copies(points, targets) -> dict:
+    """{label: (the earlier target's label, the target)} of every target whose point equals an earlier target's on
+    every row (``points`` (rows, targets, 3)): a copy, not a second measurement (a capture export that repeats its
+    last marker)."""
+    out = {}
+    for k in range(1, len(targets)):
+        for j in range(k):
+            if targets[j][0] not in out and np.array_equal(points[:, j], points[:, k]):
+                out[targets[k][0]] = (targets[j][0], targets[k])
+                break
+    return out
 
 
 def _orientation_columns(header, used, sequence, path, header_line):
