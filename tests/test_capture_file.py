@@ -1,4 +1,5 @@
-"""A motion-capture file of an arm read as the capture system wrote it (docs/formats.md, "Instrument exports").
+"""A motion-capture file of an arm read as the capture system wrote it, and the held-out checks leaving a pose's rows
+out together (docs/formats.md, "A motion-capture file as written").
 
 The file has the shape of a real one (a Qualisys export of a robot arm's hand, FIGAROH's TIAGo example): the four
 points of the hand's rigid body ``x1, y1, z1 … x4, y4, z4`` in metres first, then the joints' readings in radians
@@ -24,6 +25,8 @@ import proving_truth as truth  # noqa: E402
 
 from kinid.cli import main  # noqa: E402
 from kinid.identification.data import read_export  # noqa: E402
+from kinid.identification.data.observations import Observations  # noqa: E402
+from kinid.identification.fitting import pose_folds  # noqa: E402
 
 #: The hand's rigid-body points in the tool frame, mm (a cluster about 100 mm across; the fourth repeats the third).
 POINTS_MM = ((0.0, 0.0, 40.0), (100.0, 0.0, 40.0), (0.0, 100.0, 60.0))
@@ -90,3 +93,44 @@ def test_identify_on_the_capture_file_as_written_finds_every_point_on_the_hand(c
             true_um = (t[2] - POINTS_MM[("T1", "T2", "T3").index(held[0])][2]) * 1e3
             assert abs(diff_um - true_um) < 3 * np.hypot(z[m]["std"], 1.0), (m, diff_um, true_um)
     assert 0.7 * NOISE_MM * 1e3 < saved["rms_um"] < 1.3 * NOISE_MM * 1e3
+
+
+def _poses(n_poses, n_targets, lines):
+    """Observations of ``n_poses`` poses × ``n_targets`` rows each (readings distinct per pose), then one orientation-
+    like row per pose appended after all the points (as an export's rotation rows are), its line the pose's."""
+    q = np.arange(n_poses * 2, dtype=float).reshape(n_poses, 2)
+    axes = np.vstack([np.repeat(q, n_targets, axis=0), q])
+    line = np.concatenate([np.repeat(lines, n_targets), lines])
+    marks = tuple(f"T{k + 1}" for k in range(n_targets)) * n_poses + ("R",) * n_poses
+    return Observations(marks, np.zeros((len(marks), 3)), axes, None, {}, tuple(int(v) for v in line), "<poses>")
+
+
+@pytest.mark.parametrize("n_poses, loo_max, folds", [(12, 30, 10), (34, 30, 10), (34, 60, 10)])
+def test_the_held_out_folds_leave_every_row_of_a_pose_out_together(n_poses, loo_max, folds):
+    obs = _poses(n_poses, 3, np.arange(2, n_poses + 2))
+    tests, method = pose_folds(obs, loo_max, folds)
+    assert np.array_equal(np.sort(np.concatenate(tests)), np.arange(len(obs)))  # every row left out once
+    for test in tests:
+        train = np.setdiff1d(np.arange(len(obs)), test)
+        assert not set(np.asarray(obs.lines)[test]) & set(np.asarray(obs.lines)[train])
+    k = n_poses if n_poses <= loo_max else folds
+    assert len(tests) == k and all(len(t) == 4 * len(range(f, n_poses, k)) for f, t in enumerate(tests))
+    expected = "leave-one-pose-out" if k == n_poses else f"{k}-fold, interleaved"
+    assert method == f"{expected} over {n_poses} poses"
+
+
+def test_rows_of_their_own_keep_the_folds_they_had_and_files_joined_keep_their_poses_apart():
+    """One row per line (kinid's observation CSV): the interleaved row blocks as before. Two files joined (their
+    line numbers alike, their readings not): a line number alone does not make two rows one pose."""
+    single = _poses(23, 1, np.arange(2, 25))
+    single = single.subset(np.arange(23))  # the points only
+    tests, method = pose_folds(single, 30, 10)
+    assert method == "leave-one-out" and [list(t) for t in tests] == [[i] for i in range(23)]
+    tests, method = pose_folds(single, 10, 10)
+    assert method == "10-fold, interleaved"
+    assert all(np.array_equal(t, np.arange(f, 23, 10)) for f, t in enumerate(tests))
+    a, b = _poses(5, 2, np.arange(2, 7)), _poses(5, 2, np.arange(2, 7))
+    joined = Observations(a.marks + b.marks, np.vstack([a.w_mm, b.w_mm]), np.vstack([a.axes, b.axes + 100.0]), None,
+                          {}, a.lines + b.lines, "<joined>")
+    tests, method = pose_folds(joined, 30, 10)
+    assert method == "leave-one-pose-out over 10 poses" and all(len(t) == 3 for t in tests)

@@ -15,7 +15,8 @@ _SOURCES = {
     "studentized": "leverage", "NOISE_RATIO_LIMIT": "noise", "Noise": "noise", "noise_ratio": "noise",
     "resolve_noise": "noise", "set_aside_outliers": "outliers", "set_aside_with_fit": "outliers",
     "PRIOR_UM": "prior", "PRIOR_URAD": "prior", "choose_prior": "prior", "held_out_check": "prior",
-    "prior_std": "prior", "design": "residuals", "effect_columns": "residuals", "joint_values": "residuals",
+    "prior_std": "prior", "pose_folds": "prior", "design": "residuals", "effect_columns": "residuals",
+    "joint_values": "residuals",
     "residuals": "residuals", "PATENT_MARKS_MM": "simulate", "errors_from_mapping": "simulate",
     "load_errors": "simulate", "load_plan": "simulate", "patent_plan": "simulate", "simulate": "simulate",
     "Start": "start", "closed_form_start": "start", "rigid_transform": "start",
@@ -29,7 +30,7 @@ __all__ = ["FitResult", "MIN_GAIN_SE", "NOISE_RATIO_LIMIT", "Noise", "ORIENTATIO
            "axis_residuals", "check_orientation", "choose_prior", "closed_form_start", "cross_validate", "design",
            "effect_columns", "errors_from_mapping", "fit", "hat_diagonal", "held_out_check", "joint_values",
            "load_errors", "load_fit", "load_plan", "load_trusted_fit", "model_effects", "model_pass",
-           "noise_from_replicates", "noise_ratio", "orientation_residuals", "patent_plan", "prior_std",
+           "noise_from_replicates", "noise_ratio", "orientation_residuals", "patent_plan", "pose_folds", "prior_std",
            "residuals", "resolve_noise", "rigid_transform", "rotation_residual_urad", "save_fit",
            "set_aside_outliers", "set_aside_with_fit", "simulate", "solve_axes", "studentized", "tool_rotations",
            "untrusted"]

@@ -20,14 +20,15 @@ import numpy as np
 
 from ..model import basis_of
 
-__all__ = ["PRIOR_UM", "PRIOR_URAD", "SCALES", "PriorChoice", "prior_std", "choose_prior", "HeldOutCheck", "held_out_check"]
+__all__ = ["PRIOR_UM", "PRIOR_URAD", "SCALES", "PriorChoice", "prior_std", "choose_prior", "HeldOutCheck",
+           "held_out_check", "pose_folds"]
 
 #: Default size of a location error along an axis (µm) and about one (µrad): a machine or robot built to drawing.
 PRIOR_UM = 1000.0
 PRIOR_URAD = 1000.0
 #: Scales of the default sizes tried.
 SCALES = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
-#: Leave-one-out up to this many alignments; more are split into FOLDS blocks.
+#: Leave-one-out up to this many poses; more are split into FOLDS blocks (:func:`pose_folds`).
 LOO_MAX = 60
 FOLDS = 10
 
@@ -65,14 +66,29 @@ def prior_std(machine, effects, scale: float = 1.0, prior_um: float = PRIOR_UM, 
     return np.array(out, float)
 
 
+def pose_folds(obs, loo_max: int, folds: int) -> tuple:
+    """(the rows left out in each fold, the method's name): every pose — the rows read from one line of a file
+    with the same readings, several targets and the orientation of one pose together — left out in turn up to
+    ``loo_max`` poses, else ``folds`` interleaved blocks of poses, in the order of the file. A row of the pose left
+    out never stays in the fit: its other targets would tell the fit where the pose is."""
+    index = {}
+    keys = zip(obs.lines or range(len(obs)), (row.tobytes() for row in np.ascontiguousarray(obs.axes)))
+    pose = np.array([index.setdefault(key, len(index)) for key in keys], int)
+    n = int(pose.max()) + 1 if len(pose) else 0
+    k = n if n <= loo_max else folds
+    method = "leave-one-out" if k == n else f"{k}-fold, interleaved"
+    if len(pose) > n:
+        method = method.replace("leave-one-out", "leave-one-pose-out") + f" over {n} poses"
+    return tuple(np.flatnonzero(pose % k == f) for f in range(k)), method
+
+
 def _held_out_um(machine, obs, effects, noise_um, s, folds) -> float:
     from .fit import fit
     from .residuals import design, residuals
 
     n = len(obs)
     ss = 0.0
-    for k in range(folds):
-        test = np.arange(k, n, folds)
+    for test in folds:
         train = np.setdiff1d(np.arange(n), test)
         tr, te = obs.subset(train), obs.subset(test)
         result = fit(machine, tr, effects, noise_um=noise_um, prior_std=s)
@@ -126,15 +142,14 @@ def choose_prior(machine, obs, effects, *, noise_um=None, scales=SCALES, prior_u
         best_a, best_s = max(table, key=table.get)
         scores = {a: max(v for (aa, _), v in table.items() if aa == a) for a in stds}
         return PriorChoice(best_a, prior_um, prior_urad, scores, float(best_s), "evidence")
-    n = len(obs)
-    folds = n if n <= LOO_MAX else FOLDS
+    folds, how = pose_folds(obs, LOO_MAX, FOLDS)
     held = {a: _held_out_um(machine, obs, effects, noise_um, s, folds) for a, s in stds.items()}
     best = min(held, key=held.get)
-    how = "leave-one-out" if folds == n else f"{folds}-fold cross-validation"
+    how = how.replace(", interleaved", " cross-validation")
     return PriorChoice(best, prior_um, prior_urad, held, float(noise_um), how)
 
 
-#: The held-out check of ``identify --prior``: leave-one-out up to this many alignments, else CHECK_FOLDS blocks.
+#: The held-out check of ``identify --prior``: leave-one-out up to this many poses, else CHECK_FOLDS blocks.
 CHECK_LOO_MAX = 30
 CHECK_FOLDS = 10
 
@@ -159,15 +174,14 @@ class HeldOutCheck:
 
 def held_out_check(machine, obs, effects, *, noise_um=None, prior_um=PRIOR_UM, prior_urad=PRIOR_URAD) -> HeldOutCheck:
     """Nested cross-validation of the prior against the plain fit (leave-one-out up to ``CHECK_LOO_MAX``
-    alignments, else ``CHECK_FOLDS`` interleaved blocks)."""
+    poses, else ``CHECK_FOLDS`` interleaved blocks: :func:`pose_folds`)."""
     from .fit import fit
     from .residuals import design, residuals
 
     n = len(obs)
-    folds = n if n <= CHECK_LOO_MAX else CHECK_FOLDS
+    folds, method = pose_folds(obs, CHECK_LOO_MAX, CHECK_FOLDS)
     ss = np.zeros(2)
-    for k in range(folds):
-        test = np.arange(k, n, folds)
+    for test in folds:
         train = np.setdiff1d(np.arange(n), test)
         tr, te = obs.subset(train), obs.subset(test)
         choice = choose_prior(machine, tr, effects, noise_um=noise_um, prior_um=prior_um, prior_urad=prior_urad)
@@ -178,5 +192,4 @@ def held_out_check(machine, obs, effects, *, noise_um=None, prior_um=PRIOR_UM, p
             r = residuals(machine, design(machine, effects, te), te, result.theta, jacobian=False)
             ss[m] += float(np.sum(r**2))
     rms = np.sqrt(ss / n)
-    method = "leave-one-out" if folds == n else f"{folds}-fold, interleaved"
     return HeldOutCheck(method, float(rms[0]), float(rms[1]))
