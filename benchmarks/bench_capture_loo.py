@@ -3,8 +3,8 @@
 Run: ``python benchmarks/bench_capture_loo.py FILE URDF --tool LINK [--base LINK]`` — FILE the capture system's
 table as it was written (a header ``x1, y1, z1, x2, …`` in m, the joints' readings under the URDF's joint names in
 m and rad), URDF the robot's description. Public data of others, never part of kinid; measured on the TIAGo set of
-FIGAROH's examples (``examples/tiago/data/calibration/mocap/qualysis_base_hand_calibration.csv`` of
-thanhndv212/figaroh-examples, 34 poses, four points of the hand's rigid body, the fourth a copy of the third; the
+FIGAROH's examples (``qualysis_base_hand_calibration.csv`` in
+thanhndv212/figaroh-examples/examples/tiago/data/calibration/mocap, 34 poses, four points of the hand's rigid body, the fourth a copy of the third; the
 TIAGo URDF of Gepetto/example-robot-data, ``--base base_footprint --tool arm_tool_link``).
 
 The user's route, no hand step: the machine is what ``kinid model`` writes (``identification_urdf``: the chain to
