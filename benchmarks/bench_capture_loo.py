@@ -25,6 +25,7 @@ rows together, so no row of the pose left out is in the fit — and the fit on t
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 import numpy as np
@@ -70,6 +71,7 @@ def leave_one_pose_out(machine, obs, effects, *, prior: bool) -> tuple:
 def main(argv=None) -> None:
     from threadpoolctl import threadpool_limits
 
+    from kinid.errors import KinidError
     from kinid.identification.data import read_export
     from kinid.identification.fitting import model_effects
 
@@ -79,8 +81,12 @@ def main(argv=None) -> None:
     p.add_argument("--tool", required=True, metavar="LINK", help="the link the markers are fixed to")
     p.add_argument("--base", default=None, metavar="LINK", help="the chain's first link (default: the root)")
     args = p.parse_args(argv)
-    machine = _machine(args.urdf, args.tool, args.base)
-    export = read_export(args.file, machine)
+    try:
+        machine = _machine(args.urdf, args.tool, args.base)
+        export = read_export(args.file, machine)
+    except KinidError as exc:  # a file that is not what it should be: one line, exit 2
+        print(f"bench_capture_loo: {exc}", file=sys.stderr)
+        sys.exit(2)
     print("\n".join(export.notes()))
     obs = export.observations
     targets = tuple(dict.fromkeys(obs.marks))

@@ -95,6 +95,23 @@ def test_identify_on_the_capture_file_as_written_finds_every_point_on_the_hand(c
     assert 0.7 * NOISE_MM * 1e3 < saved["rms_um"] < 1.3 * NOISE_MM * 1e3
 
 
+def test_the_benchmark_leaves_each_pose_out_whole_and_predicts_it_at_the_noise(capture):
+    """benchmarks/bench_capture_loo.py's leave-one-pose-out on the file (plain fit): every point's 3-D error above
+    √3 σ (a new measurement's noise, plus the fit's share: 24 poses) and within 2× it (39.7 µm measured, √3 σ
+    34.6 µm); its first target's figure, over the T1 rows alone, as well (40.9 µm)."""
+    import bench_capture_loo as bench
+
+    from kinid.identification.fitting import model_effects
+
+    path, _, machine, _, _ = capture
+    obs = read_export(path, machine).observations
+    effects = model_effects(machine, targets=("T1", "T2", "T3"))
+    every_um, first_um, scales = bench.leave_one_pose_out(machine, obs, effects, prior=False)
+    noise_3d_um = np.sqrt(3) * NOISE_MM * 1e3
+    assert noise_3d_um < every_um < 2.0 * noise_3d_um and noise_3d_um * 0.8 < first_um < 2.0 * noise_3d_um
+    assert scales == []
+
+
 def _poses(n_poses, n_targets, lines):
     """Observations of ``n_poses`` poses × ``n_targets`` rows each (readings distinct per pose), then one orientation-
     like row per pose appended after all the points (as an export's rotation rows are), its line the pose's."""
