@@ -21,9 +21,9 @@ import numpy as np
 
 __all__ = ["Reach", "probes_of", "keep_reach", "probe_powers"]
 
-#: Directions of an effect whose displacement at the tool the model absorbs to within this share of the largest
-#: (eigenvalue of its volume weight) are no error the model lacks: not probed.
-ABSORBED_TOL = 1e-8
+#: A direction of an effect whose displacement at the tool the model absorbs but for this share of its square (the
+#: effect's own largest, 10⁻⁶: 0.1 % of its amplitude) is no error the model lacks: not probed.
+ABSORBED_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -61,9 +61,9 @@ class Reach:
 
 
 def probes_of(machine, effects, candidates, J, noise_um: float):
-    """The probes of the model ``effects``: ((names, whitened Jacobians (N, 3, k) over ``candidates``, weights
-    (k, k) of what the model cannot absorb over them, µm² per coordinate per unit²), the library's size: the
-    Bonferroni count). ``J``: the model's whitened Jacobian over ``candidates`` (N, 3, P)."""
+    """The probes of the model ``effects``: ((names, whitened Jacobians (N, 3, k) over ``candidates``, weights: (the
+    (k, k) weight of what the model cannot absorb over them, µm² per coordinate per unit², the largest eigenvalue of
+    the effect's own)), the library's size: the Bonferroni count). ``J``: the model's whitened Jacobian over ``candidates`` (N, 3, P)."""
     from ..fitting import design, residuals
     from ..model import basis_of, candidate_library
 
@@ -80,17 +80,20 @@ def probes_of(machine, effects, candidates, J, noise_um: float):
         start += k
         Z = Je.reshape(-1, k)
         R = Z - Q @ (Q.T @ Z)  # what the model cannot absorb over the volume
-        weights.append(R.T @ R / len(R))
+        W = R.T @ R / len(R)
+        weights.append((W, float(np.linalg.eigvalsh(Z.T @ Z / len(Z)).max())))
         names.append(e.name)
         blocks.append(Je / noise_um)
     return (names, blocks, weights), len(library)
 
 
-def _shapes(W):
+def _shapes(weight):
     """``T`` (k, r): the effect's coefficients of unit size at the tool along each direction the model does not
-    absorb (``cᵀ W c = 1`` for ``c = T v``, ``|v| = 1``); r = 0 where the model absorbs it all."""
+    absorb (``cᵀ W c = 1`` for ``c = T v``, ``|v| = 1``); r = 0 where the model absorbs it all. ``weight``: (W, the
+    largest eigenvalue of the effect's own weight before the model absorbs it)."""
+    W, own = weight
     d, U = np.linalg.eigh(W)
-    keep = d > ABSORBED_TOL * max(float(d.max()), 1e-300)
+    keep = d > ABSORBED_TOL * max(own, 1e-300)
     return U[:, keep] / np.sqrt(d[keep])
 
 
@@ -108,7 +111,9 @@ def _power(lam, k, dof, alpha):
 
     if dof < 1:
         return 0.0
-    return float(1.0 - ncfdtr(k, dof, lam, fdtri(k, dof, 1.0 - alpha)))
+    crit = fdtri(k, dof, 1.0 - alpha)
+    power = float(1.0 - ncfdtr(k, dof, lam, crit))
+    return power if np.isfinite(power) else float(lam > k * crit)  # ncfdtr fails far out in the tail
 
 
 def probe_powers(J, index, probes, size_um: float, alpha: float) -> dict:
