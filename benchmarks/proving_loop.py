@@ -18,6 +18,15 @@ position-dependent errors of the machine's axes, each a plain formula of the rea
   1–3 µrad, and scale errors of J2, J3, 2–6 µrad/rad, each the location error about the joint's own axis varying
   with it; 2000 configurations within the proving ground's ranges.
 
+Each scenario also draws a spindle warm-up (``--warm-up``): the tool grows along the spindle (EZ0T) by
+A·(1 − e^(−t/τ)), A 4–8 µm, τ 15–45 min, from each run's start (the plan's ``t_s``), on the five-axis machines and the
+gantry (its own random numbers: ``--warm-up 0`` gives the same scenarios without it); the held-out volume is the cold
+machine, and the summary counts the fits that name a time effect.
+
+The first plan is ``kinid plan --target-um 0.5 --detect-um 1 --power 0.8`` (``--detect-um``: every candidate of the
+diagnosis's library that leaves that much at the tool detected with that power, identification/planning/reach.py;
+``--detect-um 0``: the plan for the target alone).
+
 1 µm noise, target U = 0.5 µm (k = 2, per coordinate). ``plan --augment`` is given the first fit's suspects (what
 its diagnosis hints at without establishing it: identification/planning/suspects.py), as the command finds them.
 Printed per scenario and summed: what each fit added, the suspects and the power the added alignments promise for
@@ -27,7 +36,8 @@ second fit, the alignments measured in all against what the plan asks when told 
 count, the bound of the relaxation beside it). A scenario meets the target when the second fit's held-out 2·RMS is
 within the target × 1.1.
 
-Run: ``python benchmarks/proving_loop.py [--scenarios 10] [--seed 0] [--machine five_axis_bc]``
+Run: ``python benchmarks/proving_loop.py [--scenarios 10] [--seed 0] [--machine five_axis_bc] [--detect-um 1]
+[--power 0.8] [--warm-up 1]``
 """
 from __future__ import annotations
 
@@ -45,6 +55,15 @@ import proving_truth as truth  # noqa: E402
 
 TARGET_UM = 0.5
 NOISE_UM = 1.0
+#: The first plan detects every error of the diagnosis's library leaving this much at the tool (2·RMS per
+#: coordinate, µm; identification/planning/reach.py) with probability POWER.
+DETECT_UM = 2.0 * TARGET_UM
+POWER = 0.8
+#: The spindle's warm-up: the tool grows along the spindle (EZ0T) by A·(1 − e^(−t/τ)) from each run's start, A drawn
+#: in WARM_UP_UM (µm), τ in WARM_UP_TAU_S; the held-out volume is the cold machine (t = 0).
+WARM_UP_JOINT = "EZ0T"
+WARM_UP_UM = (4.0, 8.0)
+WARM_UP_TAU_S = (900.0, 2700.0)
 
 
 @dataclass(frozen=True)
@@ -65,7 +84,7 @@ class Layout:
     ``presets``: axis -> the candidates' grid (solved layouts) or (low, high) drawn from (``solve`` empty: joint
     configurations, ``samples`` of them, the nominal tool point as the mark, as ``kinid plan`` builds an arm's);
     ``volume``: axis -> (low, high) of the held-out poses, drawn uniformly (a mark anywhere on the ±40 mm square
-    where axes are solved)."""
+    where axes are solved); ``warm_up``: the error joint a spindle's warm-up grows (none on the arm)."""
 
     urdf: str
     hidden: dict
@@ -73,6 +92,7 @@ class Layout:
     volume: dict
     solve: tuple | None = None
     samples: int = 0
+    warm_up: str = ""
 
 
 def five_axis(urdf: str, tilt: str) -> Layout:
@@ -91,7 +111,7 @@ def five_axis(urdf: str, tilt: str) -> Layout:
                                  lambda r, s, ph: s * 0.5 * (r[tilt] / 60.0) ** 2, (20, 60)),
     }
     return Layout(urdf, hidden, {tilt: bench_plan.B_DEG, "C": bench_plan.C_DEG},
-                  {tilt: (-60.0, 60.0), "C": (0.0, 360.0)})
+                  {tilt: (-60.0, 60.0), "C": (0.0, 360.0)}, warm_up=WARM_UP_JOINT)
 
 
 def gantry() -> Layout:
@@ -112,7 +132,7 @@ def gantry() -> Layout:
                                  (20, 60)),
     }
     travel = {"Y": (0.0, 450.0), "V": (0.0, 450.0), "X": (-100.0, 100.0)}
-    return Layout("gantry_dual_y", hidden, travel, travel, solve=(), samples=2000)
+    return Layout("gantry_dual_y", hidden, travel, travel, solve=(), samples=2000, warm_up=WARM_UP_JOINT)
 
 
 #: The six-joint arm's configurations (the proving ground's ranges, benchmarks/proving_ground.py).
@@ -183,22 +203,35 @@ def draw(layout: Layout, tm, rng):
     return fixed, hidden
 
 
-def errors_at(layout: Layout, fixed, hidden, readings, n) -> dict:
+def draw_warm_up(layout: Layout, seed: int, k: int, scale: float):
+    """(joint, A µm, τ s) of scenario ``k``'s spindle warm-up, A drawn in :data:`WARM_UP_UM` times ``scale`` (its own
+    random stream: the other draws are those of a loop without it); None on a layout without a spindle or scale 0."""
+    if not layout.warm_up or scale <= 0:
+        return None
+    rng = np.random.default_rng([seed, k, 1])
+    return layout.warm_up, float(rng.uniform(*WARM_UP_UM) * scale), float(rng.uniform(*WARM_UP_TAU_S))
+
+
+def errors_at(layout: Layout, fixed, hidden, readings, n, warm=None, t_s=None) -> dict:
     out = {k: np.full(n, v) for k, v in fixed.items()}
     for name, size, phase in hidden:
         h = layout.hidden[name]
         out[h.joint] = out.get(h.joint, np.zeros(n)) + h.formula(readings, size, phase)
+    if warm is not None and t_s is not None:
+        joint, a_um, tau_s = warm
+        out[joint] = out.get(joint, np.zeros(n)) + a_um * (1.0 - np.exp(-np.asarray(t_s, float) / tau_s))
     return out
 
 
-def measure(machine, tm, obs, layout, fixed, hidden, rng):
+def measure(machine, tm, obs, layout, fixed, hidden, rng, warm=None):
+    """The alignments ``obs`` (a plan: its ``t_s`` from the run's start) measured on the machine with these errors."""
     from kinid.identification.data.observations import Observations
 
     names = machine.axis_names
     readings = {a: obs.axes[:, j] for j, a in enumerate(names)}
-    p = truth.tool_point_mm(tm, readings, errors_at(layout, fixed, hidden, readings, len(obs)), len(obs))
+    p = truth.tool_point_mm(tm, readings, errors_at(layout, fixed, hidden, readings, len(obs), warm, obs.t_s), len(obs))
     p = p + rng.normal(0.0, NOISE_UM, (len(obs), 3)) * 1e-3
-    return Observations(obs.marks, p, obs.axes, None, {}, tuple(range(2, len(obs) + 2)), "<simulated>")
+    return Observations(obs.marks, p, obs.axes, obs.t_s, {}, tuple(range(2, len(obs) + 2)), "<simulated>")
 
 
 def volume(machine, k, rng, layout: Layout = LAYOUTS["five_axis_bc"]):
@@ -228,7 +261,7 @@ def held_out_2rms_um(machine, tm, result, vol, layout, fixed, hidden) -> float:
     names = machine.axis_names
     readings = {a: vol.axes[:, j] for j, a in enumerate(names)}
     p = truth.tool_point_mm(tm, readings, errors_at(layout, fixed, hidden, readings, len(vol)), len(vol))
-    v = Observations(vol.marks, p, vol.axes, None, {}, (), "<volume>")
+    v = Observations(vol.marks, p, vol.axes, np.zeros(len(vol)), {}, (), "<volume>")  # the cold machine
     r = residuals(machine, design(machine, result.effects, v), v, result.theta, jacobian=False)
     return 2.0 * float(np.sqrt(np.mean(r**2)))
 
@@ -236,8 +269,9 @@ def held_out_2rms_um(machine, tm, result, vol, layout, fixed, hidden) -> float:
 def _concat(a, b):
     from kinid.identification.data.observations import Observations
 
-    n = len(a) + len(b)
-    return Observations(a.marks + b.marks, np.vstack([a.w_mm, b.w_mm]), np.vstack([a.axes, b.axes]), None, {},
+    n = len(a) + len(b)  # each run's t_s from its own start, as a file of both runs is read
+    t_s = None if a.t_s is None or b.t_s is None else np.r_[a.t_s, b.t_s]
+    return Observations(a.marks + b.marks, np.vstack([a.w_mm, b.w_mm]), np.vstack([a.axes, b.axes]), t_s, {},
                         tuple(range(2, n + 2)), "<both>")
 
 
@@ -248,7 +282,7 @@ def main(argv=None) -> int:
 
     from kinid.identification.diagnosis.selection import forward_select
     from kinid.identification.model.effects import default_model, parse_effect
-    from kinid.identification.planning.augment import augment_plan
+    from kinid.identification.planning.augment import augment_plan, planned_effects
     from kinid.identification.planning.plan import plan_measurement
     from kinid.identification.planning.suspects import suspects_of
 
@@ -256,34 +290,49 @@ def main(argv=None) -> int:
     ap.add_argument("--scenarios", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machine", choices=sorted(LAYOUTS), default="five_axis_bc")
+    ap.add_argument("--detect-um", type=float, default=DETECT_UM,
+                    help=f"the first plan detects every error of this size at the tool (default {DETECT_UM:g}; 0: "
+                         f"sized for the default model's promise alone)")
+    ap.add_argument("--power", type=float, default=POWER, help=f"with --detect-um (default {POWER:g})")
+    ap.add_argument("--warm-up", type=float, default=1.0,
+                    help="scale of the spindle's warm-up drawn (default 1: 4–8 µm; 0: none)")
     args = ap.parse_args(argv)
     layout = LAYOUTS[args.machine]
     rows = []
     with threadpool_limits(1), tempfile.TemporaryDirectory() as folder:
         machine, tm = load(layout, Path(folder))
         pool = candidates(machine, layout)
-        first = plan_measurement(machine, pool, target_um=TARGET_UM)
-        print(f"first plan: {len(first.obs)} alignments for the default model (U = {first.u_tool_um:.3g} µm)")
+        first = plan_measurement(machine, pool, target_um=TARGET_UM, detect_um=args.detect_um or None,
+                                 power=args.power)
+        reach = first.reach
+        print(f"first plan: {len(first.obs)} alignments for the default model (U = {first.u_tool_um:.3g} µm)"
+              + (f", detecting every error of {reach.size_um:g} µm at the tool with power ≥ {reach.power:g} "
+                 f"({reach.added} added; the weakest {reach.weakest} {reach.weakest_power:.2f}; unreachable "
+                 f"{list(reach.unreachable)})" if reach else ""))
         for k in range(args.scenarios):
             t0 = time.perf_counter()
             rng = np.random.default_rng([args.seed, k])
             fixed, hidden = draw(layout, tm, rng)
+            warm = draw_warm_up(layout, args.seed, k, args.warm_up)
             vol = volume(machine, 300, rng, layout)
             told = list(default_model(machine)) + [parse_effect(layout.hidden[h].effect, machine) for h, _, _ in hidden]
             oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told)
-            d1 = measure(machine, tm, first.obs, layout, fixed, hidden, rng)
+            d1 = measure(machine, tm, first.obs, layout, fixed, hidden, rng, warm)
             last = forward_select(machine, d1, default_model(machine))[-1]
             f1, hints = last.fit, suspects_of(last.diagnosis, last.fit.effects)
             aug = augment_plan(machine, d1, pool, f1.effects, noise_um=NOISE_UM, target_um=TARGET_UM, suspects=hints)
-            both = (_concat(d1, measure(machine, tm, aug.plan.obs, layout, fixed, hidden, rng)) if len(aug.plan.obs)
+            both = (_concat(d1, measure(machine, tm, aug.plan.obs, layout, fixed, hidden, rng, warm)) if len(aug.plan.obs)
                     else d1)
             f2 = forward_select(machine, both, default_model(machine))[-1].fit if len(aug.plan.obs) else f1
             before = held_out_2rms_um(machine, tm, f1, vol, layout, fixed, hidden)
             after = held_out_2rms_um(machine, tm, f2, vol, layout, fixed, hidden)
             total = len(first.obs) + len(aug.plan.obs)
-            rows.append((after <= 1.1 * TARGET_UM, total / len(oracle.obs), before, after))
+            timed = lambda f: planned_effects(f.effects)[1]  # noqa: E731
+            rows.append((after <= 1.1 * TARGET_UM, total / len(oracle.obs), before, after, bool(timed(f1)),
+                         bool(timed(f2))))
             added = lambda f: [e.name for e in f.effects if ":" in e.name]  # noqa: E731
-            print(f"{k:3d} hidden {', '.join(f'{h} {s:.3g}' for h, s, _ in hidden)}")
+            print(f"{k:3d} hidden {', '.join(f'{h} {s:.3g}' for h, s, _ in hidden)}"
+                  + (f", warm-up {warm[0]} {warm[1]:.3g} µm τ {warm[2]:.0f} s" if warm else ""))
             powers = [f"{s.effect} {aug.plan.powers[s.effect][1]:.2f}" for s in hints if s.effect in aug.plan.powers]
             print(f"    first fit adds {added(f1)}: held-out 2·RMS {before:.3f} µm; suspects (power) {powers}; "
                   f"+{len(aug.plan.obs)} "
@@ -294,6 +343,9 @@ def main(argv=None) -> int:
     met = np.array([r[0] for r in rows])
     ratio = np.array([r[1] for r in rows])
     after = np.array([r[3] for r in rows])
+    if any(draw_warm_up(layout, args.seed, k, args.warm_up) for k in range(len(rows))):
+        print(f"warm-up of {layout.warm_up}: the first fit names a time effect in {sum(r[4] for r in rows)} of "
+              f"{len(rows)}, the fit of all in {sum(r[5] for r in rows)}")
     print(f"\n{len(rows)} scenarios ({args.machine}, seed {args.seed}): target met (held-out 2·RMS ≤ {1.1 * TARGET_UM:g} µm) in "
           f"{met.sum()} ({met.mean():.0%}); mean held-out 2·RMS {after.mean():.3f} µm; alignments against the true model's "
           f"plan: median {np.median(ratio):.2f}×, worst {ratio.max():.2f}×, within 1.3× in {np.mean(ratio <= 1.3):.0%}")

@@ -153,3 +153,20 @@ def test_an_effect_the_model_absorbs_is_detected_at_the_level_only():
     rng = np.random.default_rng(5)
     J = rng.normal(0.0, 1.0, (30, 3, 4))
     assert suspect_power(J, 3.0 * J[:, :, 1:2], np.array([10.0]), 1e-3) == pytest.approx(1e-3)
+
+
+def test_a_suspect_that_would_cost_more_than_its_share_is_not_planned_for():
+    """Two suspects over 600 candidate rows: one the rows see clearly (a few added reach 0.8), one they barely
+    separate from the model (dozens needed). With ``each_at_most`` below what the faint one needs alone, only the
+    clear one is planned for; without it, the faint one takes the rows it needs."""
+    from kinid.identification.planning.suspects import add_until_detected
+
+    rng = np.random.default_rng(3)
+    J = rng.normal(0.0, 1.0, (600, 3, 2))
+    clear = (J, rng.normal(0.0, 3.0, (600, 3, 1)), np.array([1.0]), 1e-3)
+    faint = (J, rng.normal(0.0, 0.1, (600, 3, 1)), np.array([1.0]), 1e-3)
+    start = np.arange(5)
+    free, p_free = add_until_detected(start, {"clear": clear, "faint": faint}, 0.8, 600)
+    capped, p_capped = add_until_detected(start, {"clear": clear, "faint": faint}, 0.8, 600, each_at_most=20)
+    assert len(free) - 5 > 20 and p_free["faint"] >= 0.8 and p_free["clear"] >= 0.8
+    assert p_capped["clear"] >= 0.8 and p_capped["faint"] < 0.8 and len(capped) - 5 <= 20

@@ -46,7 +46,12 @@ def register(sub) -> None:
     p.add_argument("--detect", action="append", default=[], metavar="EFFECT=SIZE",
                    help="an effect the diagnosis must detect at this size (norm of its parameters, their unit), "
                         "e.g. EXX:periodic:10=1")
-    p.add_argument("--power", type=float, default=0.9, help="with --detect: the probability of detecting (default 0.9)")
+    p.add_argument("--detect-um", type=float, default=None, metavar="S",
+                   help="every error the diagnosis tests for (its candidates) that leaves S µm at the tool (2·RMS per "
+                        "coordinate over the candidates' poses of what the model cannot absorb, the target's scale) "
+                        "detected with --power: a first plan for a model that may grow, e.g. 1 for --target-um 0.5")
+    p.add_argument("--power", type=float, default=0.9,
+                   help="with --detect or --detect-um: the probability of detecting (default 0.9)")
     p.add_argument("--speed-mm-s", type=float, default=100.0, help="linear axes' positioning speed (default 100)")
     p.add_argument("--accel-mm-s2", type=float, default=500.0, help="linear axes' acceleration (default 500)")
     p.add_argument("--speed-deg-s", type=float, default=20.0, help="rotary axes' positioning speed (default 20)")
@@ -179,6 +184,8 @@ def _plan(args) -> int:
             check_plausible(name, getattr(args, name), kind)  # 1e300 µm overflowed, 1e308 s summed to infinity
     if not (args.settle_s >= 0 and args.settle_s < 3600):
         raise DataError(f"must be 0 to 3600 s, got {args.settle_s}", parameter="--settle-s")
+    if args.detect_um is not None and not 0.0 < args.detect_um < 1e6:
+        raise DataError(f"must be a size in µm above 0, got {args.detect_um}", parameter="--detect-um")
     if not 0.0 < args.power < 1.0:
         raise DataError(f"must be between 0 and 1, got {args.power}", parameter="--power")
     for name in ("count", "samples", "blocks"):
@@ -192,9 +199,10 @@ def _plan(args) -> int:
     if args.augment is not None:
         if args.data is None:
             raise DataError("needs --data OBS.csv: the alignments already measured", parameter="--augment")
-        if args.detect:
-            raise DataError("plans a first measurement; with --augment the fit has chosen its model",
-                            parameter="--detect")
+        for name in ("detect", "detect_um"):
+            if getattr(args, name):
+                raise DataError("plans a first measurement; with --augment the fit has chosen its model",
+                                parameter="--" + name.replace("_", "-"))
         machine, loaded, measured = _augment_inputs(args.augment, args.data, args.machine, args)
     elif args.machine is None:
         raise DataError("give the machine (--machine URDF), or --augment FIT.json --data OBS.csv", parameter="--machine")
@@ -231,7 +239,8 @@ def _plan(args) -> int:
     plan = plan_measurement(
         machine, pool, effects=effects, noise_um=noise_um, target_um=args.target_um,
         param_targets=_pairs(args.param, "param"), count=args.count,
-        detect=_pairs(args.detect, "detect", machine, effect=True), power=args.power, travel=travel,
+        detect=_pairs(args.detect, "detect", machine, effect=True), detect_um=args.detect_um, power=args.power,
+        travel=travel,
         blocks=args.blocks, reference=not args.no_reference, advice_pool=wide)
     write_observations(args.out, plan.obs, machine)
     if args.json:
@@ -254,6 +263,10 @@ def plan_summary(plan, machine) -> dict:
         "parameters_U_k2": {n: {"U": u, "target": t} for n, (u, t) in plan.u_params.items()},
         "bound_alignments": plan.bound_count, "efficiency": plan.efficiency,
         "detect": {n: {"size": s, "power": p} for n, (s, p) in plan.powers.items()},
+        "detects": None if plan.reach is None else {
+            "size_um": plan.reach.size_um, "power": plan.reach.power, "candidates": plan.reach.probes,
+            "added": plan.reach.added, "weakest": plan.reach.weakest, "weakest_power": plan.reach.weakest_power,
+            "unreachable": list(plan.reach.unreachable)},
         "machine_time_s": plan.order.total_s, "moving_s": plan.order.move_s, "blocks": plan.order.blocks,
         "time_correlation": plan.order.correlation,
         "held": [{"name": a.name, "message": a.message,
@@ -289,6 +302,13 @@ def plan_text(plan, machine, presets=None, sampled: bool = False) -> str:
                      f"(the convex relaxation's bound); this plan is {plan.efficiency:.0%} efficient")
     for name, (size, p) in plan.powers.items():
         lines.append(f"{name} of size {size:g}: detected with probability {p:.2f}")
+    if plan.reach is not None:
+        r = plan.reach
+        lines.append(f"detects: every error of the diagnosis's {r.probes} candidates that leaves {r.size_um:g} µm at the "
+                     f"tool (2·RMS per coordinate of what the model cannot absorb), with probability ≥ {r.power:g} "
+                     f"({r.added} alignments added for it; the least sure {r.weakest}, {r.weakest_power:.2f})")
+        if r.unreachable:
+            lines.append(f"  not even every candidate detects {', '.join(r.unreachable)} at that size: not planned for")
     o = plan.order
     corr = ", ".join(f"{a} {v:+.2f}" for a, v in o.correlation.items())
     lines.append(f"machine time ≈ {o.total_s / 60:.1f} min ({o.move_s / 60:.1f} min moving and settling; "

@@ -184,7 +184,7 @@ def _detect_suspects(machine, both, n, model, index, suspects, noise_um, limit):
     (:func:`~.suspects.add_until_detected`); ``both`` holds the candidates' rows, then the measured ones (``n``
     candidates). Returns (index, {effect: (size, power)}), the size the norm of its estimated coefficients."""
     from ..fitting import design, residuals
-    from .suspects import SUSPECT_POWER, add_until_detected, estimated_columns
+    from .suspects import SUSPECT_POWER, SUSPECT_SHARE, add_until_detected, estimated_columns
 
     J_all = candidate_jacobian(machine, model, both, noise_um)[0]
     J = np.concatenate([J_all[n:], J_all[:n]])
@@ -196,7 +196,9 @@ def _detect_suspects(machine, both, n, model, index, suspects, noise_um, limit):
         tested = estimated_columns(Je, s.coefficient_std)  # the others the diagnosis's model holds: nuisance, as there
         blocks[s.effect] = (np.concatenate([J, Je[:, :, ~tested]], axis=2), Je[:, :, tested],
                             np.asarray(s.coefficients)[tested], s.threshold)
-    index, reached = add_until_detected(index, blocks, SUSPECT_POWER, limit)
+    measured = len(both) - n
+    index, reached = add_until_detected(index, blocks, SUSPECT_POWER, limit,
+                                        each_at_most=int(np.ceil(SUSPECT_SHARE * measured)))
     return index, {s.effect: (float(np.linalg.norm(s.coefficients)), reached[s.effect]) for s in suspects}
 
 

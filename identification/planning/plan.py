@@ -86,6 +86,8 @@ class Plan:
     target_um : float or None
     noise_um : float
     travel : TravelModel
+    reach : Reach or None
+        What the plan detects, with ``detect_um`` (:mod:`~kinid.identification.planning.reach`).
     """
 
     obs: Observations
@@ -104,6 +106,7 @@ class Plan:
     noise_um: float
     travel: TravelModel
     seconds: dict = field(default_factory=dict)
+    reach: object = None
 
     def __repr__(self) -> str:
         return (f"Plan({len(self.obs)} alignments of {len(self.candidates.obs)} candidates, U {self.u_tool_um:.3g} µm "
@@ -196,7 +199,7 @@ def _check_determined(X, count: int, names) -> None:
 
 def plan_measurement(machine: Machine, candidates: Observations, *, effects=None, noise_um: float = NOISE_UM,
                      target_um: float | None = None, param_targets: dict | None = None, count: int | None = None,
-                     detect: dict | None = None, power: float = 0.9, travel: TravelModel = TravelModel(),
+                     detect: dict | None = None, detect_um: float | None = None, power: float = 0.9, travel: TravelModel = TravelModel(),
                      blocks: int | None = None, reference: bool = True, advice_pool: Observations | None = None,
                      max_count: int = 2000) -> Plan:
     """The fewest candidates that meet the targets, ordered for machine time (module docstring).
@@ -218,6 +221,10 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
         A fixed number of alignments instead of targets.
     detect : dict effect name -> size, optional
         Effects the diagnosis must detect at this size (norm of the parameter vector) with ``power``.
+    detect_um : float, optional
+        Every error the model lacks (the diagnosis's candidates) that leaves this much at the tool (2·RMS per
+        coordinate over the candidates' poses of what the model cannot absorb, µm, the target's scale) detected
+        with ``power`` (:mod:`~kinid.identification.planning.reach`): the plan of a model that may grow.
     travel : TravelModel
     blocks, reference
         See :func:`~kinid.identification.planning.order.order_for_time`.
@@ -260,6 +267,12 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
     powers = {}
     if detect:
         index, powers = _keep_detectable(machine, effects, candidates, J, index, detect, noise_um, power)
+    reach = None
+    if detect_um is not None:
+        from .reach import keep_reach, probes_of
+
+        probes, library = probes_of(machine, effects, candidates, J, noise_um)
+        index, reach = keep_reach(J, index, probes, library, detect_um, power, ALPHA, max(max_count - len(index), 0))
     bound_W = relaxation_bound(J, W)[0]  # with one target, W is its weight over its φ target
     bounds = [bound_W] if len(terms) == 1 else [relaxation_bound(J, Wi)[0] / ti for Wi, ti, _ in terms]
     bound_count = int(np.ceil(max(bounds) - 1e-9)) if bounds and count is None else 0
@@ -277,7 +290,7 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
     seconds = {"design": t_design, "total": _time.perf_counter() - started}
     pool = Candidates(candidates, J, names, held, f"{len(candidates)} candidate alignments")
     return Plan(obs, index, pool, u, worst, u_params, bound_count, float(efficiency), powers, order, held, advice,
-                target_um, noise_um, travel, seconds)
+                target_um, noise_um, travel, seconds, reach)
 
 
 def _keep_detectable(machine, effects, candidates, J, index, detect, noise_um, power):

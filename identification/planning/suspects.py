@@ -6,7 +6,8 @@ so the fit does not add it and a sequential design has nothing to plan for, whil
 micrometre at the tool, is already what the target allows. A **suspect** is such a candidate: live, its p-value
 within :data:`SUSPECT_FACTOR` of the diagnosis's (Bonferroni) threshold, not in the model. The alignments to add
 are then also those that make each suspect, of the size the data estimate, detectable by the same test with
-probability :data:`SUSPECT_POWER`: the second fit adds it if it is there and refutes it if it was noise.
+probability :data:`SUSPECT_POWER`: the second fit adds it if it is there and refutes it if it was noise. A suspect
+that alone would need more than :data:`SUSPECT_SHARE` of the measured alignments added is named, not planned for.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import numpy as np
 from .plan import covariance_if_added
 
 __all__ = ["Suspect", "suspects_of", "suspect_power", "estimated_columns", "add_until_detected", "SUSPECT_FACTOR",
-           "SUSPECT_POWER", "MAX_SUSPECTS"]
+           "SUSPECT_POWER", "MAX_SUSPECTS", "SUSPECT_SHARE"]
 
 #: A live candidate whose p-value is at most this many times the diagnosis's threshold is a suspect.
 SUSPECT_FACTOR = 10.0
@@ -25,6 +26,10 @@ SUSPECT_FACTOR = 10.0
 SUSPECT_POWER = 0.8
 #: Suspects planned for at most (the best p-values, one per error joint).
 MAX_SUSPECTS = 3
+#: A suspect is planned for only if, alone, it reaches SUSPECT_POWER within this share of the alignments measured:
+#: one that needs more (an effect the candidates barely separate from the model: hundreds of alignments for a hint)
+#: would cost more than the loop's budget of 1.3 times what the true model needs (docs/plan.md).
+SUSPECT_SHARE = 0.3
 
 
 @dataclass(frozen=True)
@@ -102,28 +107,37 @@ def estimated_columns(J_effect, coefficient_std, tol: float = 1e-6):
     return scale >= tol * max(float(scale.max()), 1e-300)
 
 
-def add_until_detected(index, blocks: dict, power: float, limit: int):
+def add_until_detected(index, blocks: dict, power: float, limit: int, each_at_most: int | None = None):
     """Add rows to ``index`` until each block reaches ``power``: ``blocks`` maps a name to (the model's whitened
     Jacobian (N, 3, P), the effect's (N, 3, k), its coefficients, α), over the same N rows. The weakest block
     first, the row that raises its non-centrality most; a block that even every row leaves below ``power`` is not
-    planned for. At most ``limit`` rows are added. Returns (index, {name: power reached})."""
+    planned for, nor, with ``each_at_most``, one that alone would need more than that many rows added. At most
+    ``limit`` rows are added. Returns (index, {name: power reached})."""
+    reachable = {n: b for n, b in blocks.items() if _power_of(b, slice(None)) >= power}
+    if each_at_most is not None:  # alone, within that many rows
+        reachable = {n: b for n, b in reachable.items() if _power_of(b, _grow(index, {n: b}, power, each_at_most)) >= power}
+    index = _grow(index, reachable, power, limit)
+    return np.array(index, int), {n: _power_of(b, index) for n, b in blocks.items()}
+
+
+def _power_of(b, rows):
+    return suspect_power(b[0][rows], b[1][rows], b[2], b[3])
+
+
+def _grow(index, blocks: dict, power: float, limit: int) -> list:
+    """``index`` with at most ``limit`` rows added for ``blocks`` (:func:`add_until_detected`), the weakest first."""
     index = list(index)
-
-    def power_of(b, rows):
-        return suspect_power(b[0][rows], b[1][rows], b[2], b[3])
-
-    reachable = {n: b for n, b in blocks.items() if power_of(b, slice(None)) >= power}
-    powers = {n: power_of(b, index) for n, b in blocks.items()}
+    powers = {n: _power_of(b, index) for n, b in blocks.items()}
     for _ in range(limit):
-        short = {n: powers[n] for n in reachable if powers[n] < power}
+        short = {n: p for n, p in powers.items() if p < power}
         if not short:
             break
         weakest = min(short, key=short.get)
-        J, Je, c, _ = reachable[weakest]
+        J, Je, c, _ = blocks[weakest]
         c = np.asarray(c, float)
         new_ee = covariance_if_added(np.concatenate([J, Je], axis=2), index, Je.shape[2])  # the effect's, row added
         score = np.einsum("i,nij,j->n", c, np.linalg.pinv(new_ee), c)
         score[index] = -np.inf
         index.append(int(np.argmax(score)))
-        powers = {n: power_of(b, index) for n, b in blocks.items()}
-    return np.array(index, int), powers
+        powers = {n: _power_of(b, index) for n, b in blocks.items()}
+    return index
