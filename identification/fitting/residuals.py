@@ -72,12 +72,13 @@ def design(machine: Machine, effects, obs: Observations, axes_user: np.ndarray |
     return Design(tuple(effects), np.asarray(index, dtype=int), basis)
 
 
-def joint_values(machine: Machine, d: Design, theta: np.ndarray) -> np.ndarray:
-    """Error-joint values (N, n_errors) in µm / µrad for parameters ``theta`` (P,)."""
-    values = np.zeros((d.basis.shape[0], len(machine.error_joints)))
+def joint_values(machine: Machine, d: Design, theta: np.ndarray, rows=slice(None)) -> np.ndarray:
+    """Error-joint values (N, n_errors) in µm / µrad for parameters ``theta`` (P,) (of the ``rows`` of ``d``)."""
+    basis = d.basis[rows]
+    values = np.zeros((basis.shape[0], len(machine.error_joints)))
     if d.n_params == 0:
         return values
-    bt = d.basis * theta
+    bt = basis * theta
     index = d.joint_index
     used, _, first, more = d.joints
     values[:, used] = bt[:, first]

@@ -27,7 +27,7 @@ from .urdf_checks import (_ERROR_CODE, MAX_URDF_BYTES, _ancestors, _axis_names, 
                           joint_kind, _urdf_origins, check_urdf_limits)
 
 __all__ = ["axis_limits", "check_machine", "Axis", "ErrorJoint", "Machine", "load_machine", "machine_from_urdf",
-           "evaluate", "tool_in_workpiece_mm", "tool_rotation_in_workpiece"]
+           "evaluate", "evaluate_blocks", "tool_in_workpiece_mm", "tool_rotation_in_workpiece"]
 
 _UNIT = {"prismatic": "mm", "revolute": "deg"}
 
@@ -374,6 +374,75 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
 
 #: Poses per chunk of :func:`evaluate`.
 EVALUATE_CHUNK = 512
+
+
+#: Groups × (1 + the sliding variables) at most this share of the rows for :func:`evaluate_blocks` to take the
+#: affine route (each group costs 1 + m evaluations; a row, a gather and a small product).
+AFFINE_SHARE = 0.25
+
+
+def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, offsets_mm=None, **kw):
+    """``(lo, hi, evaluate(rows lo..hi))`` for consecutive blocks of at most ``block`` rows: :func:`evaluate`'s
+    outputs, computed once per group of rows that share every turning joint's value where that pays.
+
+    With the turning joints (revolute axes and error joints) held, every placement turns the same, so the tool point
+    and each Jacobian column are affine in the sliding joints' values. The rows are grouped by the turning values
+    that vary; each group is evaluated at its first row and at that row moved by one metre along each sliding value
+    that varies; a row is its group's value plus the slopes times its moves (the same to rounding). With too many
+    groups (:data:`AFFINE_SHARE`) or offsets that vary, every block is evaluated pose by pose. Same arguments as
+    :func:`evaluate`, over all N rows (``errors_user`` (N, n_errors))."""
+    n = len(axes_user)
+    plan = _affine_plan(machine, axes_user, errors_user, offsets_mm)
+    coefficients = None if plan is None else _affine_coefficients(machine, plan, kw)
+    for lo in range(0, n, block):
+        hi = min(lo + block, n)
+        if plan is None:
+            off = None if offsets_mm is None else np.broadcast_to(offsets_mm, (n, 3))[lo:hi]
+            yield lo, hi, evaluate(machine, axes_user[lo:hi], errors_user[lo:hi], offsets_mm=off, **kw)
+            continue
+        (base, slopes, shapes), g = coefficients, plan["group"][lo:hi]
+        flat = base[g] + np.einsum("nm,nmf->nf", plan["moves"][lo:hi] - plan["at"][g], slopes[g])
+        parts = iter(np.split(flat, np.cumsum([int(np.prod(s)) for s in shapes if s is not None])[:-1], axis=1))
+        out = tuple(None if s is None else next(parts).reshape((hi - lo, *s)) for s in shapes)
+        yield lo, hi, out if kw.get("jacobian", True) else out[0]
+
+
+def _affine_plan(machine, axes_user, errors_user, offsets_mm):
+    """The groups (of rows with the same turning values) and moves of :func:`evaluate_blocks`, or None."""
+    n, both = len(axes_user), (axes_user, errors_user)
+    joints = [(0, j, a.kind) for j, a in enumerate(machine.axes)]
+    joints += [(1, k, e.kind) for k, e in enumerate(machine.error_joints)]
+    turning = [both[w][:, i] for w, i, kind in joints if kind != "prismatic"]
+    offsets = None if offsets_mm is None else np.broadcast_to(np.asarray(offsets_mm, float), (n, 3))
+    if n == 0 or (offsets is not None and offsets.strides[0] != 0 and not (offsets == offsets[0]).all()):
+        return None  # rows with offsets of their own (a camera beside a laser) are few
+    codes = np.zeros(n, dtype=np.int64)
+    for col in turning:
+        if (col != col[0]).any():
+            values, inverse = np.unique(col, return_inverse=True)
+            if len(values) > AFFINE_SHARE * n or codes.max() >= (1 << 62) // len(values):
+                return None
+            codes = codes * len(values) + inverse.ravel()
+    moving = [(w, i) for w, i, kind in joints if kind == "prismatic" and (both[w][:, i] != both[w][0, i]).any()]
+    _, first, group = np.unique(codes, return_index=True, return_inverse=True)
+    if len(first) * (1 + len(moving)) > AFFINE_SHARE * n:
+        return None
+    moves = np.column_stack([both[w][:, i] for w, i in moving]) if moving else np.zeros((n, 0))
+    return dict(axes=axes_user[first], errors=errors_user[first], offsets=None if offsets is None else offsets[0],
+                moving=moving, moves=moves, at=moves[first], group=group.ravel())
+
+
+def _affine_coefficients(machine, plan, kw):
+    """(value at each group's first row (G, f), slopes per unit move (G, m, f), the outputs' shapes per row)."""
+    G, m = len(plan["axes"]), len(plan["moving"])
+    axes, errors = np.tile(plan["axes"], (1 + m, 1)), np.tile(plan["errors"], (1 + m, 1))
+    for k, (which, i) in enumerate(plan["moving"]):  # one metre: 1000 mm, 1e6 µm
+        (axes if which == 0 else errors)[(k + 1) * G:(k + 2) * G, i] += 1e3 if which == 0 else 1e6
+    out = evaluate(machine, axes, errors, offsets_mm=plan["offsets"], **kw)
+    out = out if isinstance(out, tuple) else (out,)
+    flat = np.concatenate([o.reshape(len(axes), -1) for o in out if o is not None], axis=1).reshape(1 + m, G, -1)
+    steps = np.array([1e3 if which == 0 else 1e6 for which, _ in plan["moving"]])[:, None, None]
+    return flat[0], ((flat[1:] - flat[0]) / steps).transpose(1, 0, 2), [None if o is None else o.shape[1:] for o in out]
 
 
 def tool_rotation_in_workpiece(machine: Machine, axes_user, errors_user) -> np.ndarray:
