@@ -68,7 +68,9 @@ def design(machine: Machine, effects, obs: Observations, axes_user: np.ndarray |
         b = basis_values(e, machine, axes_user, t_s=obs.t_s, directions=obs.directions, marks=obs.marks)
         blocks.append(b)
         index += [codes.index(e.code)] * b.shape[1]
-    basis = np.concatenate(blocks, axis=1) if blocks else np.zeros((len(obs), 0))
+    # column after column (Fortran order): the columns are copied whole, not a number at a time (0.9 -> 0.1 s for
+    # the default model's 23 columns of a million alignments); every use of the basis is elementwise
+    basis = np.concatenate([b.T for b in blocks]).T if blocks else np.zeros((len(obs), 0))
     return Design(tuple(effects), np.asarray(index, dtype=int), basis)
 
 

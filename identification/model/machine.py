@@ -412,18 +412,18 @@ def _affine_plan(machine, axes_user, errors_user, offsets_mm):
     n, both = len(axes_user), (axes_user, errors_user)
     joints = [(0, j, a.kind) for j, a in enumerate(machine.axes)]
     joints += [(1, k, e.kind) for k, e in enumerate(machine.error_joints)]
-    turning = [both[w][:, i] for w, i, kind in joints if kind != "prismatic"]
     offsets = None if offsets_mm is None else np.broadcast_to(np.asarray(offsets_mm, float), (n, 3))
     if n == 0 or (offsets is not None and offsets.strides[0] != 0 and not (offsets == offsets[0]).all()):
         return None  # rows with offsets of their own (a camera beside a laser) are few
+    varies = np.r_[(axes_user != axes_user[0]).any(axis=0), (errors_user != errors_user[0]).any(axis=0)]
     codes = np.zeros(n, dtype=np.int64)
-    for col in turning:
-        if (col != col[0]).any():
-            values, inverse = np.unique(col, return_inverse=True)
+    for (w, i, kind), col in zip(joints, varies):
+        if kind != "prismatic" and col:
+            values, inverse = np.unique(both[w][:, i], return_inverse=True)
             if len(values) > AFFINE_SHARE * n or codes.max() >= (1 << 62) // len(values):
                 return None
             codes = codes * len(values) + inverse.ravel()
-    moving = [(w, i) for w, i, kind in joints if kind == "prismatic" and (both[w][:, i] != both[w][0, i]).any()]
+    moving = [(w, i) for (w, i, kind), col in zip(joints, varies) if kind == "prismatic" and col]
     _, first, group = np.unique(codes, return_index=True, return_inverse=True)
     if len(first) * (1 + len(moving)) > AFFINE_SHARE * n:
         return None
