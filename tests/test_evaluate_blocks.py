@@ -1,11 +1,14 @@
 """evaluate_blocks: the tool point and its derivatives of rows that share the turning joints' values, from one
 evaluation per group and its slopes along the sliding joints, against evaluate pose by pose."""
+import importlib
+
 import numpy as np
 import pytest
 
-from kinid.identification.model import machine as machine_module
 from kinid.identification.model.machine import evaluate, evaluate_blocks, load_machine
 from kinid.urdf import path
+
+placements = importlib.import_module("kinid.identification.model.placements")
 
 
 def _rows(m, n, rng, *, turning_values=4):
@@ -33,7 +36,7 @@ def _joined(blocks, n):
 def test_grouped_rows_give_evaluate_to_rounding(name, kw):
     m, rng = load_machine(path(name)), np.random.default_rng(3)
     axes, errors = _rows(m, 1000, rng)
-    plan = machine_module._affine_plan(m, axes, errors, None)
+    plan = placements._affine_plan(m, axes, errors, None)
     assert plan is not None and len(np.unique(plan["group"])) <= 16  # the affine route was taken
     ref = evaluate(m, axes, errors, **kw)
     ref = ref if isinstance(ref, tuple) else (ref,)
@@ -46,9 +49,9 @@ def test_grouped_rows_give_evaluate_to_rounding(name, kw):
 def test_a_constant_offset_is_grouped_and_offsets_of_their_own_go_pose_by_pose():
     m, rng = load_machine(path("five_axis_bc")), np.random.default_rng(4)
     axes, errors = _rows(m, 600, rng)
-    assert machine_module._affine_plan(m, axes, errors, np.array([1.0, -2.0, 30.0])) is not None
+    assert placements._affine_plan(m, axes, errors, np.array([1.0, -2.0, 30.0])) is not None
     own = rng.normal(0, 10, (len(axes), 3))
-    assert machine_module._affine_plan(m, axes, errors, own) is None
+    assert placements._affine_plan(m, axes, errors, own) is None
     for off in (np.array([1.0, -2.0, 30.0]), own):
         p, d_err, d_ax = evaluate(m, axes, errors, offsets_mm=off)
         got = _joined(evaluate_blocks(m, axes, errors, block=64, offsets_mm=off), len(axes))
@@ -61,7 +64,7 @@ def test_rows_that_share_no_turning_value_go_pose_by_pose_unchanged():
     axes, errors = _rows(m, 300, rng)
     turning = [j for j, a in enumerate(m.axes) if a.kind != "prismatic"]
     axes[:, turning] = rng.uniform(-90, 90, (len(axes), len(turning)))  # every row its own group
-    assert machine_module._affine_plan(m, axes, errors, None) is None
+    assert placements._affine_plan(m, axes, errors, None) is None
     for lo, hi, out in evaluate_blocks(m, axes, errors, block=64):  # each block through evaluate, as before
         for r, g in zip(evaluate(m, axes[lo:hi], errors[lo:hi]), out):
             assert np.array_equal(g, r)

@@ -4,7 +4,11 @@ R factor of its QR decomposition.
 A least-squares step needs only JᵀJ and Jᵀr, and the identifiability analysis and the covariance only R: with
 ``J = Q R``, ``‖r + Jδ‖² = ‖r‖² − ‖Qᵀr‖² + ‖Qᵀr + Rδ‖²``. So the (3N × P) Jacobian is never held whole: each chunk
 of :data:`CHUNK_ROWS` alignments is evaluated (Pinocchio) and folded into R by a QR of the stacked rows (TSQR), and
-memory stays flat in the number of alignments (the residuals, 3N numbers, are kept).
+memory stays flat in the number of alignments (the residuals, 3N numbers, and the error joints' values are kept).
+Rows that share every turning joint's value (the same table and head angles, the linear axes anywhere) are
+evaluated once per group and its slopes along the linear axes
+(:func:`~kinid.identification.model.evaluate_blocks`): a million alignments of a plan's 84 angle pairs cost 84 × 4
+poses of Pinocchio, not a million.
 
 Only the error joints the model's parameters sit on are in the pass: the others, at zero, are locked into the
 placements of their neighbours (Pinocchio's ``buildReducedModel``, :func:`reduced`), so each ``forwardKinematics``

@@ -22,7 +22,7 @@ import pinocchio as pin
 from kinid.checks import check_array
 from kinid.errors import DataError, MachineError
 from kinid.files import captured_stderr, read_limited_text
-from .placements import _evaluate_chunk
+from .placements import _affine_plan, _evaluate_chunk
 from .urdf_checks import (_ERROR_CODE, MAX_URDF_BYTES, _ancestors, _axis_names, _check_placement,  # noqa: F401
                           joint_kind, _urdf_origins, check_urdf_limits)
 
@@ -376,9 +376,8 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
 EVALUATE_CHUNK = 512
 
 
-#: Groups × (1 + the sliding variables) at most this share of the rows for :func:`evaluate_blocks` to take the
-#: affine route (each group costs 1 + m evaluations; a row, a gather and a small product).
-AFFINE_SHARE = 0.25
+#: Rows :func:`evaluate_blocks` makes at once on the affine route.
+AFFINE_ROWS = 4096
 
 
 def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, offsets_mm=None, **kw):
@@ -389,51 +388,30 @@ def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, off
     and each Jacobian column are affine in the sliding joints' values. The rows are grouped by the turning values
     that vary; each group is evaluated at its first row and at that row moved by one metre along each sliding value
     that varies; a row is its group's value plus the slopes times its moves (the same to rounding). With too many
-    groups (:data:`AFFINE_SHARE`) or offsets that vary, every block is evaluated pose by pose. Same arguments as
-    :func:`evaluate`, over all N rows (``errors_user`` (N, n_errors))."""
+    groups (``placements.AFFINE_SHARE``) or offsets that vary, every block is evaluated pose by pose. Same
+    arguments as :func:`evaluate`, over all N rows (``errors_user`` (N, n_errors))."""
     n = len(axes_user)
     plan = _affine_plan(machine, axes_user, errors_user, offsets_mm)
-    coefficients = None if plan is None else _affine_coefficients(machine, plan, kw)
-    for lo in range(0, n, block):
-        hi = min(lo + block, n)
-        if plan is None:
-            off = None if offsets_mm is None else np.broadcast_to(offsets_mm, (n, 3))[lo:hi]
-            yield lo, hi, evaluate(machine, axes_user[lo:hi], errors_user[lo:hi], offsets_mm=off, **kw)
-            continue
-        (base, slopes, shapes), g = coefficients, plan["group"][lo:hi]
-        flat = base[g] + np.einsum("nm,nmf->nf", plan["moves"][lo:hi] - plan["at"][g], slopes[g])
-        parts = iter(np.split(flat, np.cumsum([int(np.prod(s)) for s in shapes if s is not None])[:-1], axis=1))
-        out = tuple(None if s is None else next(parts).reshape((hi - lo, *s)) for s in shapes)
-        yield lo, hi, out if kw.get("jacobian", True) else out[0]
-
-
-def _affine_plan(machine, axes_user, errors_user, offsets_mm):
-    """The groups (of rows with the same turning values) and moves of :func:`evaluate_blocks`, or None."""
-    n, both = len(axes_user), (axes_user, errors_user)
-    joints = [(0, j, a.kind) for j, a in enumerate(machine.axes)]
-    joints += [(1, k, e.kind) for k, e in enumerate(machine.error_joints)]
-    offsets = None if offsets_mm is None else np.broadcast_to(np.asarray(offsets_mm, float), (n, 3))
-    if n == 0 or (offsets is not None and offsets.strides[0] != 0 and not (offsets == offsets[0]).all()):
-        return None  # rows with offsets of their own (a camera beside a laser) are few
-    varies = np.r_[(axes_user != axes_user[0]).any(axis=0), (errors_user != errors_user[0]).any(axis=0)]
-    codes = np.zeros(n, dtype=np.int64)
-    for (w, i, kind), col in zip(joints, varies):
-        if kind != "prismatic" and col:
-            values, inverse = np.unique(both[w][:, i], return_inverse=True)
-            if len(values) > AFFINE_SHARE * n or codes.max() >= (1 << 62) // len(values):
-                return None
-            codes = codes * len(values) + inverse.ravel()
-    moving = [(w, i) for (w, i, kind), col in zip(joints, varies) if kind == "prismatic" and col]
-    _, first, group = np.unique(codes, return_index=True, return_inverse=True)
-    if len(first) * (1 + len(moving)) > AFFINE_SHARE * n:
-        return None
-    moves = np.column_stack([both[w][:, i] for w, i in moving]) if moving else np.zeros((n, 0))
-    return dict(axes=axes_user[first], errors=errors_user[first], offsets=None if offsets is None else offsets[0],
-                moving=moving, moves=moves, at=moves[first], group=group.ravel())
+    if plan is None:
+        for lo in range(0, n, block):
+            off = None if offsets_mm is None else np.broadcast_to(offsets_mm, (n, 3))[lo:lo + block]
+            yield lo, min(lo + block, n), evaluate(machine, axes_user[lo:lo + block], errors_user[lo:lo + block],
+                                                   offsets_mm=off, **kw)
+        return
+    base, slopes, places = _affine_coefficients(machine, plan, kw)
+    span = block * max(1, AFFINE_ROWS // block)  # rows made at once, yielded a block at a time
+    for first in range(0, n, span):
+        g = plan["group"][first:first + span]
+        flat = base[g] + np.einsum("nm,nmf->nf", plan["moves"][first:first + span] - plan["at"][g], slopes[g])
+        for lo in range(first, min(first + span, n), block):
+            rows = flat[lo - first:lo - first + block]
+            out = tuple(None if p is None else rows[:, p[1]:p[2]].reshape((len(rows), *p[0])) for p in places)
+            yield lo, lo + len(rows), out if kw.get("jacobian", True) else out[0]
 
 
 def _affine_coefficients(machine, plan, kw):
-    """(value at each group's first row (G, f), slopes per unit move (G, m, f), the outputs' shapes per row)."""
+    """(value at each group's first row (G, f), slopes per unit move (G, m, f), each output's (shape per row, first
+    and last column + 1 in f) or None)."""
     G, m = len(plan["axes"]), len(plan["moving"])
     axes, errors = np.tile(plan["axes"], (1 + m, 1)), np.tile(plan["errors"], (1 + m, 1))
     for k, (which, i) in enumerate(plan["moving"]):  # one metre: 1000 mm, 1e6 µm
@@ -442,7 +420,10 @@ def _affine_coefficients(machine, plan, kw):
     out = out if isinstance(out, tuple) else (out,)
     flat = np.concatenate([o.reshape(len(axes), -1) for o in out if o is not None], axis=1).reshape(1 + m, G, -1)
     steps = np.array([1e3 if which == 0 else 1e6 for which, _ in plan["moving"]])[:, None, None]
-    return flat[0], ((flat[1:] - flat[0]) / steps).transpose(1, 0, 2), [None if o is None else o.shape[1:] for o in out]
+    ends = np.cumsum([0] + [o[0].size for o in out if o is not None])
+    places = iter(zip(ends[:-1], ends[1:]))  # each output's columns in a row of flat
+    return (flat[0], ((flat[1:] - flat[0]) / steps).transpose(1, 0, 2),
+            [None if o is None else (o.shape[1:], *next(places)) for o in out])
 
 
 def tool_rotation_in_workpiece(machine: Machine, axes_user, errors_user) -> np.ndarray:
