@@ -81,12 +81,17 @@ def _slices(d: Design, obs: Observations, chunk: int):
 
 def _evaluated(machine, d: Design, obs: Observations, theta, chunk: int, **kw):
     """(design, observed points, :func:`~kinid.identification.model.evaluate`'s outputs with the orientation rows put
-    in) of consecutive chunks of at most ``chunk`` alignments: the error joints' values of all rows first, then the
-    chunks through :func:`~kinid.identification.model.evaluate_blocks` (rows that share the turning joints' values
-    evaluated once)."""
-    values = np.empty((len(obs), len(machine.error_joints)))
-    for lo in range(0, len(obs), chunk):  # a chunk's basis times θ at a time: no (N, P) product held
-        values[lo: lo + chunk] = joint_values(machine, d, theta, rows=slice(lo, lo + chunk))
+    in) of consecutive chunks of at most ``chunk`` alignments: the error joints' values of all rows first (one row
+    for all where every basis is constant), then the chunks through
+    :func:`~kinid.identification.model.evaluate_blocks` (rows that share the turning joints' values evaluated
+    once)."""
+    n, shape = len(obs), (len(obs), len(machine.error_joints))
+    if n and (d.basis == d.basis[0]).all():  # every basis constant (location errors): one row of values for all
+        values = np.broadcast_to(joint_values(machine, d, theta, rows=slice(0, 1))[0], shape)
+    else:
+        values = np.empty(shape)
+        for lo in range(0, n, chunk):  # a chunk's basis times θ at a time: no (N, P) product held
+            values[lo: lo + chunk] = joint_values(machine, d, theta, rows=slice(lo, lo + chunk))
     parts = _slices(d, obs, chunk)
     blocks = evaluate_blocks(machine, obs.axes, values, block=chunk, offsets_mm=obs.offsets_mm, **kw)
     for (lo, hi, out), (dc, axes, w, _, turned) in zip(blocks, parts):

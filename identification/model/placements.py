@@ -199,7 +199,9 @@ def _affine_plan(machine, axes_user, errors_user, offsets_mm):
     offsets = None if offsets_mm is None else np.broadcast_to(np.asarray(offsets_mm, float), (n, 3))
     if n == 0 or (offsets is not None and offsets.strides[0] != 0 and not (offsets == offsets[0]).all()):
         return None  # rows with offsets of their own (a camera beside a laser) are few
-    varies = np.r_[(axes_user != axes_user[0]).any(axis=0), (errors_user != errors_user[0]).any(axis=0)]
+    varies = np.r_[(axes_user != axes_user[0]).any(axis=0),  # a broadcast row of error values: none varies
+                   np.zeros(errors_user.shape[1], bool) if errors_user.strides[0] == 0
+                   else (errors_user != errors_user[0]).any(axis=0)]
     codes = np.zeros(n, dtype=np.int64)
     for (w, i, kind), col in zip(joints, varies):
         if kind != "prismatic" and col:
