@@ -86,7 +86,7 @@ def _evaluated(machine, d: Design, obs: Observations, theta, chunk: int, **kw):
     :func:`~kinid.identification.model.evaluate_blocks` (rows that share the turning joints' values evaluated
     once)."""
     n, shape = len(obs), (len(obs), len(machine.error_joints))
-    if n and (d.basis == d.basis[0]).all():  # every basis constant (location errors): one row of values for all
+    if n and (d.basis.strides[0] == 0 or (d.basis == d.basis[0]).all()):  # every basis constant: one row for all
         values = np.broadcast_to(joint_values(machine, d, theta, rows=slice(0, 1))[0], shape)
     else:
         values = np.empty(shape)
