@@ -85,8 +85,8 @@ def _evaluated(machine, d: Design, obs: Observations, theta, chunk: int, **kw):
     for all where every basis is constant), then the chunks through
     :func:`~kinid.identification.model.evaluate_blocks` (rows that share the turning joints' values evaluated
     once)."""
-    n, shape = len(obs), (len(obs), len(machine.error_joints))
-    if n and (d.basis.strides[0] == 0 or (d.basis == d.basis[0]).all()):  # every basis constant: one row for all
+    n, shape, basis = len(obs), (len(obs), len(machine.error_joints)), d.basis
+    if n and (basis.strides[0] == 0 or (basis == basis[0]).all()):  # every basis constant: one row for all
         values = np.broadcast_to(joint_values(machine, d, theta, rows=slice(0, 1))[0], shape)
     else:
         values = np.empty(shape)
