@@ -159,8 +159,10 @@ def stated_std_of(obs, std: dict):
     row has none."""
     import numpy as np
 
-    rows = [std.get((ln, m)) for ln, m in zip(obs.lines or (), obs.marks)]
-    if not std or not obs.lines or any(s is None for s in rows):
+    if not std or not obs.lines:
+        return None
+    rows = [std.get((ln, m)) for ln, m in zip(obs.lines, obs.marks)]
+    if any(s is None for s in rows):
         return None
     return np.array(rows, float).reshape(len(obs), 3)
 

@@ -183,11 +183,12 @@ def _identify(args) -> int:
     read = _without_duplicates(read)
     obs = read
     check_row_count(obs, "a diagnosis" if args.auto or args.report else "a fit")
-    targets = () if is_observation_file(args.data) else tuple(m for m in dict.fromkeys(obs.marks) if m != ROTATION_MARK)
+    own = is_observation_file(args.data)  # read once: the whole file is decoded to find its header
+    targets = () if own else tuple(m for m in dict.fromkeys(obs.marks) if m != ROTATION_MARK)
     effects = model_effects(machine, args.add, targets=targets)
     from .board_settle import read_levers
 
-    levers = read_levers(args.data, obs) if is_observation_file(args.data) else None
+    levers = read_levers(args.data, obs) if own else None
     if levers is not None:  # the laser beside the camera: its depths judged with the board pose fitted, before all
         from .board_settle import settle
 

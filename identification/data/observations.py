@@ -91,21 +91,30 @@ class Observations:
         return len(self.marks)
 
     def subset(self, index) -> "Observations":
-        """Rows ``index`` (array of ints or booleans)."""
+        """Rows ``index`` (array of ints or booleans); the observations themselves when that is every row in order."""
         idx = np.arange(len(self))[index]
+        if len(idx) == len(self) and np.array_equal(idx, np.arange(len(self))):
+            return self  # frozen: nothing to copy
         return replace(
             self,
-            marks=tuple(self.marks[i] for i in idx),
+            marks=_take(self.marks, idx),
             w_mm=self.w_mm[idx],
             axes=self.axes[idx],
             t_s=None if self.t_s is None else self.t_s[idx],
             directions={k: v[idx] for k, v in self.directions.items()},
-            lines=tuple(self.lines[i] for i in idx) if self.lines else (),
+            lines=_take(self.lines, idx) if self.lines else (),
             offsets_mm=None if self.offsets_mm is None else self.offsets_mm[idx],
             shifts_mm={k: v[idx] for k, v in self.shifts_mm.items()},
             rotations=None if self.rotations is None else self.rotations[idx],
             rotation_um_per_urad=None if self.rotation_um_per_urad is None else self.rotation_um_per_urad[idx],
         )
+
+
+def _take(items: tuple, idx: np.ndarray) -> tuple:
+    """``items`` at ``idx`` as a tuple, gathered in C (``operator.itemgetter``), not a Python loop over rows."""
+    from operator import itemgetter
+
+    return tuple(itemgetter(*idx.tolist())(items)) if len(idx) > 1 else tuple(items[i] for i in idx)
 
 
 def read_observations(path, machine: Machine, *, optional_axes=(), check_limits: bool = True,

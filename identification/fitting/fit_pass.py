@@ -4,7 +4,11 @@ R factor of its QR decomposition.
 A least-squares step needs only JᵀJ and Jᵀr, and the identifiability analysis and the covariance only R: with
 ``J = Q R``, ``‖r + Jδ‖² = ‖r‖² − ‖Qᵀr‖² + ‖Qᵀr + Rδ‖²``. So the (3N × P) Jacobian is never held whole: each chunk
 of :data:`CHUNK_ROWS` alignments is evaluated (Pinocchio) and folded into R by a QR of the stacked rows (TSQR), and
-memory stays flat in the number of alignments (the residuals, 3N numbers, are kept).
+memory stays flat in the number of alignments (the residuals, 3N numbers, and the error joints' values are kept).
+Rows that share every turning joint's value (the same table and head angles, the linear axes anywhere) are
+evaluated once per group and its slopes along the linear axes
+(:func:`~kinid.identification.model.evaluate_blocks`): a million alignments of a plan's 84 angle pairs cost 84 × 4
+poses of Pinocchio, not a million.
 
 Only the error joints the model's parameters sit on are in the pass: the others, at zero, are locked into the
 placements of their neighbours (Pinocchio's ``buildReducedModel``, :func:`reduced`), so each ``forwardKinematics``
@@ -18,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pinocchio as pin
 
-from ..model import Machine, evaluate
+from ..model import Machine, evaluate, evaluate_blocks
 from ..data import Observations
 from .residuals import Design, joint_values, put_rotation_rows
 
@@ -75,14 +79,26 @@ def _slices(d: Design, obs: Observations, chunk: int):
         yield dc, obs.axes[lo:hi], obs.w_mm[lo:hi], None if obs.offsets_mm is None else obs.offsets_mm[lo:hi], turned
 
 
-def _evaluate(machine, axes, values, w, off, turned, **kw):
-    """:func:`~kinid.identification.model.evaluate` of a chunk, its orientation rows put in
-    (:func:`~kinid.identification.fitting.residuals.put_rotation_rows`)."""
-    out = evaluate(machine, axes, values, offsets_mm=off, **kw)
-    if turned is not None:
-        p, G = (out, None) if kw.get("jacobian", True) is False else out[:2]
-        put_rotation_rows(machine, axes, values, w, *turned, p, G, error_columns=kw.get("error_columns"))
-    return out
+def _evaluated(machine, d: Design, obs: Observations, theta, chunk: int, **kw):
+    """(design, observed points, :func:`~kinid.identification.model.evaluate`'s outputs with the orientation rows put
+    in) of consecutive chunks of at most ``chunk`` alignments: the error joints' values of all rows first (one row
+    for all where every basis is constant), then the chunks through
+    :func:`~kinid.identification.model.evaluate_blocks` (rows that share the turning joints' values evaluated
+    once)."""
+    n, shape, basis = len(obs), (len(obs), len(machine.error_joints)), d.basis
+    if n and (basis.strides[0] == 0 or (basis == basis[0]).all()):  # every basis constant: one row for all
+        values = np.broadcast_to(joint_values(machine, d, theta, rows=slice(0, 1))[0], shape)
+    else:
+        values = np.empty(shape)
+        for lo in range(0, n, chunk):  # a chunk's basis times θ at a time: no (N, P) product held
+            values[lo: lo + chunk] = joint_values(machine, d, theta, rows=slice(lo, lo + chunk))
+    parts = _slices(d, obs, chunk)
+    blocks = evaluate_blocks(machine, obs.axes, values, block=chunk, offsets_mm=obs.offsets_mm, **kw)
+    for (lo, hi, out), (dc, axes, w, _, turned) in zip(blocks, parts):
+        if turned is not None:
+            p, G = (out, None) if kw.get("jacobian", True) is False else out[:2]
+            put_rotation_rows(machine, axes, values[lo:hi], w, *turned, p, G, error_columns=kw.get("error_columns"))
+        yield dc, w, out
 
 
 #: Reduced machines kept per machine (one per set of error joints in use), at most.
@@ -129,8 +145,7 @@ def residuals_chunked(machine: Machine, d: Design, obs: Observations, theta, *, 
     """Residuals (N, 3), µm, evaluated a chunk at a time."""
     theta = np.asarray(theta, float)
     machine, d = reduced(machine, d)
-    parts = [(_evaluate(machine, axes, joint_values(machine, dc, theta), w, off, turned, jacobian=False) - w) * 1e3
-             for dc, axes, w, off, turned in _slices(d, obs, chunk)]
+    parts = [(p - w) * 1e3 for _, w, p in _evaluated(machine, d, obs, theta, chunk, jacobian=False)]
     return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 
@@ -142,9 +157,7 @@ def jacobian_chunks(machine: Machine, d: Design, obs: Observations, theta, *, ch
     machine, d = reduced(machine, d)
     used, column = d.joints[:2]
     one_each = np.array_equal(column, np.arange(d.n_params))
-    for dc, axes, w, off, turned in _slices(d, obs, chunk):
-        _, G, _ = _evaluate(machine, axes, joint_values(machine, dc, theta), w, off, turned, error_columns=used,
-                            axes_jacobian=False)
+    for dc, _, (_, G, _) in _evaluated(machine, d, obs, theta, chunk, error_columns=used, axes_jacobian=False):
         yield (G if one_each else G[:, :, column]) * dc.basis[:, None, :]
 
 
@@ -157,9 +170,8 @@ def model_pass_qr(machine: Machine, d: Design, obs: Observations, theta, *, chun
     one_each = np.array_equal(column, np.arange(P))  # each parameter on its own joint, in order: no gather
     parts = []
     top = np.zeros((0, P + 1))
-    for dc, axes, w, off, turned in _slices(d, obs, min(chunk, BLOCK_ROWS)):
-        p, G, _ = _evaluate(machine, axes, joint_values(machine, dc, theta), w, off, turned, error_columns=used,
-                            axes_jacobian=False)
+    for dc, w, (p, G, _) in _evaluated(machine, d, obs, theta, min(chunk, BLOCK_ROWS), error_columns=used,
+                                       axes_jacobian=False):
         n = len(p)
         stacked = np.empty((top.shape[0] + 3 * n, P + 1), order="F")  # LAPACK's order: qr's copy is a plain one
         stacked[: top.shape[0]] = top

@@ -93,10 +93,13 @@ def leverages(machine: Machine, obs: Observations, result) -> np.ndarray:
     if R is None or R.shape != (d0.n_params, d0.n_params) or result.n_observations != len(obs):
         R = model_pass_qr(machine, d0, obs, result.theta).R  # a fit loaded from its file, or of other rows
     Rf = np.linalg.qr(R[:, free], mode="r")[: int(free.sum())]
+    # R⁻¹ of the small triangle once (no scipy import: 0.5 s), then each chunk's J_i R⁻¹ one matrix product: a
+    # general solve per chunk (an LU of Rᵀ and two triangular solves of every row) took 0.9 s of 10⁶ alignments
+    R_inv = np.linalg.solve(Rf, np.eye(len(Rf)))
     out = []
     for J in jacobian_chunks(machine, d0, obs, result.theta, chunk=LEVERAGE_CHUNK):
-        rows = np.linalg.solve(Rf.T, J.reshape(-1, d0.n_params)[:, free].T)  # (J_i R⁻¹)ᵀ (no scipy import: 0.5 s)
-        out.append(np.einsum("ij,ij->j", rows, rows).reshape(-1, 3))
+        rows = J.reshape(-1, d0.n_params)[:, free] @ R_inv  # J_i R⁻¹
+        out.append(np.einsum("ij,ij->i", rows, rows).reshape(-1, 3))
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 

@@ -22,12 +22,12 @@ import pinocchio as pin
 from kinid.checks import check_array
 from kinid.errors import DataError, MachineError
 from kinid.files import captured_stderr, read_limited_text
-from .placements import _evaluate_chunk
+from .placements import _affine_plan, _evaluate_chunk
 from .urdf_checks import (_ERROR_CODE, MAX_URDF_BYTES, _ancestors, _axis_names, _check_placement,  # noqa: F401
                           joint_kind, _urdf_origins, check_urdf_limits)
 
 __all__ = ["axis_limits", "check_machine", "Axis", "ErrorJoint", "Machine", "load_machine", "machine_from_urdf",
-           "evaluate", "tool_in_workpiece_mm", "tool_rotation_in_workpiece"]
+           "evaluate", "evaluate_blocks", "tool_in_workpiece_mm", "tool_rotation_in_workpiece"]
 
 _UNIT = {"prismatic": "mm", "revolute": "deg"}
 
@@ -374,6 +374,56 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
 
 #: Poses per chunk of :func:`evaluate`.
 EVALUATE_CHUNK = 512
+
+
+#: Rows :func:`evaluate_blocks` makes at once on the affine route.
+AFFINE_ROWS = 4096
+
+
+def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, offsets_mm=None, **kw):
+    """``(lo, hi, evaluate(rows lo..hi))`` for consecutive blocks of at most ``block`` rows: :func:`evaluate`'s
+    outputs, computed once per group of rows that share every turning joint's value where that pays.
+
+    With the turning joints (revolute axes and error joints) held, every placement turns the same, so the tool point
+    and each Jacobian column are affine in the sliding joints' values. The rows are grouped by the turning values
+    that vary; each group is evaluated at its first row and at that row moved by one metre along each sliding value
+    that varies; a row is its group's value plus the slopes times its moves (the same to rounding). With too many
+    groups (``placements.AFFINE_SHARE``) or offsets that vary, every block is evaluated pose by pose. Same
+    arguments as :func:`evaluate`, over all N rows (``errors_user`` (N, n_errors))."""
+    n = len(axes_user)
+    plan = _affine_plan(machine, axes_user, errors_user, offsets_mm)
+    if plan is None:
+        for lo in range(0, n, block):
+            off = None if offsets_mm is None else np.broadcast_to(offsets_mm, (n, 3))[lo:lo + block]
+            yield lo, min(lo + block, n), evaluate(machine, axes_user[lo:lo + block], errors_user[lo:lo + block],
+                                                   offsets_mm=off, **kw)
+        return
+    base, slopes, places = _affine_coefficients(machine, plan, kw)
+    span = block * max(1, AFFINE_ROWS // block)  # rows made at once, yielded a block at a time
+    for first in range(0, n, span):
+        g = plan["group"][first:first + span]
+        flat = base[g] + np.einsum("nm,nmf->nf", plan["moves"][first:first + span] - plan["at"][g], slopes[g])
+        for lo in range(first, min(first + span, n), block):
+            rows = flat[lo - first:lo - first + block]
+            out = tuple(None if p is None else rows[:, p[1]:p[2]].reshape((len(rows), *p[0])) for p in places)
+            yield lo, lo + len(rows), out if kw.get("jacobian", True) else out[0]
+
+
+def _affine_coefficients(machine, plan, kw):
+    """(value at each group's first row (G, f), slopes per unit move (G, m, f), each output's (shape per row, first
+    and last column + 1 in f) or None)."""
+    G, m = len(plan["axes"]), len(plan["moving"])
+    axes, errors = np.tile(plan["axes"], (1 + m, 1)), np.tile(plan["errors"], (1 + m, 1))
+    for k, (which, i) in enumerate(plan["moving"]):  # one metre: 1000 mm, 1e6 µm
+        (axes if which == 0 else errors)[(k + 1) * G:(k + 2) * G, i] += 1e3 if which == 0 else 1e6
+    out = evaluate(machine, axes, errors, offsets_mm=plan["offsets"], **kw)
+    out = out if isinstance(out, tuple) else (out,)
+    flat = np.concatenate([o.reshape(len(axes), -1) for o in out if o is not None], axis=1).reshape(1 + m, G, -1)
+    steps = np.array([1e3 if which == 0 else 1e6 for which, _ in plan["moving"]])[:, None, None]
+    ends = np.cumsum([0] + [o[0].size for o in out if o is not None])
+    places = iter(zip(ends[:-1], ends[1:]))  # each output's columns in a row of flat
+    return (flat[0], ((flat[1:] - flat[0]) / steps).transpose(1, 0, 2),
+            [None if o is None else (o.shape[1:], *next(places)) for o in out])
 
 
 def tool_rotation_in_workpiece(machine: Machine, axes_user, errors_user) -> np.ndarray:

@@ -1,5 +1,6 @@
 """The tool point and its derivatives from Pinocchio's joint placements, for a chunk of poses
-(the inside of :func:`~kinid.identification.model.machine.evaluate`).
+(the inside of :func:`~kinid.identification.model.machine.evaluate`); the rows that share every turning joint's
+value grouped (:func:`_affine_plan`, for :func:`~kinid.identification.model.machine.evaluate_blocks`).
 
 Per pose, one ``forwardKinematics`` and one copy of the joint placements (:func:`_read_placements`); the rest for
 all poses at once, in numpy. Units: SI (m, rad) inside, the tool point in mm.
@@ -180,3 +181,38 @@ def _chain_signs(machine, jw: int, jt: int) -> np.ndarray:
                    for v in range(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])]] = sign
         return signs
     return derived(machine, ("chain_signs", jw, jt), make)
+
+
+#: Groups × (1 + the sliding values that vary) at most this share of the rows for
+#: :func:`~kinid.identification.model.evaluate_blocks` to take the affine route (a group costs 1 + m evaluations of
+#: a pose; a row, a gather and a small product).
+AFFINE_SHARE = 0.25
+
+
+def _affine_plan(machine, axes_user, errors_user, offsets_mm):
+    """The groups (rows with the same values of every turning joint, axis or error) and the sliding values that
+    vary, of :func:`~kinid.identification.model.evaluate_blocks`; None where the groups are too many (or the rows
+    carry offsets of their own)."""
+    n, both = len(axes_user), (axes_user, errors_user)
+    joints = [(0, j, a.kind) for j, a in enumerate(machine.axes)]
+    joints += [(1, k, e.kind) for k, e in enumerate(machine.error_joints)]
+    offsets = None if offsets_mm is None else np.broadcast_to(np.asarray(offsets_mm, float), (n, 3))
+    if n == 0 or (offsets is not None and offsets.strides[0] != 0 and not (offsets == offsets[0]).all()):
+        return None  # rows with offsets of their own (a camera beside a laser) are few
+    varies = np.r_[(axes_user != axes_user[0]).any(axis=0),  # a broadcast row of error values: none varies
+                   np.zeros(errors_user.shape[1], bool) if errors_user.strides[0] == 0
+                   else (errors_user != errors_user[0]).any(axis=0)]
+    codes = np.zeros(n, dtype=np.int64)
+    for (w, i, kind), col in zip(joints, varies):
+        if kind != "prismatic" and col:
+            values, inverse = np.unique(both[w][:, i], return_inverse=True)
+            if len(values) > AFFINE_SHARE * n or codes.max() >= (1 << 62) // len(values):
+                return None
+            codes = codes * len(values) + inverse.ravel()
+    moving = [(w, i) for (w, i, kind), col in zip(joints, varies) if kind == "prismatic" and col]
+    _, first, group = np.unique(codes, return_index=True, return_inverse=True)
+    if len(first) * (1 + len(moving)) > AFFINE_SHARE * n:
+        return None
+    moves = np.column_stack([both[w][:, i] for w, i in moving]) if moving else np.zeros((n, 0))
+    return dict(axes=axes_user[first], errors=errors_user[first], offsets=None if offsets is None else offsets[0],
+                moving=moving, moves=moves, at=moves[first], group=group.ravel())

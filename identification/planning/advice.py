@@ -102,7 +102,7 @@ def pose_advice(machine: Machine, effects, obs: Observations, pool: Observations
     travel = travel or TravelModel()
     if not held or pool is None or len(pool) == 0:
         return ()
-    names = design(machine, effects, obs).param_names()
+    names = [n for e in effects for n in e.param_names()]  # Design.param_names, without a basis of every row
 
     def jac(o):
         d = design(machine, effects, o)
