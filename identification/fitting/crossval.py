@@ -192,8 +192,9 @@ def cross_validate(machine, obs: Observations, effects, candidate, *, folds: int
         theta = np.zeros(len(names_m))
         theta[:size] = at[:size]  # the effects' fit on all the data; a candidate's values 0
         Jt = None if columns is None else columns[train].reshape(-1, len(names_m))
-        free = None if Jt is None else analyse(np.linalg.qr(Jt, mode="r"), names_m, tol=RANK_TOL,
-                                                rows=Jt.shape[0]).identifiable & ~np.r_[held, np.zeros(len(names_m) - size, bool)]
+        free = None if Jt is None else (analyse(np.linalg.qr(Jt, mode="r"), names_m, tol=RANK_TOL,
+                                                rows=Jt.shape[0]).identifiable
+                                        & ~np.r_[held, np.zeros(len(names_m) - size, bool)])
         # (as a fit does: values the turn cannot identify are no start, it is refitted from zero)
         if Jt is not None and np.all(theta[~free] == 0.0):
             delta = np.linalg.lstsq(Jt[:, free], -r[train].ravel(), rcond=None)[0]
