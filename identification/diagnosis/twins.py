@@ -47,7 +47,7 @@ class Family:
     best : str
         The best candidate by the score test (it failed the held-out check).
     added : str or None
-        The member added (of those passing the family's bar, the fewest parameters, then the best p-value), None
+        The member added (the first of those passing the family's bar in the twins' order, :func:`twins_of`), None
         if none passes.
     held_out : CrossValidation or None
         The check of ``added``.
@@ -103,7 +103,7 @@ def family_bar_se(members: int, bar_se: float | None = None) -> float:
     """The held-out gain (standard errors) one of ``members`` candidates checked must bring for the family to pass:
     the one-sided normal tail of ``bar_se`` (default
     :data:`~kinid.identification.fitting.crossval.MIN_GAIN_SE`) divided among them. One member: ``bar_se``; six:
-    2.75 for 2."""
+    2.67 for 2."""
     if bar_se is None:
         from ..fitting import MIN_GAIN_SE as bar_se
     tail = 0.5 * chi2_sf(bar_se * bar_se, 1) / max(int(members), 1)  # P(z > bar) / members
@@ -118,9 +118,9 @@ def judge_family(best: str, best_cv, twins, check) -> Family:
     passing = [(name, cv) for name, cv in judged if cv.improves and cv.gain_se >= bar]
     if not passing:
         return Family(best, None, None, (), (best,) + tuple(twins), bar)
-    added, cv = passing[0]  # the twins' order: of those that predict held-out data, the fewest parameters
-    alike = tuple(name for name, _ in passing if name != added)
-    refused = (best,) + tuple(name for name, c in judged if (name, c) not in passing)
+    added, cv = passing[0]  # the twins' order: the library's first, then the p-value
+    alike = tuple(name for name, _ in passing[1:])
+    refused = (best,) + tuple(name for name, c in judged if not (c.improves and c.gain_se >= bar))
     return Family(best, added, cv, alike, refused, bar)
 
 
