@@ -56,7 +56,10 @@ class SelectionStep:
     ``missing-effect`` even where its residual is noise. ``instrument`` (last step): the instrument's errors
     (``camera-scale``, ``camera-rotation``, ``laser-scale``) the residual follows more than any machine error
     explains it, when the selection stopped for them (rows with offsets only); the verdict is then
-    ``missing-effect``, its note naming them.
+    ``missing-effect``, its note naming them. ``family``: where the best candidate failed the held-out check and
+    others fit the data within chance of it, the family as the check judged it
+    (:class:`~kinid.identification.diagnosis.twins.Family`: the member added, if any, and those the data cannot
+    tell from it).
     """
 
     added: str | None
@@ -67,6 +70,7 @@ class SelectionStep:
     held_out: object = None
     undetermined: tuple = ()
     instrument: tuple = ()
+    family: object = None
 
 
 @blas_single_threaded
@@ -117,7 +121,15 @@ def what_is_left(steps) -> str:
     anything structured remains (a significant candidate, the neighbour test, the residual against σ), where
     the model holds an error at each of an axis's few positions, that it is not measured between them, and where it
     holds a step, the two readings it lies between."""
-    return _explained(steps) + _between_positions(steps[-1])
+    return _explained(steps) + _between_positions(steps[-1]) + _families(steps)
+
+
+def _families(steps) -> str:
+    """The families of candidates the data could not tell apart from which the selection added one, in words: what
+    was added, what predicts held-out alignments as well and what does not."""
+    from .twins import family_words
+
+    return "".join(f"; {family_words(s.family)}" for s in steps if s.family is not None and s.family.added)
 
 
 def _between_positions(step) -> str:
@@ -274,16 +286,34 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             from ..fitting import cross_validate
             from ..model import parse_effect as _parse
 
-            name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)  # tested as it would be added
+            from .twins import family_words, judge_family, twins_of
+
+            def checked(effect):  # the held-out check of ``effect`` as it would be added: (name, check)
+                added = refined_time_constant(machine, obs, dg.fit, effect, dg.noise_um)
+                return added, cross_validate(machine, obs, effects, _parse(added, machine), folds=folds,
+                                             noise_um=noise_um, theta0=dg.fit.theta, identifiable0=dg.fit.identifiable,
+                                             choose=_chosen_again(machine, obs, added, dg.fit, effect, dg.noise_um))
+
+            name, cv = checked(best.effect)
             refined = f" (time constant refined: {name.split(':')[2]})" if name != best.effect else ""
-            cv = cross_validate(machine, obs, effects, _parse(name, machine), folds=folds, noise_um=noise_um,
-                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, name, dg.fit, best.effect,
-                                                                          dg.noise_um))
             progress.say(f"  {'':<28} next: {best.effect}{refined}, p = {best.p_value:.2g}, {cv}")
             steps[-1] = replace(steps[-1], held_out=cv)
+            twins = twins_of(dg, best, effects) if not cv.improves else ()
+            if twins:  # the best fails: the family of candidates the data cannot tell apart is judged as one
+                names = {}
+                family = judge_family(best.effect, cv, [c.effect for c in twins],
+                                      lambda effect: names.setdefault(effect, checked(effect))[1])
+                progress.say(f"  {'':<28} {best.effect} does not predict held-out data better; "
+                             f"{family_words(family)}")
+                steps[-1] = replace(steps[-1], family=family)
+                if family.added is not None:
+                    name, cv = names[family.added]
+                    steps[-1] = replace(steps[-1], held_out=cv)
+                    if pending and not family.added.startswith(pending[0] + ":"):  # the twin is not that period
+                        pending = None
             if not cv.improves:
                 stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
-                        f"data better: {cv}")
+                        f"data better: {cv}" + (f"; {family_words(family)}" if twins else ""))
         also = list(undetermined.values()) + ([dg.undetermined] if stop and pending else [])
         if stop and also:
             stop += "; also: " + "; ".join(also)
