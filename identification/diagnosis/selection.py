@@ -10,8 +10,7 @@ from kinid.checks import check_positive
 from kinid.progress import as_progress, step
 from kinid.threads import blas_single_threaded
 
-from ..model import (Machine, basis_of, basis_of_name, check_effects, check_machine, chosen_of,
-                     implausible_candidate, implausible_effects)
+from ..model import Machine, check_effects, check_machine, chosen_of, implausible_effects
 from ..data import Observations, check_observations
 from ..fitting import FitResult
 from .diagnose import ALPHA, Diagnosis, diagnose, passed_over
@@ -275,26 +274,16 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
             from ..fitting import cross_validate
             from ..model import parse_effect as _parse
 
-            sag = _pose_before(machine, dg, best)
-            if sag is not None:  # the joint's sag first; refused by the held-out check, the best is tried as before
-                cv = cross_validate(machine, obs, effects, _parse(sag.effect, machine), folds=folds,
-                                    noise_um=noise_um, theta0=dg.fit.theta)
-                progress.say(f"  {'':<28} first: {sag.effect}, p = {sag.p_value:.2g} (before {best.effect}, p = "
-                             f"{best.p_value:.2g}, which follows its axis alone), {cv}")
-                if cv.improves:
-                    name, pending = sag.effect, None
-                    steps[-1] = replace(steps[-1], held_out=cv)
-            if name is None:
-                name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)  # tested as added
-                refined = f" (time constant refined: {name.split(':')[2]})" if name != best.effect else ""
-                cv = cross_validate(machine, obs, effects, _parse(name, machine), folds=folds, noise_um=noise_um,
-                                    theta0=dg.fit.theta, choose=_chosen_again(machine, obs, name, dg.fit,
-                                                                              best.effect, dg.noise_um))
-                progress.say(f"  {'':<28} next: {best.effect}{refined}, p = {best.p_value:.2g}, {cv}")
-                steps[-1] = replace(steps[-1], held_out=cv)
-                if not cv.improves:
-                    stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
-                            f"data better: {cv}")
+            name = refined_time_constant(machine, obs, dg.fit, best.effect, dg.noise_um)  # tested as it would be added
+            refined = f" (time constant refined: {name.split(':')[2]})" if name != best.effect else ""
+            cv = cross_validate(machine, obs, effects, _parse(name, machine), folds=folds, noise_um=noise_um,
+                                theta0=dg.fit.theta, choose=_chosen_again(machine, obs, name, dg.fit, best.effect,
+                                                                          dg.noise_um))
+            progress.say(f"  {'':<28} next: {best.effect}{refined}, p = {best.p_value:.2g}, {cv}")
+            steps[-1] = replace(steps[-1], held_out=cv)
+            if not cv.improves:
+                stop = (f"the best candidate, {best.effect} (p = {best.p_value:.2g}), does not predict held-out "
+                        f"data better: {cv}")
         also = list(undetermined.values()) + ([dg.undetermined] if stop and pending else [])
         if stop and also:
             stop += "; also: " + "; ".join(also)
@@ -337,35 +326,6 @@ def _select(machine, obs, effects, aside, *, noise_um, alpha, max_steps, progres
         added = name
         carried = dg.noise if dg.noise.known else None
     return steps
-
-
-def _pose_before(machine, dg, best):
-    """The significant candidate driven by the whole pose (a joint's sag under the weight it carries) of the error
-    joint of ``best`` when ``best`` follows the position of its axis alone (a polynomial, a period, a map, a local
-    error, a step), if one a machine could have is live; else None. ``--auto`` tries it first.
-
-    On an arm a joint's deflection under its weight varies with every joint beyond it, most with its own; a function
-    of its own angle alone takes the larger share of it on the poses measured and, searched among thousands of
-    windows or steps, also what of the residual is local to those poses. Added first, such stand-ins may take every
-    step and leave the sag unreached, and they do not carry to poses of another range the way the sag does: on a
-    real UR10 (1 495 poses) eight local errors and periods of J1, J2 and J3 were added and the sag of J2, named
-    next, was not. Once the sag is in, the stand-in's own score says what of its axis alone is left; refused by
-    the held-out check, the sag leaves the step to the best candidate. Only a joint's first sag goes first: the weight
-    at another point differs from it by what varies with the joints beyond, which no function of the joint's own angle
-    takes, so it competes on its p-value (on the real UR10's series C, 2 773 poses, the sags of J2 at J3, T and J6
-    went first in turn, each lowering the RMS by under 1 %)."""
-    if best is None or getattr(basis_of_name(best.effect), "driver", None) != "position":
-        return None
-    code = best.effect.split(":")[0]
-    if any(e.code == code and basis_of(e).driver == "pose" for e in dg.fit.effects):
-        return None
-    for c in dg.live:  # best first
-        if c.p_value >= dg.threshold:
-            return None
-        if (c.effect.split(":")[0] == code and getattr(basis_of_name(c.effect), "driver", None) == "pose"
-                and implausible_candidate(machine, c, dg.fit.axis_ranges) is None):
-            return c
-    return None
 
 
 def _instrument_first(machine, obs, dg, best):

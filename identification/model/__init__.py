@@ -7,8 +7,7 @@ from kinid.lazy import front_door as _front_door
 
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
-    "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "basis_of_name": "bases",
-    "chosen_of": "bases",
+    "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "chosen_of": "bases",
     "local_column_index": "bsplines", "local_columns": "bsplines", "local_grid": "bsplines",
     "TABLE_POSITIONS": "effects", "axis_dependent_joints": "effects", "basis_values": "effects",
     "candidate_library": "effects", "check_effects": "effects", "default_model": "effects",
@@ -22,7 +21,7 @@ _SOURCES = {
 }
 
 __all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG", "TABLE_POSITIONS",
-           "axis_dependent_joints", "axis_directions", "axis_limits", "basis_of", "basis_of_name", "basis_values",
+           "axis_dependent_joints", "axis_directions", "axis_limits", "basis_of", "basis_values",
            "candidate_library", "check_effects", "check_machine", "chosen_of", "default_model",
            "effect_description", "evaluate", "identification_urdf", "implausible_candidate",
            "implausible_effects", "joint_kind", "load_machine", "local_column_index", "local_columns",
