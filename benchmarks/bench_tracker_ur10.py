@@ -15,8 +15,9 @@ instead (and so on). The tracker stood elsewhere for each series, so the held-ou
 of what is left (mm). Then a K-fold (default 10) on the series trained on: each fold's fit (the prior's scale
 and σ chosen once on all of it, so the folds share that choice) predicts its held-out poses in the same tracker frame; the plain fit with the
 sag too.
-Printed: the exit status, iterations and convergence of every fit; the held-out 3-D RMS of the other series and the
-folds (``--folds 0`` skips them).
+``--auto``: also ``kinid identify --auto`` (the effects it adds are printed; minutes, a fit and a held-out check a
+step). Printed: the exit status, iterations and convergence of every fit; the held-out 3-D RMS of the other series
+and the folds (``--folds 0`` skips them).
 ``--orientation``: the T-Mac's measured orientation too (its ``measurement_rx/_ry/_rz``, Euler XYZ in degrees, the
 probe turned on the flange as the Trafo file's rotation says: ``--orientation-mount-deg``), three rows more per pose
 (docs/formats.md, "Measured orientation"); without it the fits read the points only (``--orientation off``), as
@@ -134,6 +135,7 @@ def main(argv=None) -> int:
     ap.add_argument("--train", type=int, default=None, help="fit on its first N poses (default all)")
     ap.add_argument("--folds", type=int, default=10)
     ap.add_argument("--orientation", action="store_true", help="fit the measured orientation too (three rows a pose)")
+    ap.add_argument("--auto", action="store_true", help="also `kinid identify --auto` (minutes: a fit a step)")
     args = ap.parse_args(argv)
     from kinid.identification.data import read_export
     from kinid.identification.fitting import PRIOR_UM, PRIOR_URAD, choose_prior, fit, load_fit, model_effects, prior_std
@@ -165,7 +167,8 @@ def main(argv=None) -> int:
             print(f"probe mount (Euler XYZ) from the Trafo file: {', '.join(f'{v:.4f}' for v in mount)}°")
             for other in SERIES:
                 print(f"  {other}: {check_orientation(machine, turned[other]).line}")
-        for extra in ([], ["--prior", "--no-check"], ["--add", *SAG], ["--prior", "--no-check", "--add", *SAG]):
+        routes = [[], ["--prior", "--no-check"], ["--add", *SAG], ["--prior", "--no-check", "--add", *SAG]]
+        for extra in routes + ([["--auto"]] if args.auto else []):
             t0 = time.perf_counter()
             out = kinid("identify", "--machine", urdf, "--data", train, "--out", tmp / "fit.json", *turn, *extra)
             last = (out.stderr.strip().splitlines() or [""])[-1] if out.returncode else "fit written"
@@ -176,6 +179,8 @@ def main(argv=None) -> int:
             loaded = load_fit(tmp / "fit.json")
             effects, theta = loaded.effects, loaded.theta
             trained = f"the first {args.train} trained on" if args.train else "all trained on"
+            if "--auto" in extra:
+                print(f"  added: {' '.join(e.name for e in effects if ':' in e.name) or 'nothing'}")
             print(f"  {loaded.iterations} iterations, converged: {loaded.success}; {name} ({len(series[name])} poses, "
                   f"{trained}) 3-D RMS {held_out_mm(machine, effects, theta, series[name]):.3f} mm")
             for line in out.stdout.splitlines():
