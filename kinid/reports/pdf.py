@@ -109,9 +109,9 @@ class _Flow:
         """Set ``s`` with its top at ``y_pt`` and its left (``ha="right"``: right) end at ``x_pt``, where
         ``Figure.text(..., va="top")`` puts it: the baseline below the top by the height of "lp" (or of the string's
         own glyphs, if taller) less their descent, measured as the PDF renderer measures (unhinted, 72 dpi)."""
-        w, h, d = self._metric(s, size, weight, family)
+        h, d = self._height_descent(s, size, weight, family)
         _, lp_h, lp_d = self._metric("lp", size, weight, family)
-        x = x_pt - w if ha == "right" else x_pt
+        x = x_pt - self._width(s, size, weight, family) if ha == "right" else x_pt
         prop = self._props.get((size, weight, family)) or self._props.setdefault(
             (size, weight, family), _font(size, weight, family))
         self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, prop, color)
@@ -142,6 +142,18 @@ class _Flow:
         if key not in self._metrics:  # measuring shapes the text (libraqm): about 0.5 ms a string
             self._metrics[key] = self._measure.get_text_width_height_descent(s, _font(size, weight, family), False)
         return self._metrics[key]
+
+    def _height_descent(self, s: str, size: float, weight="normal", family="sans-serif") -> tuple:
+        """Height and descent, pt, of ``s`` as :meth:`_metric` measures them, from its characters' (each measured
+        once): the renderer's box of a string is the union of its glyphs' boxes, all on one baseline, so its top is
+        the highest glyph's and its bottom the lowest's. A line is not shaped to be placed, only to be drawn."""
+        if not s:
+            return self._metric(s, size, weight, family)[1:]
+        top = depth = -float("inf")
+        for c in set(s):
+            _, h, d = self._metric(c, size, weight, family)
+            top, depth = max(top, h - d), max(depth, d)
+        return top + depth, depth
 
     def _gap(self, before: str, after: str, size: float, weight, family) -> float:
         """The room, pt, between the ink of a word ending in ``before`` and one starting with ``after`` set after it
