@@ -3,7 +3,7 @@ from its words' (kinid.reports.pdf), and these tests compare that with the plain
 import numpy as np
 import pytest
 
-from kinid.reports.pdf import _Flow
+from kinid.reports.pdf import _Flow, _font
 
 #: Words of a report's sentences: kerning pairs (AV, Te, y.), µ, σ, ±, quotes, numbers, a SHA-256 longer than a line.
 WORDS = ("AVAILABLE", "Te", "y.", "(σ", "1.37", "µm", "±2σ", "“held”", "EXX:periodic:10", "workpiece,", "−0.25",
@@ -53,3 +53,20 @@ def test_wrap_agrees_at_the_limit():
     assert flow.wrap(text, 9.5, full) == [text]
     assert len(flow.wrap(text, 9.5, full - 0.01)) == 2
     assert flow.wrap(text, 9.5, full - 0.01) == _greedy(flow, text, 9.5, full - 0.01, "normal")
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_a_line_is_placed_with_the_height_and_descent_of_measuring_it_whole(seed):
+    """_put places a line from its characters' boxes (kinid.reports.pdf._Flow._height_descent), not by shaping it:
+    the same height and descent as the whole line measured, in both fonts, with the text output's no-break spaces."""
+    rng = np.random.default_rng(seed)
+    flow = _Flow()
+    extra = ("(Å)", "|x|", "[−3]", "g_q", "µ²", "\u00a0\u00a0", "…", "ŷ")
+    for _ in range(40):
+        text = " ".join(rng.choice(WORDS + extra, size=rng.integers(1, 12)))
+        family = str(rng.choice(["sans-serif", "monospace"]))
+        text = text.replace(" ", "\u00a0") if family == "monospace" else text
+        size, weight = float(rng.choice([6.5, 7.5, 9.5, 13.0])), str(rng.choice(["normal", "bold"]))
+        whole = flow._measure.get_text_width_height_descent(text, _font(size, weight, family), False)
+        assert flow._height_descent(text, size, weight, family) == pytest.approx(whole[1:], abs=1e-9), text
+    assert flow._height_descent(" ", 9.5) == pytest.approx(flow._metric(" ", 9.5)[1:])

@@ -112,10 +112,13 @@ def lomb_scargle_power(x, y, freqs) -> np.ndarray:
     x, y = np.asarray(x, float), np.asarray(y, float).reshape(len(x), -1)
     wt = np.multiply.outer(x, np.asarray(freqs, float))  # (N, F)
     n = x.size
-    cc = np.mean(np.cos(wt) ** 2, axis=0)
-    cs = np.mean(np.cos(wt) * np.sin(wt), axis=0)
+    cos_wt, sin_wt = np.cos(wt), np.sin(wt)  # the only sines of (N, F): those of wt − τ follow by the angle sum
+    cc = np.mean(cos_wt ** 2, axis=0)
+    cs = np.mean(cos_wt * sin_wt, axis=0)
     tau = 0.5 * np.arctan2(2.0 * cs, 2.0 * cc - 1.0)
-    cos_t, sin_t = np.cos(wt - tau), np.sin(wt - tau)
+    cos_tau, sin_tau = np.cos(tau), np.sin(tau)
+    cos_t = cos_wt * cos_tau + sin_wt * sin_tau  # cos(wt − τ)
+    sin_t = sin_wt * cos_tau - cos_wt * sin_tau  # sin(wt − τ)
     yc, ys = cos_t.T @ y / n, sin_t.T @ y / n  # (F, K)
     tiny = np.finfo(float).epsneg
     c2 = np.maximum(np.mean(cos_t ** 2, axis=0), tiny)[:, None]

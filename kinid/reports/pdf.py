@@ -5,8 +5,9 @@ the rest print as on screen) and writes the same bytes for the same report, and 
 (WeasyPrint, a headless browser) would add a large dependency for one file.
 
 The page flows top to bottom: title, provenance, summary, then each section's paragraphs, tables (split
-over pages with the header repeated), figures (the report's PNGs, scaled to the text width) and the folded
-text output in a fixed-width font. Every page carries the report's title and ``page n of N``.
+over pages with the header repeated), figures (the report's PNGs, scaled to the text width; an opaque one's
+compressed rows embedded as they are) and the folded text output in a fixed-width font. Every page carries the
+report's title and ``page n of N``.
 """
 from __future__ import annotations
 
@@ -108,9 +109,9 @@ class _Flow:
         """Set ``s`` with its top at ``y_pt`` and its left (``ha="right"``: right) end at ``x_pt``, where
         ``Figure.text(..., va="top")`` puts it: the baseline below the top by the height of "lp" (or of the string's
         own glyphs, if taller) less their descent, measured as the PDF renderer measures (unhinted, 72 dpi)."""
-        w, h, d = self._metric(s, size, weight, family)
+        h, d = self._height_descent(s, size, weight, family)
         _, lp_h, lp_d = self._metric("lp", size, weight, family)
-        x = x_pt - w if ha == "right" else x_pt
+        x = x_pt - self._width(s, size, weight, family) if ha == "right" else x_pt
         prop = self._props.get((size, weight, family)) or self._props.setdefault(
             (size, weight, family), _font(size, weight, family))
         self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, prop, color)
@@ -141,6 +142,18 @@ class _Flow:
         if key not in self._metrics:  # measuring shapes the text (libraqm): about 0.5 ms a string
             self._metrics[key] = self._measure.get_text_width_height_descent(s, _font(size, weight, family), False)
         return self._metrics[key]
+
+    def _height_descent(self, s: str, size: float, weight="normal", family="sans-serif") -> tuple:
+        """Height and descent, pt, of ``s`` as :meth:`_metric` measures them, from its characters' (each measured
+        once): the renderer's box of a string is the union of its glyphs' boxes, all on one baseline, so its top is
+        the highest glyph's and its bottom the lowest's. A line is not shaped to be placed, only to be drawn."""
+        if not s:
+            return self._metric(s, size, weight, family)[1:]
+        top = depth = -float("inf")
+        for c in set(s):
+            _, h, d = self._metric(c, size, weight, family)
+            top, depth = max(top, h - d), max(depth, d)
+        return top + depth, depth
 
     def _gap(self, before: str, after: str, size: float, weight, family) -> float:
         """The room, pt, between the ink of a word ending in ``before`` and one starting with ``after`` set after it
@@ -297,7 +310,7 @@ class _Flow:
         self.y += 8
 
     def figure(self, png: Path, caption: str) -> None:
-        image = _opaque_pixels(png)
+        image = _PngStream.read(png) or _opaque_pixels(png)
         if image is None:
             return
         h_px, w_px = image.shape[:2]
@@ -360,9 +373,9 @@ def _lines():
 
 
 def _picture(pixels, box):
-    """An artist drawing ``pixels`` (rows top to bottom) into ``box`` (left, bottom, width, height; fractions of the
-    page) at their own resolution, as ``imshow(..., interpolation="none")`` in an axes of that box does, without
-    making an axes (which costs more than the picture)."""
+    """An artist drawing ``pixels`` (rows top to bottom, or a :class:`_PngStream`) into ``box`` (left, bottom, width,
+    height; fractions of the page) at their own resolution, as ``imshow(..., interpolation="none")`` in an axes of
+    that box does, without making an axes (which costs more than the picture)."""
     from matplotlib.artist import Artist
     from matplotlib.transforms import Affine2D
 
@@ -372,12 +385,96 @@ def _picture(pixels, box):
                 return
             (x0, y0), (x1, y1) = self.get_figure(root=True).transFigure.transform(
                 [(box[0], box[1]), (box[0] + box[2], box[1] + box[3])])
+            image = pixels
+            if isinstance(image, _PngStream) and not _embeds_png_streams(getattr(renderer, "file", None)):
+                image = image.pixels()
+            if not isinstance(image, _PngStream):
+                image = image[::-1]  # rows bottom up
             gc = renderer.new_gc()
-            renderer.draw_image(gc, x0, y0, pixels[::-1], Affine2D().scale(x1 - x0, y1 - y0))  # rows bottom up
+            renderer.draw_image(gc, x0, y0, image, Affine2D().scale(x1 - x0, y1 - y0))
             gc.restore()
             self.stale = False
 
     return Picture()
+
+
+class _PngStream:
+    """An 8-bit RGB PNG's compressed rows (its IDAT data: zlib over the PNG-filtered rows), which a PDF holds as they
+    are (FlateDecode with the PNG predictors, as matplotlib embeds an image after encoding it as PNG itself): the
+    figure goes into the PDF without decoding its pixels and compressing them again."""
+
+    def __init__(self, path: Path, width_px: int, height_px: int, data: bytes):
+        self.path, self.width_px, self.height_px, self.data = path, width_px, height_px, data
+        self.shape = (height_px, width_px, 3)  # what matplotlib's PDF renderer reads of an image it places
+
+    @classmethod
+    def read(cls, path: Path):
+        """The stream of ``path`` if it is an 8-bit RGB PNG, not interlaced (kinid's opaque figures); else None."""
+        import struct
+        import zlib
+
+        try:
+            data = Path(path).read_bytes()
+        except OSError:
+            return None
+        if data[:8] != b"\x89PNG\r\n\x1a\n":
+            return None
+        at, header, rows = 8, None, []
+        while at + 12 <= len(data):
+            length, kind = struct.unpack(">I4s", data[at:at + 8])
+            body, crc = data[at + 8:at + 8 + length], data[at + 8 + length:at + 12 + length]
+            if len(crc) != 4 or zlib.crc32(kind + body) != struct.unpack(">I", crc)[0]:
+                return None
+            if kind == b"IHDR":
+                header = struct.unpack(">IIBBBBB", body)
+            elif kind == b"IDAT":
+                rows.append(body)
+            elif kind == b"IEND":
+                break
+            at += 12 + length
+        if header is None or header[2:] != (8, 2, 0, 0, 0) or not rows:  # 8 bits, RGB, deflate, PNG filters, not
+            return None  # interlaced
+        return cls(Path(path), header[0], header[1], b"".join(rows))
+
+    def pixels(self):
+        """The pixels, (height, width, 3) uint8, rows top to bottom (for a renderer other than the PDF's)."""
+        return _opaque_pixels(self.path)
+
+
+def _embeds_png_streams(pdf_file) -> bool:
+    """Make matplotlib's PDF file ``pdf_file`` write each :class:`_PngStream` it is given as an image as it is (an image
+    XObject of the stream, FlateDecode with the PNG predictors); False if ``pdf_file`` is not one it knows how to
+    (then the picture is drawn from its pixels)."""
+    if pdf_file is None:
+        return False
+    if getattr(pdf_file, "_kinid_png_streams", False):
+        return True
+    images, write_images = getattr(pdf_file, "_images", None), getattr(pdf_file, "writeImages", None)
+    if not isinstance(images, dict) or write_images is None or not hasattr(pdf_file, "beginStream"):
+        return False
+
+    def write_all():
+        ours = {key: entry for key, entry in images.items() if isinstance(entry[0], _PngStream)}
+        for key in ours:
+            del images[key]  # matplotlib writes the others, from their pixels
+        write_images()
+        for stream, _, ob in ours.values():
+            _write_png_stream(pdf_file, stream, ob.id)
+
+    pdf_file.writeImages = write_all
+    pdf_file._kinid_png_streams = True
+    return True
+
+
+def _write_png_stream(pdf_file, stream: _PngStream, object_id: int) -> None:
+    from matplotlib.backends.backend_pdf import Name
+
+    pdf_file.beginStream(object_id, pdf_file.reserveObject("length of image stream"),
+                         {"Type": Name("XObject"), "Subtype": Name("Image"), "Width": stream.width_px,
+                          "Height": stream.height_px, "ColorSpace": Name("DeviceRGB"), "BitsPerComponent": 8},
+                         png={"Predictor": 10, "Colors": 3, "Columns": stream.width_px})
+    pdf_file.currentstream.write(stream.data)
+    pdf_file.endStream()
 
 
 def _opaque_pixels(png: Path):
