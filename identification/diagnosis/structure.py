@@ -30,6 +30,10 @@ __all__ = ["Structure", "structure_left"]
 PERMUTATIONS = 499
 #: At most this many alignments (drawn at random) enter the test: its cost grows with their square.
 MAX_ROWS = 1500
+#: A pair of variables needs both when its neighbours' statistic is under this share of the better one's alone
+#: (a function of B and C: 0.01 against 0.10 along time; a function of time alone in axis-major order: 0.25 along
+#: C and time against 0.26 along time).
+PAIR_GAIN = 0.5
 
 
 @dataclass(frozen=True)
@@ -47,9 +51,10 @@ class Structure:
         ``"readings"`` (every axis at once), ``"time"``, one axis's name, or two variables' names joined by
         ``" and "``: the look where the neighbours agree best.
     axis : str
-        Where to look: the variable (an axis, or ``"time"``) of that look; of a pair the axis before time (time's
-        neighbours also agree where time follows the axes visited), else the one whose neighbours alone agree
-        better; of every axis at once the single variable whose neighbours agree best.
+        Where to look: the variable (an axis, or ``"time"``) of that look; of a pair the one whose neighbours alone
+        agree better, but the axis before time when neither alone comes near the pair (:data:`PAIR_GAIN`: time's
+        neighbours also agree where time follows the axes visited); of every axis at once the single variable whose
+        neighbours agree best.
     axes : tuple
         The variables of that look (one or two; every single variable's best for ``"readings"``).
     """
@@ -194,9 +199,12 @@ def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Struc
     single = {nm: float(_ratio(r, _neighbours(v[:, None]))) for nm, v in variables.items()}
     if along == "readings":  # where to look: the single variable whose neighbours agree best
         chosen = (min(single, key=single.get),)
-    else:  # the look's variables: an axis before time (time's neighbours agree also where time follows the axes
-        # visited, through the order), then the one whose neighbours alone agree better
-        chosen = tuple(sorted(along.split(" and "), key=lambda nm: (nm == "time", single[nm])))
+    else:  # the look's variables, the one whose neighbours alone agree better first — unless neither accounts
+        # for the structure alone (the pair's statistic under PAIR_GAIN × the better one's): then an axis before time
+        # (time's neighbours agree also where time follows the axes visited, through the order)
+        pair = along.split(" and ")
+        both = float(_ratio(r, _neighbours(looks[best][1]))) < PAIR_GAIN * min(single[nm] for nm in pair)
+        chosen = tuple(sorted(pair, key=lambda nm: (both and nm == "time", single[nm])))
     return Structure(ratio, min(1.0, p), along, chosen[0], chosen)
 
 
