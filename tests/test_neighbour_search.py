@@ -63,7 +63,9 @@ def test_replicas_solved_from_noisy_alignments_are_not_structure(tmp_path):
     replicas = full.residuals_um.reshape(10, -1, 3).mean(axis=0)
     assert np.sqrt(np.mean(replicas**2)) < 1.2 * np.std(full.residuals_um) / np.sqrt(10)  # the replicas: noise alone
     noise = structure_left(full.residuals_um, obs.axes, obs.t_s, names=names)
-    assert noise.p_value > 0.05 and noise.ratio > 0.9, noise
+    # (the ratio reported is the most extreme look's of twenty and more — each axis, each pair, time — below 1 by that
+    # choice alone; the p-value counts the looks)
+    assert noise.p_value > 0.05, noise
     lacking = structure_left(fit(machine, obs, default_model(machine), noise_um=1.0).residuals_um, obs.axes, obs.t_s,
                              names=names)
     assert lacking.p_value < 0.01, lacking

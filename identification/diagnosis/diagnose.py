@@ -173,7 +173,8 @@ class Diagnosis:
             out["time_follows"] = [{"axis": a, "correlation": float(rho)} for a, rho in self.time_follows]
         if self.structure is not None:
             st = self.structure
-            out["structure"] = {"ratio": float(st.ratio), "p_value": float(st.p_value), "along": st.along, "axis": st.axis}
+            out["structure"] = {"ratio": float(st.ratio), "p_value": float(st.p_value), "along": st.along, "axis": st.axis,
+                                "axes": list(st.axes)}
         passed = self.advised[1] if self.verdict != "noise" else ()
         if passed:  # only when better candidates than the one advised need sizes no machine has (docs/cli.md)
             out["passed_over"] = [{"effect": c.effect, "size": float(a.size), "limit": a.limit, "unit": a.unit}

@@ -5,8 +5,16 @@ Noise is independent from alignment to alignment; an effect of the machine is no
 to each other in the readings (or in time) have similar residuals. The statistic is the mean squared
 difference between each alignment's residual and that of its nearest neighbour, over twice the mean
 squared residual: about 1 for noise, well below 1 for a smooth effect. Its null distribution comes
-from permutations of the residual rows (no σ, no distribution assumed), for neighbours in the
-readings (every axis scaled by its range) and, when the data have times, in time.
+from permutations of the residual rows (no σ, no distribution assumed).
+
+Neighbours are looked for in several spaces ("looks"): the readings of every axis at once (each scaled by its
+range), each variable alone (an axis, or time when the data have it) and each pair of variables. An effect of
+two variables (a roll of Z that changes with both B and C, an error that grows with X and with time) is plain in
+its pair's plane and blurred in the readings of every axis at once, where neighbours differ in axes it does not
+depend on. The looks are judged together: each look's statistic is standardised by its own permutation mean and
+spread, the test statistic is the smallest of them, and its null is the smallest over the looks of each
+permutation (the same permutation in every look) — the p-value of the best look with its many looks counted,
+with no loss to a Bonferroni factor.
 """
 from __future__ import annotations
 
@@ -22,6 +30,10 @@ __all__ = ["Structure", "structure_left"]
 PERMUTATIONS = 499
 #: At most this many alignments (drawn at random) enter the test: its cost grows with their square.
 MAX_ROWS = 1500
+#: A pair of variables needs both when its neighbours' statistic is under this share of the better one's alone
+#: (a function of B and C: 0.01 against 0.10 along time; a function of time alone in axis-major order: 0.25 along
+#: C and time against 0.26 along time).
+PAIR_GAIN = 0.5
 
 
 @dataclass(frozen=True)
@@ -31,24 +43,36 @@ class Structure:
     Attributes
     ----------
     ratio : float
-        Smallest of the statistics (readings, time): ~1 for noise, < 1 for structure.
+        The statistic of the look where the neighbours agree best, over its mean under the permutations: ~1 for
+        noise, < 1 for structure.
     p_value : float
-        Permutation p-value of that statistic (with the two-look correction).
+        Permutation p-value of the smallest standardised statistic over every look (the looks counted).
     along : str
-        ``"readings"`` or ``"time"``: where the neighbours agree best.
+        ``"readings"`` (every axis at once), ``"time"``, one axis's name, or two variables' names joined by
+        ``" and "``: the look where the neighbours agree best.
     axis : str
-        The axis (or ``"time"``) along which alone neighbouring residuals agree best: where to look.
+        Where to look: the variable (an axis, or ``"time"``) of that look; of a pair the one whose neighbours alone
+        agree better, but the axis before time when neither alone comes near the pair (:data:`PAIR_GAIN`: time's
+        neighbours also agree where time follows the axes visited); of every axis at once the single variable whose
+        neighbours agree best.
+    axes : tuple
+        The variables of that look (one or two; every single variable's best for ``"readings"``).
     """
 
     ratio: float
     p_value: float
     along: str
     axis: str = ""
+    axes: tuple = ()
 
     def describe(self) -> str:
-        where = "time" if self.axis == "time" else f"the readings of {self.axis}" if self.axis else "the readings"
+        names = [a for a in (self.axes or (self.axis,)) if a]
+        readings = [a for a in names if a != "time"]
+        where = " and ".join(([f"the readings of {' and '.join(readings)}"] if readings else [])
+                             + (["time"] if "time" in names else [])) or "the readings"
+        together = " together" if len(names) > 1 else ""
         return (f"neighbouring alignments have similar residuals (nearest-neighbour ratio {self.ratio:.2f}, 1 for noise; "
-                f"p = {self.p_value:.2g}), most clearly along {where}")
+                f"p = {self.p_value:.2g}), most clearly along {where}{together}")
 
 
 def _neighbours(coords: np.ndarray) -> np.ndarray:
@@ -59,7 +83,9 @@ def _neighbours(coords: np.ndarray) -> np.ndarray:
     single = np.flatnonzero(out < 0)  # only the others are searched
     for start in range(0, single.size, 512):
         which = single[start:start + 512]
-        d = np.sum((coords[which][:, None, :] - coords[None, :, :]) ** 2, axis=2)
+        d = (coords[which, 0][:, None] - coords[None, :, 0]) ** 2
+        for k in range(1, coords.shape[1]):  # column by column: the sum of squares in the same order, without the
+            d += (coords[which, k][:, None] - coords[None, :, k]) ** 2  # (chunk, N, k) temporary
         d[np.arange(which.size), which] = np.inf
         out[which] = np.argmin(d, axis=1)
     return out
@@ -104,15 +130,23 @@ def _ratio(r: np.ndarray, nn: np.ndarray) -> np.ndarray:
     return num / np.where(den > 0, den, 1.0)
 
 
-def _null_ratios(r: np.ndarray, perms: np.ndarray, nn: np.ndarray) -> np.ndarray:
+def _null_ratios(r: np.ndarray, perms: np.ndarray, nn: np.ndarray, permuted=None) -> np.ndarray:
     """:func:`_ratio` of the residuals ``r`` (N, 3) with their rows permuted by each row of ``perms`` (P, N), from
-    their Gram matrix: ‖r_a − r_b‖² = s_a + s_b − 2 r_a·r_b gathers P × N numbers, not P × N × 3 twice."""
-    gram = r @ r.T
-    s = np.einsum("nk,nk->n", r, r)
-    other = perms[:, nn]
+    ‖r_a − r_b‖² = s_a + s_b − 2 r_a·r_b with each coordinate's products taken from its own column (P × N numbers
+    gathered from N, not from an N × N Gram matrix); ``permuted`` is :func:`_permuted` of ``r`` when the caller has
+    it (one gather for every look)."""
+    s, columns, rp = _permuted(r, perms) if permuted is None else permuted
+    other = np.take(perms, nn, axis=1)  # each permuted row's neighbour, as a row of r
     total = float(np.sum(s))
-    num = (total + np.sum(s[other], axis=1) - 2.0 * np.sum(gram[perms, other], axis=1)) / len(r)
+    dots = sum(np.einsum("pn,pn->p", rp[k], np.take(columns[k], other)) for k in range(len(columns)))
+    num = (total + np.sum(np.take(s, other), axis=1) - 2.0 * dots) / len(r)
     return num / (2.0 * total / len(r)) if total > 0 else num
+
+
+def _permuted(r: np.ndarray, perms: np.ndarray) -> tuple:
+    """(each row's squared norm (N,), each coordinate's column, each coordinate permuted by ``perms`` (k, P, N))."""
+    columns = [np.ascontiguousarray(r[:, k]) for k in range(r.shape[1])]
+    return np.einsum("nk,nk->n", r, r), columns, np.stack([np.take(c, perms) for c in columns])
 
 
 def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Structure | None:
@@ -140,25 +174,45 @@ def structure_left(residuals_um, axes, t_s=None, *, names=(), rng=None) -> Struc
     a = np.column_stack([positions_of(a[:, k]) for k in range(a.shape[1])]) if a.shape[1] else a
     moving = np.ptp(a, axis=0) > 0
     a, names = a[:, moving] / np.ptp(a[:, moving], axis=0), [nm for nm, m in zip(names, moving) if m]
-    looks = [("readings", a)]
+    variables = dict(zip(names, a.T))
     if t is not None and np.ptp(t) > 0:
-        looks.append(("time", t[:, None]))
+        variables["time"] = (t - np.min(t)) / np.ptp(t)
+    if not variables:
+        return None
+    looks = _looks(a, variables)
     perms = np.stack([rng.permutation(n) for _ in range(PERMUTATIONS)])
-    best = None
-    for along, coords in looks:
-        if coords.shape[1] == 0:
-            continue
+    permuted = _permuted(r, perms)
+    observed, null, relative = [], [], []
+    for _, coords in looks:
         nn = _neighbours(coords)
         ratio = float(_ratio(r, nn))
-        null = _null_ratios(r, perms, nn)
-        p = (1 + int(np.sum(null <= ratio))) / (PERMUTATIONS + 1)
-        if best is None or p < best.p_value:
-            best = Structure(ratio, p, along)
-    if best is None:
-        return None
-    # where to look: the single coordinate whose neighbours agree best
-    singles = [(float(_ratio(r, _neighbours(a[:, [k]]))), nm) for k, nm in enumerate(names)]
-    if t is not None and np.ptp(t) > 0:
-        singles.append((float(_ratio(r, _neighbours(t[:, None]))), "time"))
-    axis = min(singles)[1] if singles else ""
-    return Structure(best.ratio, min(1.0, best.p_value * len(looks)), best.along, axis)
+        ratios = _null_ratios(r, perms, nn, permuted)
+        mean, spread = float(np.mean(ratios)), float(np.std(ratios))
+        spread = spread if spread > 0 else 1.0
+        observed.append((ratio - mean) / spread)
+        null.append((ratios - mean) / spread)
+        relative.append(ratio / mean if mean > 0 else 1.0)  # against noise in this look (its null's mean), ~1
+    observed, null = np.asarray(observed), np.min(np.asarray(null), axis=0)
+    best = int(np.argmin(observed))
+    p = (1 + int(np.sum(null <= observed[best]))) / (PERMUTATIONS + 1)
+    along, ratio = looks[best][0], relative[best]
+    single = {nm: float(_ratio(r, _neighbours(v[:, None]))) for nm, v in variables.items()}
+    if along == "readings":  # where to look: the single variable whose neighbours agree best
+        chosen = (min(single, key=single.get),)
+    else:  # the look's variables, the one whose neighbours alone agree better first — unless neither accounts
+        # for the structure alone (the pair's statistic under PAIR_GAIN × the better one's): then an axis before time
+        # (time's neighbours agree also where time follows the axes visited, through the order)
+        pair = along.split(" and ")
+        both = float(_ratio(r, _neighbours(looks[best][1]))) < PAIR_GAIN * min(single[nm] for nm in pair)
+        chosen = tuple(sorted(pair, key=lambda nm: (both and nm == "time", single[nm])))
+    return Structure(ratio, min(1.0, p), along, chosen[0], chosen)
+
+
+def _looks(a: np.ndarray, variables: dict) -> list:
+    """(name, coordinates (N, k)) of every look of the test: every axis at once, each variable alone, each pair."""
+    names = list(variables)
+    looks = [("readings", a)] if a.shape[1] > 1 else []
+    looks += [(u, variables[u][:, None]) for u in names]
+    looks += [(f"{u} and {v}", np.column_stack([variables[u], variables[v]]))
+              for i, u in enumerate(names) for v in names[i + 1:]]
+    return looks
