@@ -202,17 +202,23 @@ def _affine_plan(machine, axes_user, errors_user, offsets_mm):
     varies = np.r_[(axes_user != axes_user[0]).any(axis=0),  # a broadcast row of error values: none varies
                    np.zeros(errors_user.shape[1], bool) if errors_user.strides[0] == 0
                    else (errors_user != errors_user[0]).any(axis=0)]
-    codes = np.zeros(n, dtype=np.int64)
-    for (w, i, kind), col in zip(joints, varies):
-        if kind != "prismatic" and col:
-            values, inverse = np.unique(both[w][:, i], return_inverse=True)
-            if len(values) > AFFINE_SHARE * n or codes.max() >= (1 << 62) // len(values):
-                return None
-            codes = codes * len(values) + inverse.ravel()
+    turning = [both[w][:, i] for (w, i, kind), col in zip(joints, varies) if kind != "prismatic" and col]
+    # Rows in runs of the same turning values (a plan's poses repeated) are grouped by the first row of each run:
+    # the same values, groups and first rows as over every row, with sorts of the runs only.
+    starts = np.ones(n, bool)
+    starts[1:] = np.logical_or.reduce([t[1:] != t[:-1] for t in turning]) if turning else False
+    heads = np.flatnonzero(starts)
+    codes = np.zeros(len(heads), dtype=np.int64)
+    for column in turning:
+        values, inverse = np.unique(column[heads], return_inverse=True)
+        if len(values) > AFFINE_SHARE * n or codes.max() >= (1 << 62) // len(values):
+            return None
+        codes = codes * len(values) + inverse.ravel()
     moving = [(w, i) for (w, i, kind), col in zip(joints, varies) if kind == "prismatic" and col]
     _, first, group = np.unique(codes, return_index=True, return_inverse=True)
     if len(first) * (1 + len(moving)) > AFFINE_SHARE * n:
         return None
+    first, group = heads[first], group.ravel()[np.cumsum(starts) - 1]
     moves = np.column_stack([both[w][:, i] for w, i in moving]) if moving else np.zeros((n, 0))
     return dict(axes=axes_user[first], errors=errors_user[first], offsets=None if offsets is None else offsets[0],
-                moving=moving, moves=moves, at=moves[first], group=group.ravel())
+                moving=moving, moves=moves, at=moves[first], group=group)
