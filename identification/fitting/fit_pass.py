@@ -93,7 +93,10 @@ def _evaluated(machine, d: Design, obs: Observations, theta, chunk: int, **kw):
         for lo in range(0, n, chunk):  # a chunk's basis times θ at a time: no (N, P) product held
             values[lo: lo + chunk] = joint_values(machine, d, theta, rows=slice(lo, lo + chunk))
     parts = _slices(d, obs, chunk)
-    blocks = evaluate_blocks(machine, obs.axes, values, block=chunk, offsets_mm=obs.offsets_mm, **kw)
+    # the rows' grouping by their turning axes' values is the same at every θ: made once per observations (which
+    # are frozen), kept with them
+    groups = obs.__dict__.setdefault("_turning_groups", {})
+    blocks = evaluate_blocks(machine, obs.axes, values, block=chunk, offsets_mm=obs.offsets_mm, groups=groups, **kw)
     for (lo, hi, out), (dc, axes, w, _, turned) in zip(blocks, parts):
         if turned is not None:
             p, G = (out, None) if kw.get("jacobian", True) is False else out[:2]

@@ -380,7 +380,7 @@ EVALUATE_CHUNK = 512
 AFFINE_ROWS = 4096
 
 
-def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, offsets_mm=None, **kw):
+def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, offsets_mm=None, groups=None, **kw):
     """``(lo, hi, evaluate(rows lo..hi))`` for consecutive blocks of at most ``block`` rows: :func:`evaluate`'s
     outputs, computed once per group of rows that share every turning joint's value where that pays.
 
@@ -389,9 +389,12 @@ def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, off
     that vary; each group is evaluated at its first row and at that row moved by one metre along each sliding value
     that varies; a row is its group's value plus the slopes times its moves (the same to rounding). With too many
     groups (``placements.AFFINE_SHARE``) or offsets that vary, every block is evaluated pose by pose. Same
-    arguments as :func:`evaluate`, over all N rows (``errors_user`` (N, n_errors))."""
+    arguments as :func:`evaluate`, over all N rows (``errors_user`` (N, n_errors)); ``groups``: a dict kept by the
+    caller for these rows (``axes_user`` and ``offsets_mm`` unchanged), where the rows' grouping is kept from one
+    call to the next when ``errors_user`` is one row broadcast (the passes of a fit: the grouping follows from the
+    axes alone)."""
     n = len(axes_user)
-    plan = _affine_plan(machine, axes_user, errors_user, offsets_mm)
+    plan = _affine_plan(machine, axes_user, errors_user, offsets_mm, groups)
     if plan is None:
         for lo in range(0, n, block):
             off = None if offsets_mm is None else np.broadcast_to(offsets_mm, (n, 3))[lo:lo + block]

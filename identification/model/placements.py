@@ -189,9 +189,31 @@ def _chain_signs(machine, jw: int, jt: int) -> np.ndarray:
 AFFINE_SHARE = 0.25
 
 
-def _affine_plan(machine, axes_user, errors_user, offsets_mm):
+def _affine_plan(machine, axes_user, errors_user, offsets_mm, groups=None):
     """The groups (rows with the same values of every turning joint, axis or error) and the sliding values that
     vary, of :func:`~kinid.identification.model.evaluate_blocks`; None where the groups are too many (or the rows
+    carry offsets of their own). ``groups``: a store (a dict the caller keeps for the same rows, ``axes_user`` and
+    ``offsets_mm`` unchanged) where the grouping of rows whose error values are one row for all is kept and taken
+    from: it follows from the axes alone, and the passes of a fit ask for it at every parameter vector."""
+    n = len(axes_user)
+    constant = n > 0 and groups is not None and errors_user.strides[0] == 0  # a broadcast row: no error varies
+    key = ("turning groups", AFFINE_SHARE, tuple(a.kind for a in machine.axes), errors_user.shape[1])
+    if constant and key in groups:
+        rows = groups[key]
+    else:
+        rows = _turning_groups(machine, axes_user, errors_user, offsets_mm)
+        if constant:
+            groups[key] = rows
+    if rows is None:
+        return None
+    first, offsets = rows["first"], rows["offsets"]
+    return dict(axes=axes_user[first], errors=errors_user[first], offsets=None if offsets is None else offsets[0],
+                moving=rows["moving"], moves=rows["moves"], at=rows["at"], group=rows["group"])
+
+
+def _turning_groups(machine, axes_user, errors_user, offsets_mm):
+    """:func:`_affine_plan`'s grouping of the rows: their groups, each group's first row, the sliding values that
+    vary and their values (each row's, each group's first row's); None where the groups are too many (or the rows
     carry offsets of their own)."""
     n, both = len(axes_user), (axes_user, errors_user)
     joints = [(0, j, a.kind) for j, a in enumerate(machine.axes)]
@@ -220,5 +242,4 @@ def _affine_plan(machine, axes_user, errors_user, offsets_mm):
         return None
     first, group = heads[first], group.ravel()[np.cumsum(starts) - 1]
     moves = np.column_stack([both[w][:, i] for w, i in moving]) if moving else np.zeros((n, 0))
-    return dict(axes=axes_user[first], errors=errors_user[first], offsets=None if offsets is None else offsets[0],
-                moving=moving, moves=moves, at=moves[first], group=group)
+    return dict(first=first, offsets=offsets, moving=moving, moves=moves, at=moves[first], group=group)
