@@ -68,3 +68,23 @@ def test_rows_that_share_no_turning_value_go_pose_by_pose_unchanged():
     for lo, hi, out in evaluate_blocks(m, axes, errors, block=64):  # each block through evaluate, as before
         for r, g in zip(evaluate(m, axes[lo:hi], errors[lo:hi]), out):
             assert np.array_equal(g, r)
+
+
+def test_the_grouping_kept_for_the_same_rows_gives_what_a_fresh_one_gives():
+    """The passes of a fit keep the rows' grouping (``groups``) and ask again at other error values: each call the
+    same numbers as without the store; error values that vary by row are grouped afresh, never kept."""
+    m, rng = load_machine(path("five_axis_bc")), np.random.default_rng(6)
+    axes, varying = _rows(m, 700, rng)
+    store = {}
+    for _ in range(2):  # a second parameter vector: other error values, the grouping taken from the store
+        errors = np.broadcast_to(rng.normal(0, 30, len(m.error_joints)), varying.shape)
+        fresh = _joined(evaluate_blocks(m, axes, errors, block=64), len(axes))
+        kept = _joined(evaluate_blocks(m, axes, errors, block=64, groups=store), len(axes))
+        assert len(store) == 1
+        for a, b in zip(fresh, kept):
+            assert np.array_equal(a, b)
+    own = {}
+    fresh = _joined(evaluate_blocks(m, axes, varying, block=64), len(axes))
+    for a, b in zip(fresh, _joined(evaluate_blocks(m, axes, varying, block=64, groups=own), len(axes))):
+        assert np.array_equal(a, b)
+    assert own == {}
