@@ -376,8 +376,9 @@ def evaluate(machine: Machine, axes_user, errors_user, *, jacobian: bool = True,
 EVALUATE_CHUNK = 512
 
 
-#: Rows :func:`evaluate_blocks` makes at once on the affine route.
-AFFINE_ROWS = 4096
+#: Rows :func:`evaluate_blocks` makes at once on the affine route (their gathered slopes, 1.7 MB for the B/C
+#: machine's 23 error joints, stay in the processor's cache: a pass over 10⁶ rows 0.1-0.2 s faster than at 4096).
+AFFINE_ROWS = 1024
 
 
 def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, offsets_mm=None, groups=None, **kw):
@@ -402,11 +403,16 @@ def evaluate_blocks(machine: Machine, axes_user, errors_user, *, block: int, off
                                                    offsets_mm=off, **kw)
         return
     base, slopes, places = _affine_coefficients(machine, plan, kw)
-    span = block * max(1, AFFINE_ROWS // block)  # rows made at once, yielded a block at a time
+    span = block * max(1, AFFINE_ROWS // block)  # rows yielded from one array, a block at a time
     for first in range(0, n, span):
-        g = plan["group"][first:first + span]
-        flat = base[g] + np.einsum("nm,nmf->nf", plan["moves"][first:first + span] - plan["at"][g], slopes[g])
-        for lo in range(first, min(first + span, n), block):
+        last = min(first + span, n)
+        flat = np.empty((last - first, base.shape[1]))
+        for a in range(first, last, AFFINE_ROWS):  # made AFFINE_ROWS at a time: the gathered slopes stay in cache
+            b = min(a + AFFINE_ROWS, last)
+            g = plan["group"][a:b]
+            np.add(base[g], np.einsum("nm,nmf->nf", plan["moves"][a:b] - plan["at"][g], slopes[g]),
+                   out=flat[a - first:b - first])
+        for lo in range(first, last, block):
             rows = flat[lo - first:lo - first + block]
             out = tuple(None if p is None else rows[:, p[1]:p[2]].reshape((len(rows), *p[0])) for p in places)
             yield lo, lo + len(rows), out if kw.get("jacobian", True) else out[0]
