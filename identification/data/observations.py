@@ -217,26 +217,24 @@ def row_groups(*columns) -> tuple:
         parts.append((_codes(c) if c.dtype.kind not in "biuf" else c).reshape(len(c), -1))
     if not parts:
         return np.zeros(0, int), np.zeros(0, int)
-    key = np.concatenate(parts, axis=1, dtype=float)
-    key += 0.0  # −0 is 0
-    key[np.isnan(key)] = np.nan  # one NaN
-    key = key.view(np.int64)
-    n = len(key)
+    # each column's bits, −0 as 0 and one NaN: hashed and compared a column at a time (no (N, k) table of them made)
+    key = [_bits(p[:, k]) for p in parts for k in range(p.shape[1])]
+    n = len(key[0])
     h = np.zeros(n, np.uint64)
     with np.errstate(over="ignore"):
-        for column in key.T:
+        for column in key:
             h = (h ^ column.view(np.uint64)) * np.uint64(ROW_HASH)
             h ^= h >> np.uint64(29)
     order = np.argsort(h, kind="stable")  # equal rows in the order they come
     ordered_h = h[order]
     same_row = ordered_h[1:] == ordered_h[:-1]
     pairs = np.flatnonzero(same_row)  # neighbours of one hash: compared whole
-    equal = np.all(key[order[pairs]] == key[order[pairs + 1]], axis=1)
+    a, b = order[pairs], order[pairs + 1]
+    equal = np.logical_and.reduce([column[a] == column[b] for column in key])
     same_row[pairs] = equal
     if not equal.all():  # rows of one hash that differ (or come interleaved): sort those by value
-        order = np.lexsort(np.column_stack([key, h.view(np.int64)]).T[::-1])
-        ordered = key[order]
-        same_row = np.all(ordered[1:] == ordered[:-1], axis=1)
+        order = np.lexsort([h.view(np.int64), *key[::-1]])
+        same_row = np.logical_and.reduce([column[order[1:]] == column[order[:-1]] for column in key])
     starts = np.r_[True, ~same_row]
     label = np.empty(n, int)
     label[order] = np.cumsum(starts) - 1
@@ -245,6 +243,16 @@ def row_groups(*columns) -> tuple:
     is_first[first_of_row] = True
     number = np.cumsum(is_first) - 1
     return number[first_of_row], np.flatnonzero(is_first)
+
+
+def _bits(column) -> np.ndarray:
+    """The bits (int64) of a column of numbers as floats, −0 as 0 and every NaN one NaN: equal bits, equal values
+    as read from a file."""
+    c = np.asarray(column, dtype=float) + 0.0  # a copy; −0 is 0
+    nan = np.isnan(c)
+    if nan.any():
+        c[nan] = np.nan
+    return c.view(np.int64)
 
 
 def _codes(texts) -> np.ndarray:
