@@ -228,3 +228,19 @@ def test_plan_augment_reads_the_export_keeps_to_its_span_and_plans_for_the_fit_s
     lo, hi = np.nanmin(train.axes, axis=0), np.nanmax(train.axes, axis=0)
     assert np.all(added.axes >= lo - 1e-6) and np.all(added.axes <= hi + 1e-6)  # within the span the data read
     assert "within the span the measured data read on J1, J2, J3, J4, J5, J6" in out
+
+
+@pytest.mark.parametrize("body, own", [
+    (b"# a comment\n\nmark,wx_mm,wy_mm,wz_mm,x_mm\nM1,0,0,0,1\n", True),
+    (b"\r\n# CR LF\r\nmark,wx_mm\r\n", True),
+    (b"\xef\xbb\xbfmark,wx_mm\n", True),  # a byte-order mark: read as read_limited_text reads it
+    ("x_m;y_m;z_m;note\n1;2;3;\u00b5m\n".encode(), False),  # UTF-8 past the header: an export
+    (b"x_m,y_m,z_m\n1,2,3\n\xff\n", True),  # not UTF-8: kinid's reader names the byte
+    (b"", True),
+])
+def test_is_observation_csv_judges_the_header_and_counts_an_unreadable_file_as_kinids(tmp_path, body, own):
+    from kinid.identification.data import is_observation_csv
+
+    path = tmp_path / "data.csv"
+    path.write_bytes(body)
+    assert is_observation_csv(path) is own

@@ -35,7 +35,7 @@ import numpy as np
 
 from kinid.errors import DataError
 from kinid.files import MAX_CSV_BYTES
-from kinid.untrusted import read_limited_text
+from kinid.untrusted import read_limited_text, read_untrusted_bytes
 from ..model import Machine
 from .axis_columns import check_travel
 from .observations import Observations
@@ -151,22 +151,29 @@ def is_observation_csv(path) -> bool:
     comment) has one of its columns ``mark``, ``wx_mm``, ``wy_mm``, ``wz_mm`` (one of them misspelt is then named by
     kinid's reader); an unreadable file counts as kinid's, whose reader names the problem."""
     try:
-        text = read_limited_text(path, what="CSV file", max_bytes=MAX_CSV_BYTES)
+        raw = read_untrusted_bytes(path, what="CSV file", max_bytes=MAX_CSV_BYTES)
     except DataError:
         return True
-    for line in _lines(text):
+    if raw.isascii():  # UTF-8 whatever follows: only the lines up to the header are decoded
+        lines = (line.decode("ascii") for line in _lines(raw))
+    else:
+        try:
+            lines = _lines(raw.decode("utf-8-sig"))  # as read_limited_text decodes it
+        except UnicodeDecodeError:
+            return True
+    for line in lines:
         if line.strip() and not line.lstrip().startswith("#"):
             return bool(_OWN_COLUMNS & {c.strip() for c in next(csv.reader([line]))})
     return True
 
 
-def _lines(text: str):
-    """The lines of ``text`` one at a time (ended by CR LF, CR or LF): a header found without splitting a
-    million-row file into a million strings."""
+def _lines(text):
+    """The lines of ``text`` (str or bytes) one at a time (ended by CR LF, CR or LF): a header found without
+    splitting a million-row file into a million strings."""
     import re
 
     start = 0
-    for end in re.finditer(r"\r\n|\r|\n", text):
+    for end in re.finditer(r"\r\n|\r|\n" if isinstance(text, str) else rb"\r\n|\r|\n", text):
         yield text[start:end.start()]
         start = end.end()
     if start < len(text):
