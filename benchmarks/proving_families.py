@@ -8,7 +8,8 @@ Each family draws its truth in plain numpy (and scipy's cubic spline), sharing n
   cubic spline through 4–6 random values at equally spaced knots;
 - ``smooth-2``: the same of TWO variables, a sum of one or two products of such functions, the pair drawn among
   the kinds the machine has (rotary × rotary, linear × rotary, linear × linear, axis × time);
-- ``step``: a step at a random position of an axis (between the 20th and 80th percentile of its readings);
+- ``step``: a step at a random position of an axis (uniform between the 20th and 80th percentile of its readings,
+  so that it lies between two positions the plan visits, not on one);
 - ``instrument``: an error of the instrument, not of the machine — the camera's scale (0.3–2 %) or rotation
   (0.5–5 mrad) on the mark offsets ``mark_dx_mm``/``mark_dy_mm``, the laser's scale (0.3–2 %) on ``mark_dz_mm``,
   or a constant offset of the tool point in the tool frame. The machine stops near the mark, not on it (its linear
@@ -153,7 +154,11 @@ def _machine_effect(tm, kind, rng, readings, t_s) -> list:
     elif kind == "step":
         axes = [n for n in variables if n != "time"]
         name = str(axes[rng.integers(len(axes))])
-        at = float(np.percentile(variables[name][1], rng.uniform(20, 80)))
+        # anywhere between the 20th and 80th percentiles, not at a percentile: a percentile of a plan that visits
+        # each position many times is one of its readings, and rows read there alike (to 1e-13 mm, or within the
+        # µm of a solved reading) would fall either side by rounding — a step no reading can place
+        low, high = np.percentile(variables[name][1], [20.0, 80.0])
+        at = float(low + (high - low) * (rng.uniform(20, 80) - 20.0) / 60.0)  # (the draw it always was)
         args, how = (name,), f"step at {name} = {at:.3g}"
 
         def raw_of(r, t):

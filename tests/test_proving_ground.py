@@ -682,6 +682,24 @@ def test_each_family_moves_the_tool_point_5_to_40_um_on_every_layout(family):
         assert h.axes and set(h.axes) <= set(tm.motion) | {"time"}, (layout, h.axes)
 
 
+def test_a_drawn_step_lies_between_two_positions_the_plan_visits_not_on_one():
+    """The step family's step lies between positions: every position of its axis (readings within 0.01 mm or
+    0.01°) holds the step's one value at all its rows. Drawn at a percentile, it lay on a position visited many
+    times (the five-axis plans' Y at -46.292 mm, 36 rows): the truth's ``q > p`` put 8 of those rows beyond by
+    rounding 1e-12 mm of the solved readings, which no model of the readings can place and the oracle could."""
+    for k in range(40):
+        layout = pg.LAYOUTS[k % len(pg.LAYOUTS)]
+        sc, text, tm, readings, labels, t_s, errors, rng = pg.draw(1900 + k, layout, ["step"], misread_share=0.0)
+        h = sc.hidden[0]
+        axis = h.how.split()[2]
+        q, v = np.asarray(readings[axis], float), np.asarray(h(readings, t_s), float)
+        beyond = v > 0.5 * (v.min() + v.max())
+        assert beyond.any() and not beyond.all(), (layout, h.how)
+        position = np.round(q, 2)
+        mixed = [p for p in np.unique(position) if 0 < beyond[position == p].mean() < 1]
+        assert not mixed, (layout, h.how, mixed)
+
+
 def test_an_instruments_scale_acts_on_the_offsets_not_on_the_machine():
     """The camera's scale changes only the offsets read: the oracle, which reads them true, fits to the noise,
     while the default model fitted on the offsets read keeps the scale's share (the 'tool-offset' error of the
