@@ -19,7 +19,7 @@ from . import sag as _sag  # noqa: F401  registers the sag:<point> basis
 from . import step as _step  # noqa: F401  registers the step:<axis>:<at> basis
 
 __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
-           "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
+           "basis_values", "param_codes", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
 
 @dataclass(frozen=True)
@@ -208,6 +208,13 @@ def _axis_dependent_joints(machine) -> list:
             continue  # parallel rotation axes on different lines do not commute
         out.append((e.code, e.axis))
     return out
+
+
+def param_codes(effect: Effect, machine: Machine) -> list:
+    """The error joint of each of ``effect``'s parameters: its own joint's code, or, for an effect spread over
+    several (:attr:`~kinid.identification.model.bases.Basis.joints`: the arm's gravity compliance), theirs."""
+    joints = basis_of(effect).joints
+    return [effect.code] * effect.n_params if joints is None else list(joints(effect, machine))
 
 
 def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None,
