@@ -1,0 +1,167 @@
+"""The arm's gravity compliance (``EB0J2:gravity``): every joint whose axis stays horizontal turns by its own compliance
+times the gravity torque it carries, one effect — against a plain-numpy arm.
+
+The truth: a four-joint arm (J1 about the vertical, J2, J3 and J4 about horizontal axes, links of 0.6 m, 0.5 m and
+0.2 m), no masses in its URDF, so a unit weight at the origin of every axis a joint carries and at the tool point:
+J2 carries J3, J4 and T, J3 carries J4 and T, J4 carries T. Each turns by its compliance times that torque, written here
+with numpy alone, sharing no code with kinid.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kinid.errors import DataError
+
+ARM = """<robot name="gravity_arm">
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/><link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.4"/>
+    <axis xyz="0 1 0"/><limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0.6 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>
+  <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/><origin xyz="0.5 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>
+  <joint name="flange" type="fixed"><parent link="l4"/><child link="tool"/><origin xyz="0.2 0 0"/></joint>
+</robot>
+"""
+#: Compliances of J2, J3, J4, µrad per unit weight × m (a UR10's upper arm shows about 1000, docs/identification.md).
+COMPLIANCE_URAD_PER_M = (600.0, 900.0, 1500.0)
+LINKS_M = (0.6, 0.5, 0.2)
+NOISE_MM = 0.01
+
+
+def _rz(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def _ry(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+
+
+def plain_torques_m(q_deg):
+    """(N, 3) the torque about J2, J3, J4 of unit weights at the axes each carries and at the tool point, m."""
+    q = np.radians(q_deg)
+    a2, a3, a4 = q[:, 1], q[:, 1] + q[:, 2], q[:, 1] + q[:, 2] + q[:, 3]
+    x3, x4, xt = LINKS_M[0] * np.cos(a2), LINKS_M[1] * np.cos(a3), LINKS_M[2] * np.cos(a4)  # links' horizontal reach
+    return np.column_stack([x3 + (x3 + x4) + (x3 + x4 + xt), x4 + (x4 + xt), xt])
+
+
+def plain_tool_mm(q_deg, gravity=True):
+    """The tool point (mm), J2, J3 and J4 each turned by its compliance times the torque it carries (plain numpy)."""
+    q = np.radians(np.asarray(q_deg, float)).copy()
+    if gravity:
+        q[:, 1:4] += plain_torques_m(q_deg) * np.array(COMPLIANCE_URAD_PER_M) * 1e-6
+    out = []
+    for a, b, c, d in q:
+        p = np.array([0, 0, 0.4]) + _ry(b) @ [LINKS_M[0], 0, 0] + _ry(b + c) @ [LINKS_M[1], 0, 0] \
+            + _ry(b + c + d) @ [LINKS_M[2], 0, 0]
+        out.append(_rz(a) @ p)
+    return np.array(out) * 1e3
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    from kinid.cli import main
+    from kinid.identification.model import load_machine
+
+    folder = tmp_path_factory.mktemp("gravity")
+    (folder / "arm.urdf").write_text(ARM)
+    assert main(["model", "--urdf", str(folder / "arm.urdf"), "--base", "base", "--tool", "tool",
+                 "--out", str(folder / "machine.urdf")]) == 0
+    return load_machine(folder / "machine.urdf")
+
+
+def _observations(q_deg, rng):
+    from kinid.identification.data import Observations
+
+    w = plain_tool_mm(q_deg) + rng.normal(0.0, NOISE_MM, (len(q_deg), 3))
+    return Observations(tuple(f"P{i}" for i in range(len(q_deg))), w, np.asarray(q_deg, float), None, {},
+                        tuple(range(2, len(q_deg) + 2)), "simulated")
+
+
+def _poses(rng, n):
+    return np.column_stack([rng.uniform(-150, 150, n), rng.uniform(-170, 10, n), rng.uniform(-120, 120, n),
+                            rng.uniform(-120, 120, n)])
+
+
+def _held_out_um(machine, effects, theta, obs) -> float:
+    from kinid.identification.fitting import design, residuals
+
+    r = residuals(machine, design(machine, effects, obs), obs, theta, jacobian=False)
+    return float(np.sqrt(np.mean(np.sum(r ** 2, axis=1))))
+
+
+def test_torques_are_the_chains_weight_about_each_horizontal_axis(arm):
+    from kinid.identification.model import basis_values, parse_effect
+    from kinid.identification.model.sag import loaded_axes
+
+    assert loaded_axes(arm) == [("J2", "EB0J2"), ("J3", "EB0J3"), ("J4", "EB0J4")]  # J1 turns about the vertical
+    q = _poses(np.random.default_rng(1), 20)
+    effect = parse_effect("EB0J2:gravity", arm)
+    assert effect.param_names() == ["EB0J2:gravity[J2]", "EB0J2:gravity[J3]", "EB0J2:gravity[J4]"]
+    np.testing.assert_allclose(basis_values(effect, arm, q), plain_torques_m(q), atol=1e-12)
+
+
+def test_gravity_is_one_effect_on_the_first_loaded_joint(arm):
+    from kinid.identification.model import candidate_library, parse_effect
+
+    names = [e.name for e in candidate_library(arm, [], has_directions=False, has_time=False)]
+    assert [n for n in names if ":gravity" in n] == ["EB0J2:gravity"]
+    with pytest.raises(DataError, match="write it on EB0J2, the rotation of J2, the first of them"):
+        parse_effect("EB0J3:gravity", arm)
+
+
+def test_compliances_are_recovered_within_their_uncertainty(arm):
+    from kinid.identification.fitting import design, fit, model_effects
+
+    rng = np.random.default_rng(7)
+    effects = model_effects(arm, ["EB0J2:gravity"])
+    res = fit(arm, _observations(_poses(rng, 200), rng), effects)
+    assert res.success
+    names = design(arm, effects, _observations(_poses(rng, 2), rng)).param_names()
+    for axis, truth in zip(("J2", "J3", "J4"), COMPLIANCE_URAD_PER_M):
+        k = names.index(f"EB0J2:gravity[{axis}]")
+        assert abs(res.theta[k] - truth) < 4 * res.std[k], (axis, res.theta[k], res.std[k])
+
+
+def test_auto_names_it_and_predicts_held_out_poses_as_the_true_model_does(arm):
+    """``--auto`` on the drooping arm adds the gravity compliance, and its fit predicts poses it did not see within
+    10 % of the fit of the true model (the oracle), where the geometric model alone is several times worse."""
+    from kinid.identification.diagnosis import forward_select
+    from kinid.identification.fitting import fit, model_effects
+    from kinid.identification.model import default_model
+
+    rng = np.random.default_rng(11)
+    train, test = _observations(_poses(rng, 300), rng), _observations(_poses(rng, 300), rng)
+    steps = forward_select(arm, train, default_model(arm), noise_um=NOISE_MM * 1e3)
+    added = [s.added for s in steps[1:]]
+    assert "EB0J2:gravity" in added, added
+    last = steps[-1].fit
+    oracle_effects = model_effects(arm, ["EB0J2:gravity"])
+    oracle = fit(arm, train, oracle_effects)
+    plain = fit(arm, train, default_model(arm))
+    auto_um = _held_out_um(arm, last.effects, last.theta, test)
+    oracle_um = _held_out_um(arm, oracle_effects, oracle.theta, test)
+    assert auto_um <= 1.1 * oracle_um, (auto_um, oracle_um, added)
+    assert _held_out_um(arm, default_model(arm), plain.theta, test) > 3 * oracle_um
+
+
+def test_a_compliance_below_zero_is_refused(arm):
+    """An arm droops: a fitted compliance below zero beyond twice its standard deviation is a size no arm has."""
+    from kinid.identification.fitting import fit, model_effects
+    from kinid.identification.model import implausible_effects
+
+    rng = np.random.default_rng(5)
+    q = _poses(rng, 200)
+    obs = _observations(q, rng)
+    lifted = plain_tool_mm(q, gravity=False) * 2 - plain_tool_mm(q)  # the arm rising under its weight
+    from dataclasses import replace
+    res = fit(arm, replace(obs, w_mm=lifted + rng.normal(0.0, NOISE_MM, lifted.shape)), model_effects(arm, ["EB0J2:gravity"]))
+    odd = implausible_effects(res)
+    assert [a.effect for a in odd] == ["EB0J2:gravity"]
+    assert "of the sign no machine has" in odd[0].describe()
+    assert implausible_effects(fit(arm, obs, model_effects(arm, ["EB0J2:gravity"]))) == ()
