@@ -121,8 +121,7 @@ def loaded_axes(machine) -> list:
     """(axis, its location rotation about its own line) of every rotary axis that carries the tool and stays
     horizontal whatever the pose: horizontal at the zero pose, and every rotary axis before it turns about the
     vertical or about a line parallel to it (J2, J3, J4 of a UR arm: (``J2``, ``EB0J2``) …)."""
-    from .derived import derived
-    from .effects import axis_dependent_joints
+    from .derived import axis_dependent_joints, derived
 
     def find():
         model = machine.model
