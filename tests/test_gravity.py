@@ -165,3 +165,49 @@ def test_a_compliance_below_zero_is_refused(arm):
     assert [a.effect for a in odd] == ["EB0J2:gravity"]
     assert "of the sign no machine has" in odd[0].describe()
     assert implausible_effects(fit(arm, obs, model_effects(arm, ["EB0J2:gravity"]))) == ()
+
+
+def test_the_urdf_masses_are_carried_by_kinid_model_and_weigh_at_their_centres(tmp_path):
+    """A URDF with ``<inertial>``: ``kinid model`` keeps each link's mass and centre (a fixed joint's link too), and
+    the torques are Σ m · lever of the masses beyond each joint (kg·m), against plain numpy."""
+    from kinid.cli import main
+    from kinid.identification.model import basis_values, load_machine, parse_effect
+
+    masses = {"l2": (10.0, 0.3), "l3": (4.0, 0.25), "tool": (0.5, 0.0)}  # kg, centre along the link (m)
+    text = ARM
+    for link, (kg, x) in masses.items():
+        text = text.replace(f'<link name="{link}"/>', f'<link name="{link}"><inertial><mass value="{kg}"/><origin '
+                            f'xyz="{x} 0 0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>'
+                            f'</inertial></link>')
+    (tmp_path / "arm.urdf").write_text(text)
+    assert main(["model", "--urdf", str(tmp_path / "arm.urdf"), "--base", "base", "--tool", "tool",
+                 "--out", str(tmp_path / "machine.urdf")]) == 0
+    machine = load_machine(tmp_path / "machine.urdf")
+    effect = parse_effect("EB0J2:gravity", machine)
+    assert effect.param_units(machine) == ["µrad/(kg·m)"] * 3
+    q = _poses(np.random.default_rng(2), 20)
+    r = np.radians(q)
+    a2, a3, a4 = r[:, 1], r[:, 1] + r[:, 2], r[:, 1] + r[:, 2] + r[:, 3]
+    (m2, c2), (m3, c3), (mt, _) = masses.values()
+    x_l2, x_l3, x_t = c2 * np.cos(a2), LINKS_M[0] * np.cos(a2) + c3 * np.cos(a3), \
+        LINKS_M[0] * np.cos(a2) + LINKS_M[1] * np.cos(a3) + LINKS_M[2] * np.cos(a4)  # centres' reach from J2
+    j3, j4 = LINKS_M[0] * np.cos(a2), LINKS_M[0] * np.cos(a2) + LINKS_M[1] * np.cos(a3)  # J3, J4's reach from J2
+    truth = np.column_stack([m2 * x_l2 + m3 * x_l3 + mt * x_t, m3 * (x_l3 - j3) + mt * (x_t - j3), mt * (x_t - j4)])
+    np.testing.assert_allclose(basis_values(effect, machine, q), truth, atol=1e-12)
+
+
+@pytest.mark.parametrize("inertial, message", [
+    ('<mass value="heavy"/>', "link 'l2' <inertial> mass is not a number: 'heavy'"),
+    ('<mass value="-1"/>', "link 'l2' <inertial> mass must be a finite number ≥ 0 kg, got '-1'"),
+    ('<mass value="1"/><inertia ixx="nan"/>', "link 'l2' <inertial> inertia ixx must be a finite number, got 'nan'"),
+])
+def test_a_bad_mass_is_one_line_naming_the_link(tmp_path, capsys, inertial, message):
+    from kinid.cli import main
+
+    (tmp_path / "arm.urdf").write_text(ARM.replace('<link name="l2"/>',
+                                                   f'<link name="l2"><inertial>{inertial}</inertial></link>'))
+    assert main(["model", "--urdf", str(tmp_path / "arm.urdf"), "--base", "base", "--tool", "tool",
+                 "--out", str(tmp_path / "machine.urdf")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "machine.urdf").exists()
