@@ -150,7 +150,7 @@ def loaded_axes(machine) -> list:
 
 def _masses(machine) -> list:
     """(joint id, mass kg, centre in the joint's frame m) of the bodies with a mass; empty where the machine has
-    none (a URDF without ``<inertial>``, or one ``kinid model`` wrote)."""
+    none (a source URDF without ``<inertial>``)."""
     model = machine.model
     return [(b, float(model.inertias[b].mass), np.array(model.inertias[b].lever))
             for b in range(1, model.njoints) if model.inertias[b].mass > 0]
