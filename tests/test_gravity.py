@@ -109,45 +109,32 @@ def test_torques_are_the_chains_weight_about_each_horizontal_axis(arm):
 def test_gravity_is_one_effect_on_the_first_loaded_joint(arm):
     from kinid.identification.model import candidate_library, parse_effect
 
+    # added by name only: listed among --auto's candidates it changed nothing on the UR10 tracker series
     names = [e.name for e in candidate_library(arm, [], has_directions=False, has_time=False)]
-    assert [n for n in names if ":gravity" in n] == ["EB0J2:gravity"]
+    assert not [n for n in names if ":gravity" in n]
     with pytest.raises(DataError, match="write it on EB0J2, the rotation of J2, the first of them"):
         parse_effect("EB0J3:gravity", arm)
 
 
-def test_compliances_are_recovered_within_their_uncertainty(arm):
+def test_compliances_are_recovered_and_predict_poses_not_seen(arm):
+    """Fitted with the gravity compliance (``--add``), the compliances are the truth within 4 standard deviations and
+    300 poses not seen are predicted within the noise; the geometric model alone is many times worse."""
     from kinid.identification.fitting import design, fit, model_effects
+    from kinid.identification.model import default_model
 
     rng = np.random.default_rng(7)
+    train, test = _observations(_poses(rng, 200), rng), _observations(_poses(rng, 300), rng)
     effects = model_effects(arm, ["EB0J2:gravity"])
-    res = fit(arm, _observations(_poses(rng, 200), rng), effects)
+    res = fit(arm, train, effects)
     assert res.success
-    names = design(arm, effects, _observations(_poses(rng, 2), rng)).param_names()
+    names = design(arm, effects, train).param_names()
     for axis, truth in zip(("J2", "J3", "J4"), COMPLIANCE_URAD_PER_M):
         k = names.index(f"EB0J2:gravity[{axis}]")
         assert abs(res.theta[k] - truth) < 4 * res.std[k], (axis, res.theta[k], res.std[k])
-
-
-def test_auto_names_it_and_predicts_held_out_poses_as_the_true_model_does(arm):
-    """``--auto`` on the drooping arm adds the gravity compliance, and its fit predicts poses it did not see within
-    10 % of the fit of the true model (the oracle), where the geometric model alone is several times worse."""
-    from kinid.identification.diagnosis import forward_select
-    from kinid.identification.fitting import fit, model_effects
-    from kinid.identification.model import default_model
-
-    rng = np.random.default_rng(11)
-    train, test = _observations(_poses(rng, 300), rng), _observations(_poses(rng, 300), rng)
-    steps = forward_select(arm, train, default_model(arm), noise_um=NOISE_MM * 1e3)
-    added = [s.added for s in steps[1:]]
-    assert "EB0J2:gravity" in added, added
-    last = steps[-1].fit
-    oracle_effects = model_effects(arm, ["EB0J2:gravity"])
-    oracle = fit(arm, train, oracle_effects)
+    held_um = _held_out_um(arm, effects, res.theta, test)
+    assert held_um < 2 * NOISE_MM * 1e3 * np.sqrt(3), held_um  # 3-D RMS within twice the noise's
     plain = fit(arm, train, default_model(arm))
-    auto_um = _held_out_um(arm, last.effects, last.theta, test)
-    oracle_um = _held_out_um(arm, oracle_effects, oracle.theta, test)
-    assert auto_um <= 1.1 * oracle_um, (auto_um, oracle_um, added)
-    assert _held_out_um(arm, default_model(arm), plain.theta, test) > 3 * oracle_um
+    assert _held_out_um(arm, default_model(arm), plain.theta, test) > 10 * held_um
 
 
 def test_a_compliance_below_zero_is_refused(arm):

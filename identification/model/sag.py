@@ -25,6 +25,8 @@ the tool point. The compliances are the effect's parameters, one per loaded join
 rotation about its own axis (``EB0J2``, ``EB0J3``, ``EB0J4``): one effect spread over several error joints
 (:attr:`~kinid.identification.model.bases.Basis.joints`). An arm droops under its weight, so a compliance below zero
 beyond twice its standard deviation is a size no arm has (:attr:`~kinid.identification.model.bases.Basis.sign`).
+It is added by name (``--add EB0J2:gravity``), not among ``--auto``'s candidates: listed, it changed nothing on the
+UR10 tracker series (docs/identification.md, "A real arm").
 
 References: the joint-compliance (elastostatic) model of robot calibration, e.g. Dumas, Caro, Garnier & Furet,
 "Joint stiffness identification of six-revolute industrial serial robots", Robotics and Computer-Integrated
@@ -195,16 +197,6 @@ def _parse_gravity(m, ctx: BasisInput) -> dict:
     return {"args": (tuple(a for a, _ in loaded), "kg·m" if _masses(ctx.machine) else "m")}
 
 
-def _gravity_candidates(j, kind, *, carriers=None, machine=None, **_) -> list:
-    """On an arm (the loaded axes carried by another rotary axis), one candidate on the first loaded joint."""
-    if machine is None or not j.location:
-        return []
-    loaded = loaded_axes(machine)
-    if not loaded or j.code != loaded[0][1] or loaded[0][0] not in (carriers or {}):
-        return []
-    return [f"{j.code}:gravity"]
-
-
 def _drooping_extent(e, theta) -> float:
     """The largest compliance (per unit of torque: the lever of an arm's links is about 1 m)."""
     return float(np.max(np.abs(theta))) if np.size(theta) else 0.0
@@ -215,7 +207,7 @@ register_basis(Basis(
     n_params=lambda e: len(e.args[0]), param_names=lambda e: [f"{e.name}[{a}]" for a in e.args[0]],
     param_units=lambda e, u, q: [f"{u}/{e.args[1]}" if e.args[1] == "m" else f"{u}/({e.args[1]})"] * len(e.args[0]),
     values=lambda e, q, t=None, s=None: gravity_torques(q[0], q[1]), extent=_drooping_extent,
-    candidates=_gravity_candidates, sign=1,
+    sign=1,
     joints=lambda e, machine: [dict(loaded_axes(machine))[a] for a in e.args[0]],
     describe=lambda e, u: (f"turns {', '.join(e.args[0])} each by its compliance times the gravity torque it carries: "
                            f"an arm that gives under its weight")))
