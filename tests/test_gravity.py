@@ -104,6 +104,8 @@ def test_torques_are_the_chains_weight_about_each_horizontal_axis(arm):
     effect = parse_effect("EB0J2:gravity", arm)
     assert effect.param_names() == ["EB0J2:gravity[J2]", "EB0J2:gravity[J3]", "EB0J2:gravity[J4]"]
     np.testing.assert_allclose(basis_values(effect, arm, q), plain_torques_m(q), atol=1e-12)
+    # its size is judged at the largest torque: the arm stretched out level
+    np.testing.assert_allclose(effect.args[2], plain_torques_m(np.zeros((1, 4)))[0], atol=1e-12)
 
 
 def test_gravity_is_one_effect_on_the_first_loaded_joint(arm):

@@ -137,6 +137,7 @@ def loaded_axes(machine) -> list:
         for code, axis in axis_dependent_joints(machine):
             if machine.error_joint(code).location and machine.error_joint(code).kind == "revolute":
                 own.setdefault(axis, code)
+
         def before(a):
             jid = model.getJointId(a.joint)
             return [b for b in rotary if b.name != a.name and model.getJointId(b.joint) in model.supports[jid]]
@@ -193,20 +194,51 @@ def _parse_gravity(m, ctx: BasisInput) -> dict:
                  "this machine has none")
         raise ctx.fail(f"the gravity compliance is one effect of every joint whose axis stays horizontal and "
                        f"carries the tool; {where}")
-    # the loaded axes, and what the torque is counted in: kg·m (the URDF's masses) or unit weights × m
-    return {"args": (tuple(a for a, _ in loaded), "kg·m" if _masses(ctx.machine) else "m")}
+    # the loaded axes, what the torque is counted in (kg·m: the URDF's masses; m: unit weights) and its largest
+    return {"args": (tuple(a for a, _ in loaded), "kg·m" if _masses(ctx.machine) else "m",
+                     _largest_torques(ctx.machine))}
 
 
-def _drooping_extent(e, theta) -> float:
-    """The largest compliance (per unit of torque: the lever of an arm's links is about 1 m)."""
-    return float(np.max(np.abs(theta))) if np.size(theta) else 0.0
+def _largest_torques(machine) -> tuple:
+    """The largest gravity torque each loaded axis can carry (the unit of :func:`gravity_torques`): every weight
+    beyond it at the full length of the chain between them (the links' lengths added: no pose reaches more)."""
+    model = machine.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    pin.updateFramePlacements(model, data)
+
+    def reach(jid, b, extra):  # the chain's length from joint jid's origin to a point ``extra`` beyond joint b's
+        length = extra
+        while b != jid:
+            length += float(np.linalg.norm(data.oMi[b].translation - data.oMi[model.parents[b]].translation))
+            b = model.parents[b]
+        return length
+
+    masses = _masses(machine)
+    tool = model.frames[machine.tool_frame]
+    out = []
+    for a, _ in loaded_axes(machine):
+        jid = model.getJointId(machine.axis(a).joint)
+        if masses:
+            out.append(sum(m * reach(jid, b, float(np.linalg.norm(c))) for b, m, c in masses
+                           if jid in model.supports[b]))
+        else:
+            out.append(sum(reach(jid, model.getJointId(machine.axis(p).joint), 0.0) if p != "T" else
+                           reach(jid, tool.parentJoint, float(np.linalg.norm(tool.placement.translation)))
+                           for p in sag_points(machine, a)))
+    return tuple(out)
+
+
+def _deflection_extent(e, theta) -> float:
+    """The largest turn of a loaded joint: its compliance times the largest torque it can carry."""
+    return float(np.max(np.abs(np.asarray(theta, float) * np.asarray(e.args[2])))) if np.size(theta) else 0.0
 
 
 register_basis(Basis(
     kind="gravity", grammar=r"gravity", syntax="gravity", driver="pose", parse=_parse_gravity,
     n_params=lambda e: len(e.args[0]), param_names=lambda e: [f"{e.name}[{a}]" for a in e.args[0]],
     param_units=lambda e, u, q: [f"{u}/{e.args[1]}" if e.args[1] == "m" else f"{u}/({e.args[1]})"] * len(e.args[0]),
-    values=lambda e, q, t=None, s=None: gravity_torques(q[0], q[1]), extent=_drooping_extent,
+    values=lambda e, q, t=None, s=None: gravity_torques(q[0], q[1]), extent=_deflection_extent,
     sign=1,
     joints=lambda e, machine: [dict(loaded_axes(machine))[a] for a in e.args[0]],
     describe=lambda e, u: (f"turns {', '.join(e.args[0])} each by its compliance times the gravity torque it carries: "
