@@ -1,7 +1,7 @@
 """Periods the candidate library does not list: a continuous search, then the period refined.
 
 (and every location joint equivalent to one, see
-:func:`~kinid.identification.model.effects.axis_dependent_joints`).
+:func:`~kinid.identification.model.derived.axis_dependent_joints`).
 
 A lead-screw error with an inch lead (12.7 mm), a 12.3 mm lead or a gear with
 seven teeth per table turn (360/7 = 51.43°) is periodic in its axis, but at a

@@ -85,6 +85,8 @@ def column_groups(machine, obs, candidates, memo: Memo) -> list:
     n = len(obs)
     plain, grids = {}, {}
     for i, e in enumerate(candidates):
+        if basis_of(e).joints is not None:  # spread over several joints: scored from its own columns
+            continue
         j = codes.index(e.code)
         grid = basis_of(e).window_grid
         if grid is not None:

@@ -29,7 +29,7 @@ import numpy as np
 from kinid.stats import chi2_logsf, f_logsf
 from kinid.threads import blas_single_threaded
 
-from ..model import Machine, basis_of
+from ..model import Machine, basis_of, param_codes
 from ..data import Observations
 from ..fitting import FitResult, design, effect_columns, model_pass
 from . import score_sums
@@ -231,6 +231,9 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
                 [group.members[m][0] for m in members], [group.members[m][1] for m in members],
                 [units[m] for m in members], alive, np.where(alive, norm_c, 1.0), grams[kept], joint,
                 bvec[index[kept]]))
+    for i, e in enumerate(candidates):  # an effect spread over several joints (the gravity compliance)
+        if basis_of(e).joints is not None:
+            out[i] = _score_spread(machine, obs, e, side, test)
     # the eigen-decompositions of the normalized Gram matrices and the tests, all candidates of one size at once
     for k in sorted(pending):
         chunks = pending[k]
@@ -260,6 +263,25 @@ def score_candidates(machine: Machine, obs: Observations, result: FitResult, can
         for i, c in zip(positions, judged):
             out[i] = c
     return out
+
+
+def _score_spread(machine, obs, e, side: FitSide, test) -> Candidate:
+    """The score test of an effect whose parameters sit on several error joints, from its explicitly projected
+    columns (a few: one per joint)."""
+    codes = machine.error_codes
+    joints = [codes.index(c) for c in param_codes(e, machine)]
+    basis = basis_values_once(machine, obs, e, slice(0, len(obs)), side.memo)
+    C = (side.d_errors[:, :, joints] * basis[:, None, :]).reshape(-1, basis.shape[1]) / side.sigma
+    Cp = C - side.q0 @ (side.q0.T @ C)
+    norm_c = np.sqrt(np.einsum("ij,ij->j", C, C))
+    unit = e.param_units(machine)[-1]
+    if not np.any(norm_c > side.visible_floor):
+        return Candidate(e.name, "invisible", e.n_params, 0.0, 1.0, 0.0, side.result.rms_um, np.nan, np.nan, unit)
+    alive = norm_c > max(side.visible_floor, 1e-9 * norm_c.max())
+    scale = np.where(alive, norm_c, 1.0)
+    gs, w, V = _normalized(Cp.T @ Cp, alive, scale)
+    return test.judge([e], [unit], alive[None], scale[None], gs[None], w[None], V[None], (Cp.T @ side.r)[None],
+                      [lambda: side.J0.T @ C])[0]
 
 
 def _normalized(gram, alive, scale) -> tuple:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Machine, basis_values, evaluate
+from ..model import Machine, basis_values, evaluate, param_codes
 from ..data import Observations
 
 __all__ = ["Design", "design", "joint_values", "residuals", "effect_columns", "put_rotation_rows", "tool_rotations",
@@ -68,7 +68,7 @@ def design(machine: Machine, effects, obs: Observations, axes_user: np.ndarray |
     for e in effects:
         b = basis_values(e, machine, axes_user, t_s=obs.t_s, directions=obs.directions, marks=obs.marks)
         blocks.append(b)
-        index += [codes.index(e.code)] * b.shape[1]
+        index += [codes.index(c) for c in param_codes(e, machine)]
     if blocks and all((b == b[:1]).all() for b in blocks):  # every basis constant (location errors): one row for
         # all, read-only (a broadcast: no N × P array made, and nothing can write into it)
         basis = np.broadcast_to(np.concatenate([b[0] for b in blocks]), (len(obs), len(index)))

@@ -9,9 +9,10 @@ from kinid.lazy import front_door as _front_door
 _SOURCES = {
     "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "chosen_of": "bases",
     "local_column_index": "bsplines", "local_columns": "bsplines", "local_grid": "bsplines",
-    "TABLE_POSITIONS": "effects", "axis_dependent_joints": "effects", "basis_values": "effects",
+    "TABLE_POSITIONS": "effects", "axis_dependent_joints": "derived", "basis_values": "effects",
     "candidate_library": "effects", "check_effects": "effects", "default_model": "effects",
-    "model_effects": "effects", "parse_effect": "effects", "position_tables": "effects", "Machine": "machine",
+    "model_effects": "effects", "param_codes": "effects", "parse_effect": "effects", "position_tables": "effects",
+    "Machine": "machine",
     "axis_limits": "machine", "check_machine": "machine", "evaluate": "machine", "evaluate_blocks": "machine",
     "load_machine": "machine",
     "machine_from_urdf": "machine", "tool_in_workpiece_mm": "machine", "tool_rotation_in_workpiece": "machine",
@@ -26,7 +27,8 @@ __all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG
            "candidate_library", "check_effects", "check_machine", "chosen_of", "default_model",
            "effect_description", "evaluate", "evaluate_blocks", "identification_urdf", "implausible_candidate",
            "implausible_effects", "joint_kind", "load_machine", "local_column_index", "local_columns",
-           "local_grid", "machine_from_urdf", "model_effects", "parse_effect", "plain_name", "position_tables",
+           "local_grid", "machine_from_urdf", "model_effects", "param_codes", "parse_effect", "plain_name",
+           "position_tables",
            "rigid_transform", "share_of_limit", "tool_in_workpiece_mm", "tool_rotation_in_workpiece",
            "warning_lines"]
 

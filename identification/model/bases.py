@@ -23,6 +23,8 @@ name                   value of the error joint                        parameter
                        (:mod:`~kinid.identification.model.rotary_on`, registered when effects load)
 ``EB0J2:sag:J4``       c · the torque about J2 of a unit weight at J4   1
                        (:mod:`~kinid.identification.model.sag`)
+``EB0J2:gravity``      cₖ · the gravity torque on each horizontal       one per
+                       joint k, on EB0J2, EB0J3 … (``sag`` too)          joint
 ``EZZ:step:Y:40``      a jump of s where Y passes 40 (zero at Y = 0)    1
                        (:mod:`~kinid.identification.model.step`)
 =====================  ==============================================  ==========
@@ -156,6 +158,12 @@ class Basis:
     axis_named : bool
         The name says which axis drives it, any error joint's, set-up joints' too (``step:<axis>:<at>``):
         :attr:`parse` returns it as ``axis``, the effect's :attr:`Effect.axis`.
+    joints : callable (effect, machine) -> list of str, or None
+        The error joint of each parameter, for an effect spread over several (``gravity``: a compliance per loaded
+        joint); None: every parameter on the effect's own joint.
+    sign : {0, 1, -1}
+        The sign every parameter must have (a compliance: +1); one of the other sign beyond twice its standard
+        deviation is a size no machine has. 0: any.
     """
 
     kind: str
@@ -176,6 +184,8 @@ class Basis:
     window_grid: Callable | None = None
     extent: Callable = _largest_value
     axis_named: bool = False
+    joints: Callable | None = None
+    sign: int = 0
 
     @property
     def tabulated(self) -> bool:

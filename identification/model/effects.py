@@ -13,13 +13,14 @@ import numpy as np
 
 from kinid.errors import DataError
 from .bases import BASES, LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of, parse_name
-from .machine import Machine, joint_kind
+from .derived import axis_dependent_joints
+from .machine import Machine
 from .rotary_on import rotary_carriers  # registers the on:<rotary axis> basis, after those of bases
 from . import sag as _sag  # noqa: F401  registers the sag:<point> basis
 from . import step as _step  # noqa: F401  registers the step:<axis>:<at> basis
 
 __all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
-           "basis_values", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
+           "basis_values", "param_codes", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
 
 @dataclass(frozen=True)
@@ -166,48 +167,11 @@ def position_tables(machine: Machine, positions) -> list[str]:
             if machine.axis(axis).kind == "prismatic" and positions.get(axis, 0) in TABLE_POSITIONS]
 
 
-def axis_dependent_joints(machine: Machine) -> list:
-    """(code, axis) of the error joints whose value may vary with the position of their axis.
-
-    Every position-dependent joint ``E<d><k>``; and a location joint ``E<d>0<k>``
-    whose motion is the same as axis ``k``'s own — a translation along the
-    direction of a linear axis, or a rotation about the same line as a rotary
-    axis — because it commutes with the axis, so that its value varying with
-    the axis's position is the position-dependent error the URDF has no joint
-    for (an arm's gear error of J2 is ``EB0J2`` varying with J2 when J2 turns
-    about y).
-    """
-    from .derived import derived
-
-    # asked by the library, the period search and the maps alike: found once per machine
-    return list(derived(machine, "axis_dependent_joints", lambda: tuple(_axis_dependent_joints(machine))))
-
-
-def _axis_dependent_joints(machine) -> list:
-    import pinocchio as pin
-
-    data = machine.model.createData()
-    pin.forwardKinematics(machine.model, data, pin.neutral(machine.model))
-    out = []
-    for e in machine.error_joints:
-        if e.axis not in machine.axis_names:
-            continue
-        if not e.location:
-            out.append((e.code, e.axis))
-            continue
-        axis = machine.axis(e.axis)
-        if (e.kind == "prismatic") != (axis.kind == "prismatic"):
-            continue
-        je, jk = machine.model.getJointId(e.code), machine.model.getJointId(machine.axis(e.axis).joint)
-        de = data.oMi[je].rotation @ np.eye(3)["XYZABC".index(e.direction) % 3]
-        dk = data.oMi[jk].rotation @ joint_kind(machine.model.joints[jk])[1]
-        if np.linalg.norm(np.cross(de, dk)) > 1e-9:
-            continue  # not parallel
-        offset = data.oMi[jk].translation - data.oMi[je].translation
-        if e.kind == "revolute" and np.linalg.norm(np.cross(offset, dk)) > 1e-9:
-            continue  # parallel rotation axes on different lines do not commute
-        out.append((e.code, e.axis))
-    return out
+def param_codes(effect: Effect, machine: Machine) -> list:
+    """The error joint of each of ``effect``'s parameters: its own joint's code, or, for an effect spread over
+    several (:attr:`~kinid.identification.model.bases.Basis.joints`: the arm's gravity compliance), theirs."""
+    joints = basis_of(effect).joints
+    return [effect.code] * effect.n_params if joints is None else list(joints(effect, machine))
 
 
 def basis_values(effect: Effect, machine: Machine, axes_user: np.ndarray, *, t_s=None, directions=None,

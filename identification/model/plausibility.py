@@ -61,6 +61,7 @@ class Implausible:
     unit: str
     std: float = math.nan  # of a constant's value; NaN for an effect of several parameters
     partners: tuple = ()  # the flagged constants sharing the weak direction that carries its size
+    wrong_sign: str = ""  # the parameter of a signed basis (a compliance) beyond twice its std on the wrong side
 
     @property
     def undetermined(self) -> bool:
@@ -70,6 +71,9 @@ class Implausible:
         return bool(np.isfinite(self.std) and 2.0 * self.std >= min(self.size, self.limit)) or bool(self.partners)
 
     def describe(self) -> str:
+        if self.wrong_sign:
+            return (f"{self.wrong_sign} = {self.size:.4g} {self.unit}, of the sign no machine has (an arm droops "
+                    f"under its weight: a compliance is not below zero)")
         if self.undetermined:
             why = ("zero is within its uncertainty" if self.size <= 2.0 * self.std else
                    "its uncertainty alone reaches sizes no machine has" if 2.0 * self.std >= self.limit else
@@ -82,6 +86,8 @@ class Implausible:
     @property
     def remedy(self) -> str:
         """What the flag means and what to do, for this effect alone (the report's note under its table)."""
+        if self.wrong_sign:
+            return "the residual it explains is not the arm's give under its weight but something the model lacks"
         if self.undetermined:
             return (f"the plan hardly determines it — fit with --prior to hold such errors near zero, or choose poses "
                     f"that determine it (kinid plan --param {self.effect}=U)")
@@ -151,6 +157,11 @@ def implausible_effects(result, names=None) -> tuple:
         prior = getattr(result, "prior_std", None)
         if prior is not None and e.n_params == 1 and np.isfinite(prior[k - 1]):
             limit = min(limit, PRIOR_MULTIPLE * float(prior[k - 1]))
+        wrong = _wrong_sign(e, th, result.std[k - e.n_params:k], machine)
+        if wrong is not None:
+            out.append(wrong)
+            index.append(k - 1)
+            continue
         size = _size(e, th, machine, result.axis_ranges)
         if size > limit:
             std = float(result.std[k - 1]) if e.n_params == 1 and result.identifiable[k - 1] else math.nan
@@ -205,9 +216,27 @@ def implausible_candidate(machine, candidate, axis_ranges) -> Implausible | None
     std = np.asarray(candidate.coefficient_std, float) if candidate.coefficient_std else np.zeros_like(theta)
     if theta.shape != (effect.n_params,) or std.shape != theta.shape:
         return None
+    wrong = _wrong_sign(effect, theta, std, machine)
+    if wrong is not None:
+        return wrong
     theta = np.where(np.abs(theta) > 2.0 * std, theta, 0.0)
     size, limit = _size(effect, theta, machine, axis_ranges), machine_limit(machine, effect.code, effect.unit)
     return Implausible(effect.name, size, limit, "µm" if effect.unit == "um" else "µrad") if size > limit else None
+
+
+def _wrong_sign(effect, theta, std, machine) -> Implausible | None:
+    """The first parameter of a signed basis (:attr:`~kinid.identification.model.bases.Basis.sign`: a compliance)
+    on the wrong side of zero by more than twice its standard deviation, flagged; None for none."""
+    sign = basis_of(effect).sign
+    if not sign:
+        return None
+    std = np.nan_to_num(np.asarray(std, float), nan=np.inf)
+    wrong = np.flatnonzero(sign * np.asarray(theta, float) < -2.0 * std)
+    if not wrong.size:
+        return None
+    i = int(wrong[0])
+    return Implausible(effect.name, float(theta[i]), 0.0, effect.param_units(machine)[i],
+                       wrong_sign=effect.param_names()[i])
 
 
 def _weak_partners(flagged: list, index: list, theta, correlation) -> list:

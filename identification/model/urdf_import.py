@@ -5,7 +5,8 @@ A robot's URDF describes its nominal kinematics only. To identify its errors kin
 measured target on the tool (``E?0T``) and of the measurement frame on the base (``E?0W``), and links
 ``workpiece`` and ``tool``. :func:`identification_urdf` walks the chain from the base link to the tool
 link (and, for a machine tool, from the root to the workpiece link), keeps every joint's origin as a
-fixed joint and every motion joint with its name, axis and limits, inserts the error joints, and can
+fixed joint and every motion joint with its name, axis and limits (and each link's ``<inertial>``, where given, on
+the link of the same frame: the gravity compliance's masses), inserts the error joints, and can
 put a measured marker offset on the tool. With every error joint at zero the result has exactly the
 source's kinematics: the tool link's origin (plus the marker offset) in the workpiece frame.
 
@@ -173,6 +174,8 @@ def identification_urdf(text: str, *, tool: str, base: str | None = None, workpi
               and not (_ISO_CODE.fullmatch(j.name) and j.xyz == (0.0, 0.0, 0.0) and j.rpy == (0.0, 0.0, 0.0))]
     short_names = _short_names([j.name for j in motion])
     renamed = {}
+    child_of = {j.get("name"): j.find("child").get("link") for j in root.findall("joint")}
+    carried = {}  # identification link -> the source link whose <inertial> it carries (the same frame)
 
     def elements(chain):
         out = []
@@ -183,7 +186,9 @@ def identification_urdf(text: str, *, tool: str, base: str | None = None, workpi
                 label = j.name if _PLAIN.fullmatch(j.name) else f"joint{len(out) + 1}_{len(renamed) + 1}"
                 out.append(Fixed(f"{label}_origin", j.xyz, j.rpy))  # (a kept name could clash with the mounts)
             if j.kind == "fixed":
+                carried[f"{out[-1].name}_link"] = child_of[j.name]
                 continue
+            carried[f"{short_names[j.name].lower()}_link"] = child_of[j.name]
             short = short_names[j.name]
             renamed[short] = j.name
             kind = "prismatic" if j.kind == "prismatic" else "revolute"
@@ -207,6 +212,7 @@ def identification_urdf(text: str, *, tool: str, base: str | None = None, workpi
     out = machine_urdf(f"{robot}_kinid", work, tool_elements, _comment(
         f"Identification machine of {robot} (kinid model): chains {base} -> {workpiece} and {base} -> {tool}, "
         f"location errors before every motion joint, set-up joints at both ends."))
+    out = _with_inertials(out, root, carried, path)
     # motion joints keep the source's names; their short names go into the <kinid> element
     mapping = []
     for short, original in renamed.items():
@@ -215,6 +221,42 @@ def identification_urdf(text: str, *, tool: str, base: str | None = None, workpi
             mapping.append(f'    <axis joint={quoteattr(original)} name="{short}"/>')
     if mapping:
         out = out.replace("</robot>", "  <kinid>\n" + "\n".join(mapping) + "\n  </kinid>\n</robot>")
+    return out
+
+
+def _with_inertials(out: str, root, carried: dict, path) -> str:
+    """``out`` with each source link's mass and centre (its ``<inertial>``: the gravity compliance's torques,
+    docs/formats.md) on the identification link of the same frame, where the source gives a mass."""
+    links = {link.get("name"): link for link in root.findall("link")}
+    for link, source in carried.items():
+        inertial = links[source].find("inertial") if source in links else None
+        mass = inertial.find("mass") if inertial is not None else None
+        if mass is None:
+            continue
+        what = f"link {shown(source)!r} <inertial>"
+        try:
+            kg = float(mass.get("value", "nan"))
+        except ValueError:
+            raise DataError(f"{what} mass is not a number: {mass.get('value')!r}", path=path) from None
+        if not (math.isfinite(kg) and kg >= 0):
+            raise DataError(f"{what} mass must be a finite number ≥ 0 kg, got {mass.get('value')!r}", path=path)
+        origin = inertial.find("origin")
+        xyz = _floats(origin.get("xyz") if origin is not None else None, (0, 0, 0), f"{what} origin xyz", path)
+        rpy = _floats(origin.get("rpy") if origin is not None else None, (0, 0, 0), f"{what} origin rpy", path)
+        tensor = inertial.find("inertia")
+        moments = {}
+        for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+            try:
+                moments[k] = float(tensor.get(k, "0") if tensor is not None else "0")
+            except ValueError:
+                moments[k] = math.nan
+            if not math.isfinite(moments[k]):
+                raise DataError(f"{what} inertia {k} must be a finite number, got {tensor.get(k)!r}", path=path)
+        attrs = " ".join(f'{k}="{v!r}"' for k, v in moments.items())
+        xyz_text, rpy_text = " ".join(map(repr, xyz)), " ".join(map(repr, rpy))
+        text = (f'<inertial><mass value="{kg!r}"/><origin xyz="{xyz_text}" rpy="{rpy_text}"/><inertia {attrs}/>'
+                f'</inertial>')
+        out = out.replace(f'  <link name="{link}"/>', f'  <link name="{link}">{text}</link>', 1)
     return out
 
 
