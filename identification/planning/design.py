@@ -150,11 +150,11 @@ def select(J: np.ndarray, W: np.ndarray, *, count: int | None = None, enough=Non
     """
     N, _, P = J.shape
     Js, Ws = _scaled(J, W)
-    Minv = np.eye(P) / START_RIDGE
-    chosen = []
-    for c in start:
-        chosen.append(int(c))
-        Minv = _add(Minv, Js[c])
+    chosen = [int(c) for c in start]
+    # the start's information at once (its eigenvalues), not a rank-3 update per row: a pose repeated many times (a
+    # plan's drift checks) loses the updates' precision at the ridge's 10⁹ scale and leaves G singular
+    w, V = np.linalg.eigh(_information(Js, chosen) if chosen else np.zeros((P, P)))
+    Minv = (V / (np.maximum(w, 0.0) + START_RIDGE)) @ V.T
     limit = min(count if count is not None else max_count, N if distinct else max_count)
     phis = []
     used = np.zeros(N, bool)
