@@ -28,7 +28,7 @@ from .reach import _lambda_min, _power, _shapes
 __all__ = ["DriftChecks", "drift_checks", "MAX_CHECK_SHARE", "MIN_CHECKS"]
 
 #: The checks add at most this share of the plan's chosen alignments. The loop (benchmarks/proving_loop.py, seed 1,
-#: warm-up 4–8 µm) at 0.25 and 0.5: B/C 10 scenarios 0.508 and 0.558 µm (before 0.626), gantry 20 scenarios 1.174
+#: warm-up 4–8 µm) at 0.25 and 0.5: B/C 10 scenarios 0.508 and 0.558 µm (before 0.626), gantry 20 scenarios 1.168
 #: and 0.926 µm (before 1.221); at 0.25 the first plans' checks are the cap (docs/plan.md).
 MAX_CHECK_SHARE = 0.25
 #: Fewest readings of the reference when the checks are asked for: the start, the middle, the end.
