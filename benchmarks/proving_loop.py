@@ -25,7 +25,8 @@ machine, and the summary counts the fits that name a time effect.
 
 The first plan is ``kinid plan --target-um 0.5 --detect-um 1 --power 0.8`` (``--detect-um``: every candidate of the
 diagnosis's library that leaves that much at the tool detected with that power, identification/planning/reach.py;
-``--detect-um 0``: the plan for the target alone).
+``--detect-um 0``: the plan for the target alone), with its drift checks (the run's first alignment read again over
+the run, identification/planning/drift.py); the true model's plan, the alignments' yardstick, without them.
 
 1 µm noise, target U = 0.5 µm (k = 2, per coordinate). ``plan --augment`` is given the first fit's suspects (what
 its diagnosis hints at without establishing it: identification/planning/suspects.py), as the command finds them.
@@ -316,7 +317,7 @@ def main(argv=None) -> int:
             warm = draw_warm_up(layout, args.seed, k, args.warm_up)
             vol = volume(machine, 300, rng, layout)
             told = list(default_model(machine)) + [parse_effect(layout.hidden[h].effect, machine) for h, _, _ in hidden]
-            oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told)
+            oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told, drift_checks=0)
             d1 = measure(machine, tm, first.obs, layout, fixed, hidden, rng, warm)
             last = forward_select(machine, d1, default_model(machine))[-1]
             f1, hints = last.fit, suspects_of(last.diagnosis, last.fit.effects)

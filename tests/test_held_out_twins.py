@@ -35,7 +35,9 @@ def bhead():
     layout = proving_loop.LAYOUTS["five_axis_bhead_c"]
     with tempfile.TemporaryDirectory() as folder:
         machine, tm = proving_loop.load(layout, Path(folder))
-    first = plan_measurement(machine, proving_loop.candidates(machine, layout), target_um=proving_loop.TARGET_UM)
+    # the loop's scenarios as recorded: its first plan without drift checks (tests/test_drift_checks.py has them)
+    first = plan_measurement(machine, proving_loop.candidates(machine, layout), target_um=proving_loop.TARGET_UM,
+                             drift_checks=0)
     return machine, tm, layout, first.obs
 
 

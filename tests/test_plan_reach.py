@@ -60,7 +60,7 @@ def test_a_plan_sized_for_detection_finds_an_error_of_that_size_as_often_as_prom
     plan = plan_measurement(machine, pool, target_um=0.5, detect_um=1.0, power=0.8)
     reach = plan.reach
     assert reach.probes >= 60 and not reach.unreachable and reach.weakest_power >= 0.8
-    assert len(plan.obs) == len(plain.obs) + reach.added and reach.added > 0
+    assert len(plan.chosen) == len(plain.chosen) + reach.added and reach.added > 0
     amplitude = _v_cubic_um(machine, tm, pool, 1.0)
     names = machine.axis_names
     rates = []

@@ -79,9 +79,10 @@ def bc():
 
     machine = load_machine(path("five_axis_bc"))
     pool = candidate_poses(machine, bench_plan.MARKS_MM, {"B": bench_plan.B_DEG, "C": bench_plan.C_DEG})
-    first = plan_measurement(machine, pool, target_um=TARGET_UM)
+    # the sequential design alone, no warm-up drawn: without drift checks (tests/test_drift_checks.py)
+    first = plan_measurement(machine, pool, target_um=TARGET_UM, drift_checks=0)
     told = list(default_model(machine)) + [parse_effect(e, machine) for e in TRUE_EFFECTS]
-    oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told)
+    oracle = plan_measurement(machine, pool, target_um=TARGET_UM, effects=told, drift_checks=0)
     return machine, pool, first, oracle
 
 

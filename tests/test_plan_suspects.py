@@ -67,7 +67,8 @@ def bc():
     layout = proving_loop.LAYOUTS["five_axis_bc"]
     machine, tm = proving_loop.load(layout, ROOT)
     pool = proving_loop.candidates(machine, layout)
-    return layout, machine, tm, pool, plan_measurement(machine, pool, target_um=proving_loop.TARGET_UM)
+    # the loop's scenario as recorded: its first plan without drift checks (tests/test_drift_checks.py has them)
+    return layout, machine, tm, pool, plan_measurement(machine, pool, target_um=proving_loop.TARGET_UM, drift_checks=0)
 
 
 def test_what_the_first_fit_only_hints_at_is_planned_for_and_found(bc):
@@ -105,7 +106,7 @@ def test_what_the_first_fit_only_hints_at_is_planned_for_and_found(bc):
     f2 = forward_select(machine, both, default_model(machine))[-1].fit
     after = proving_loop.held_out_2rms_um(machine, tm, f2, vol, layout, fixed, hidden)
     told = list(default_model(machine)) + [parse_effect(layout.hidden[h].effect, machine) for h, _, _ in hidden]
-    oracle = plan_measurement(machine, pool, target_um=proving_loop.TARGET_UM, effects=told)
+    oracle = plan_measurement(machine, pool, target_um=proving_loop.TARGET_UM, effects=told, drift_checks=0)
     assert after <= 1.1 * proving_loop.TARGET_UM, (before, after, [e.name for e in f2.effects if ":" in e.name])
     assert len(first.obs) + len(aug.plan.obs) <= 1.3 * len(oracle.obs)
 

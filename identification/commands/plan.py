@@ -62,7 +62,11 @@ def register(sub) -> None:
                    help="run the plan in this many blocks (default: the fewest whose time follows no axis; 1: the "
                         "shortest tour)")
     p.add_argument("--no-reference", action="store_true",
-                   help="no reference alignment repeated at every block's start and at the end")
+                   help="no reference alignment repeated at every block's start and at the end (nor --drift-checks)")
+    p.add_argument("--drift-checks", type=int, default=None, metavar="N",
+                   help="read the reference alignment (the run's first) N times over the run, the last alignment "
+                        "among them, to see a drift apart from the geometry (default: the fewest that detect a "
+                        "warm-up of --detect-um, else twice --target-um, at the tool with --power; 0: none)")
     p.add_argument("--augment", default=None, metavar="FIT.json",
                    help="plan the alignments to add to those already measured (--data) so that the target holds for "
                         "the model this fit found (its effects, and --add's): a sequential design "
@@ -192,6 +196,8 @@ def _plan(args) -> int:
         v = getattr(args, name)
         if v is not None and not 0 < v <= 100_000:
             raise DataError(f"must be 1 to 100000, got {v}", parameter="--" + name)
+    if args.drift_checks is not None and not 0 <= args.drift_checks <= 100_000:
+        raise DataError(f"must be 0 to 100000, got {args.drift_checks}", parameter="--drift-checks")
     if args.count is not None and (args.target_um is not None or args.param):
         raise DataError("or targets (--target-um, --param): choose one", parameter="--count")
     if args.data is not None and args.augment is None:
@@ -241,7 +247,7 @@ def _plan(args) -> int:
         param_targets=_pairs(args.param, "param"), count=args.count,
         detect=_pairs(args.detect, "detect", machine, effect=True), detect_um=args.detect_um, power=args.power,
         travel=travel,
-        blocks=args.blocks, reference=not args.no_reference, advice_pool=wide)
+        blocks=args.blocks, reference=not args.no_reference, drift_checks=args.drift_checks, advice_pool=wide)
     write_observations(args.out, plan.obs, machine)
     if args.json:
         from kinid.files import strict_json
@@ -267,6 +273,10 @@ def plan_summary(plan, machine) -> dict:
             "size_um": plan.reach.size_um, "power": plan.reach.power, "candidates": plan.reach.probes,
             "added": plan.reach.added, "weakest": plan.reach.weakest, "weakest_power": plan.reach.weakest_power,
             "unreachable": list(plan.reach.unreachable)},
+        "drift_checks": None if getattr(plan, "checks", None) is None else {
+            "count": plan.checks.count, "interval_s": plan.checks.interval_s, "size_um": plan.checks.size_um,
+            "power": plan.checks.power, "weakest": plan.checks.weakest, "weakest_power": plan.checks.weakest_power,
+            "probes": plan.checks.probes, "most": plan.checks.most, "unreachable": list(plan.checks.unreachable)},
         "machine_time_s": plan.order.total_s, "moving_s": plan.order.move_s, "blocks": plan.order.blocks,
         "time_correlation": plan.order.correlation,
         "held": [{"name": a.name, "message": a.message,
@@ -310,12 +320,24 @@ def plan_text(plan, machine, presets=None, sampled: bool = False) -> str:
         if r.unreachable:
             lines.append(f"  not even every candidate detects {', '.join(r.unreachable)} at that size: not planned for")
     o = plan.order
+    if getattr(plan, "checks", None) is not None:
+        c = plan.checks
+        lines.append(f"drift checks: the first alignment read {c.count} times over the run, the last among them, at "
+                     f"most {c.interval_s / 60:.1f} min apart")
+        if c.size_um:
+            seen = f"{c.weakest} {c.weakest_power:.2f}" if c.weakest else "none"
+            lines.append(f"  a drift or warm-up that would move the cold machine's prediction by {c.size_um:g} µm: "
+                         + (f"{len(c.unreachable)} of the diagnosis's {c.probes} time candidates stay below "
+                            f"probability {c.power:g} even at {c.most} checks; " if c.unreachable else "")
+                         + f"the least sure of the rest {seen}")
     corr = ", ".join(f"{a} {v:+.2f}" for a, v in o.correlation.items())
     lines.append(f"machine time ≈ {o.total_s / 60:.1f} min ({o.move_s / 60:.1f} min moving and settling; "
                  f"{plan.travel.describe()})")
     lines.append(f"order: {o.blocks} block{'s' if o.blocks > 1 else ''}"
-                 + (", each over every axis's range, every other one backwards, a reference alignment at every block's "
-                    "start and at the end" if o.blocks > 1 else "") + f"; correlation of time with each axis: {corr}")
+                 + (", each over every axis's range, every other one backwards" if o.blocks > 1 else "")
+                 + (", a reference alignment at every block's start and at the end"
+                    if o.blocks > 1 and o.reference >= 0 and getattr(plan, "checks", None) is None else "")
+                 + f"; correlation of time with each axis: {corr}")
     if plan.advice:
         from ..planning import advice_lines
 
@@ -394,7 +416,7 @@ def _run_augment(args, machine, loaded, measured, pool, presets, travel, param_t
     hints = suspected(machine, measured, effects, args.noise_um)
     aug = augment_plan(machine, measured, pool, effects, noise_um=noise_um, target_um=args.target_um,
                        param_targets=param_targets, count=args.count, travel=travel, blocks=args.blocks,
-                       reference=not args.no_reference, suspects=hints)
+                       reference=not args.no_reference, drift_checks=args.drift_checks, suspects=hints)
     if len(aug.plan.obs):
         write_observations(args.out, aug.plan.obs, machine)
     if args.json:

@@ -17,7 +17,7 @@ import numpy as np
 from kinid.errors import DataError
 from ..model import Machine, parse_effect
 from ..data import Observations
-from .order import TravelModel, order_for_time
+from .order import TravelModel, order_for_time, with_checks
 from .plan import Candidates, Plan, _terms, tool_point_u_um, volume_weight
 from .pool import axis_motion, candidate_jacobian
 
@@ -73,7 +73,8 @@ def _nominal(obs: Observations, source: str) -> Observations:
 def augment_plan(machine: Machine, measured: Observations, candidates: Observations, effects, *,
                  noise_um: float, target_um: float | None = None, param_targets: dict | None = None,
                  count: int | None = None, travel: TravelModel = TravelModel(), blocks: int | None = None,
-                 reference: bool = True, max_count: int = 2000, suspects=()) -> Augmented:
+                 reference: bool = True, drift_checks: int | None = None, max_count: int = 2000,
+                 suspects=()) -> Augmented:
     """The fewest candidates to add to ``measured`` so that the targets hold for ``effects`` (module docstring).
 
     Parameters
@@ -91,6 +92,9 @@ def augment_plan(machine: Machine, measured: Observations, candidates: Observati
         As :func:`~.plan.plan_measurement` (``count``: this many added alignments).
     travel, blocks, reference
         The order of the added alignments (:func:`~.order.order_for_time`).
+    drift_checks : int, optional
+        Read the added run's reference alignment (its first) this many times over it (:func:`~.order.with_checks`;
+        default and 0: the blocks' references only — the measured run's checks already tell the drift).
     suspects : sequence of Suspect
         Effects the measured data hint at without establishing them (:func:`~.suspects.suspects_of`): the targets
         are planned for the model with them (the fit of all may add them), and the added alignments make each
@@ -148,6 +152,9 @@ def augment_plan(machine: Machine, measured: Observations, candidates: Observati
         linear, wraps = axis_motion(machine)
         order = order_for_time(candidates.subset(added).axes, machine.axis_names, linear, wraps, travel,
                                blocks=blocks, reference=reference)
+        if reference and drift_checks:
+            order = with_checks(order, candidates.subset(added).axes, drift_checks, linear, wraps, travel,
+                                machine.axis_names)
     rows = np.r_[fixed, m + added[order.index]] if order is not None else fixed  # the reference repeats teach too
     bound_count, efficiency = 0, 1.0
     if count is None and terms:

@@ -117,6 +117,14 @@ def _add(Minv, Jc):
     return Minv - A.T @ np.linalg.solve(np.eye(3) + A @ Jc.T, A)
 
 
+def _positive_definite(M) -> bool:
+    try:
+        np.linalg.cholesky((M + M.T) / 2.0)
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.all(np.isfinite(M)))
+
+
 def _remove(Minv, Jc):
     A = Jc @ Minv
     return Minv + A.T @ np.linalg.solve(np.eye(3) - A @ Jc.T, A)
@@ -155,6 +163,11 @@ def select(J: np.ndarray, W: np.ndarray, *, count: int | None = None, enough=Non
     for c in start:
         chosen.append(int(c))
         Minv = _add(Minv, Js[c])
+    if chosen and not _positive_definite(Minv):
+        # a pose repeated many times (a plan's drift checks) loses the rank-3 updates' precision at the ridge's 10⁹
+        # scale: the start's information taken at once, by its eigenvalues
+        w, V = np.linalg.eigh(_information(Js, chosen))
+        Minv = (V / (np.maximum(w, 0.0) + START_RIDGE)) @ V.T
     limit = min(count if count is not None else max_count, N if distinct else max_count)
     phis = []
     used = np.zeros(N, bool)

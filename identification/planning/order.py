@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TravelModel", "Order", "order_for_time", "move_times_s", "MAX_TIME_CORRELATION", "BLOCK_COUNTS"]
+__all__ = ["TravelModel", "Order", "order_for_time", "with_checks", "move_times_s", "MAX_TIME_CORRELATION",
+           "BLOCK_COUNTS"]
 
 #: Largest |correlation| of time with an axis reading a plan's order may leave.
 MAX_TIME_CORRELATION = 0.2
@@ -134,6 +135,29 @@ def _correlations(X, t, names) -> dict:
         x = X[:, j]
         out[name] = 0.0 if np.ptp(x) == 0 or np.ptp(t) == 0 else float(np.corrcoef(t, x)[0, 1])
     return out
+
+
+def with_checks(order: Order, X, checks: int, linear, wraps, travel: TravelModel, names) -> Order:
+    """``order`` with its reference alignment (the block starts' one, else its first) made ``checks`` readings in
+    all, in place of the block starts' repeats: the run's first alignment and (``checks`` ≥ 2) its last, each other
+    repeat added where the time between two readings of the reference is longest, at the alignment nearest the
+    middle of that gap (the drift checks of :mod:`~kinid.identification.planning.drift`)."""
+    ref = order.reference if order.reference >= 0 else int(order.index[0])
+    seq = [ref] + [int(i) for i in order.index if i != ref] + ([ref] if checks >= 2 else [])
+    t = _time_line(X, np.array(seq), linear, wraps, travel)[0]
+    while sum(i == ref for i in seq) < checks:
+        at = np.array([k for k, i in enumerate(seq) if i == ref])
+        gaps = np.where(np.diff(at) >= 3, np.diff(t[at]), -1.0)  # a repeat between two others' alignments only
+        g = int(np.argmax(gaps))
+        if gaps[g] < 0:
+            break
+        inside = np.arange(at[g] + 2, at[g + 1])  # insert before one of these
+        k = int(inside[np.argmin(np.abs(t[inside] - (t[at[g]] + t[at[g + 1]]) / 2.0))])
+        seq.insert(k, ref)
+        t = _time_line(X, np.array(seq), linear, wraps, travel)[0]
+    seq = np.array(seq, int)
+    t, move, total = _time_line(X, seq, linear, wraps, travel)
+    return Order(seq, t, total, move, order.blocks, ref, _correlations(X[seq], t, names))
 
 
 def order_for_time(readings: np.ndarray, names, linear, wraps, travel: TravelModel = TravelModel(), *,

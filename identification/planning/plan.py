@@ -88,6 +88,8 @@ class Plan:
     travel : TravelModel
     reach : Reach or None
         What the plan detects, with ``detect_um`` (:mod:`~kinid.identification.planning.reach`).
+    checks : DriftChecks or None
+        The reference alignment's readings over the run (:mod:`~kinid.identification.planning.drift`); None without.
     """
 
     obs: Observations
@@ -107,6 +109,7 @@ class Plan:
     travel: TravelModel
     seconds: dict = field(default_factory=dict)
     reach: object = None
+    checks: object = None
 
     def __repr__(self) -> str:
         return (f"Plan({len(self.obs)} alignments of {len(self.candidates.obs)} candidates, U {self.u_tool_um:.3g} µm "
@@ -200,8 +203,8 @@ def _check_determined(X, count: int, names) -> None:
 def plan_measurement(machine: Machine, candidates: Observations, *, effects=None, noise_um: float = NOISE_UM,
                      target_um: float | None = None, param_targets: dict | None = None, count: int | None = None,
                      detect: dict | None = None, detect_um: float | None = None, power: float = 0.9, travel: TravelModel = TravelModel(),
-                     blocks: int | None = None, reference: bool = True, advice_pool: Observations | None = None,
-                     max_count: int = 2000) -> Plan:
+                     blocks: int | None = None, reference: bool = True, drift_checks: int | None = None,
+                     advice_pool: Observations | None = None, max_count: int = 2000) -> Plan:
     """The fewest candidates that meet the targets, ordered for machine time (module docstring).
 
     Parameters
@@ -228,6 +231,10 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
     travel : TravelModel
     blocks, reference
         See :func:`~kinid.identification.planning.order.order_for_time`.
+    drift_checks : int, optional
+        Readings of the reference alignment (the run's first) over the run (0: only the blocks' references; default:
+        the fewest that detect, with ``power``, a time effect that would move the cold machine's prediction by
+        ``detect_um``, else twice ``target_um``: :mod:`~kinid.identification.planning.drift`).
     advice_pool : Observations, optional
         Poses beyond the candidates to advise from for parameters the candidates cannot determine.
     """
@@ -279,6 +286,14 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
     linear, wraps = axis_motion(machine)
     chosen = candidates.subset(index)
     order = order_for_time(chosen.axes, machine.axis_names, linear, wraps, travel, blocks=blocks, reference=reference)
+    checks = None
+    if reference and drift_checks != 0:
+        from .drift import drift_checks as keep_checks
+
+        size = detect_um if detect_um is not None else (2.0 * target_um if target_um is not None else None)
+        order, checks = keep_checks(machine, effects, chosen, J[index], J, order, chosen.axes, linear, wraps, travel,
+                                    machine.axis_names, noise_um=noise_um, size_um=size, power=power,
+                                    alpha_total=ALPHA, count=drift_checks)
     efficiency = bound_W / len(order.index) / criterion(J, W, index[order.index])
     obs = replace(chosen.subset(order.index), t_s=order.t_s, lines=(), source="<plan>")
     rows = index[order.index]  # the reference repeats teach too
@@ -290,7 +305,7 @@ def plan_measurement(machine: Machine, candidates: Observations, *, effects=None
     seconds = {"design": t_design, "total": _time.perf_counter() - started}
     pool = Candidates(candidates, J, names, held, f"{len(candidates)} candidate alignments")
     return Plan(obs, index, pool, u, worst, u_params, bound_count, float(efficiency), powers, order, held, advice,
-                target_um, noise_um, travel, seconds, reach)
+                target_um, noise_um, travel, seconds, reach, checks)
 
 
 def _keep_detectable(machine, effects, candidates, J, index, detect, noise_um, power):
