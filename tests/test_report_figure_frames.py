@@ -1,6 +1,7 @@
 """A report's figures drawn again in the frame of the one before (kinid.reports.figures.FigureFrames) are the pixels
 of the same figures drawn new: each kind of residual figure a report draws for its first and last fit, drawn for one
-set of residuals and then for another of a different size, with directions of approach, a periodogram panel of an
+set of residuals and then for another of a different size (the residuals against the axes and binned, in each
+other's frame too), with directions of approach, a periodogram panel of an
 axis not moved and held parameters beside the singular values only the first time."""
 from types import SimpleNamespace
 
@@ -45,14 +46,15 @@ KINDS = {
 }
 
 
-@pytest.mark.parametrize("kind", sorted(KINDS))
-def test_a_figure_drawn_again_in_a_kept_frame_is_the_figure_drawn_new(kind, tmp_path):
+@pytest.mark.parametrize("kind, kind_before", [(k, k) for k in sorted(KINDS)]
+                         + [("residuals_axes", "residuals_binned"), ("residuals_binned", "residuals_axes")])
+def test_a_figure_drawn_again_in_a_kept_frame_is_the_figure_drawn_new(kind, kind_before, tmp_path):
     draw = KINDS[kind]
     first = _data(1, 1.0, directions=True, z_moved=False) + (_fit(["EX0C and EY0C: only their sum (B = 0)",
                                                                   "EZ0W held: the board's height"]),)
     second = _data(2, 40.0, directions=False, z_moved=True) + (_fit([]),)
     frames = FigureFrames()
-    draw(*first, tmp_path / "first.png", frames)
+    KINDS[kind_before](*first, tmp_path / "first.png", frames)
     kept = {id(fig) for fig, _ in frames._kept.values()}
     draw(*second, tmp_path / "again.png", frames)
     assert {id(fig) for fig, _ in frames._kept.values()} == kept  # drawn in the same figure

@@ -25,6 +25,10 @@ __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram
 #: x, y, z residual components: the same colour in every figure.
 COMPONENT_COLOURS = ("tab:blue", "tab:orange", "tab:green")
 
+#: The kind of frame (:class:`~kinid.reports.figures.FigureFrames`) of the residuals against the axes and binned: one
+#: panel an axis, a y scale a row, each label and title set on every drawing: either is drawn in the other's frame.
+RESIDUAL_PANELS = "residual panels"
+
 
 def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against axis positions", *,
                            frames: FigureFrames | None = None) -> None:
@@ -35,7 +39,7 @@ def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against ax
     ``frames``: where a report keeps its figures to draw them again (:class:`~kinid.reports.figures.FigureFrames`;
     the other figures of a report take it too).
     """
-    fig, axs = (frames or FigureFrames()).panel_grid("residuals_axes", len(machine.axes))
+    fig, axs = (frames or FigureFrames()).panel_grid(RESIDUAL_PANELS, len(machine.axes))
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         s = obs.directions.get(a.name)
@@ -363,7 +367,7 @@ def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y
     Bins: each preset position of an axis read at 16 positions or fewer; else equal-width bins, about
     8 readings each (at most 40), so that a lead error of a few mm shows as a wave.
     """
-    fig, axs = (frames or FigureFrames()).panel_grid("residuals_binned", len(machine.axes))
+    fig, axs = (frames or FigureFrames()).panel_grid(RESIDUAL_PANELS, len(machine.axes))
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         values = np.unique(q[np.isfinite(q)])

@@ -112,9 +112,12 @@ class _Flow:
         h, d = self._height_descent(s, size, weight, family)
         _, lp_h, lp_d = self._metric("lp", size, weight, family)
         x = x_pt - self._width(s, size, weight, family) if ha == "right" else x_pt
-        prop = self._props.get((size, weight, family)) or self._props.setdefault(
+        self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, self._prop(size, weight, family), color)
+
+    def _prop(self, size, weight, family):
+        """The font properties of ``size``, ``weight`` and ``family``, made once."""
+        return self._props.get((size, weight, family)) or self._props.setdefault(
             (size, weight, family), _font(size, weight, family))
-        self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, prop, color)
 
     def _line(self, x0, x1, y, color=_RULE, lw=0.6):
         from matplotlib.lines import Line2D
@@ -140,7 +143,8 @@ class _Flow:
         """Width, height and descent, pt, of ``s`` as the PDF renderer measures it (each string measured once)."""
         key = (s, size, weight, family)
         if key not in self._metrics:  # measuring shapes the text (libraqm): about 0.5 ms a string
-            self._metrics[key] = self._measure.get_text_width_height_descent(s, _font(size, weight, family), False)
+            self._metrics[key] = self._measure.get_text_width_height_descent(s, self._prop(size, weight, family),
+                                                                             False)
         return self._metrics[key]
 
     def _height_descent(self, s: str, size: float, weight="normal", family="sans-serif") -> tuple:
