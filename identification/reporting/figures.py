@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinid.reports.figures import fixed_layout, legend_below, new_figure, panel_grid, save_figure, text_width_in
+from kinid.reports.figures import FigureFrames, fixed_layout, legend_below, new_figure, save_figure, text_width_in
 from ..model import LINEAR_PERIODS_MM, ROTARY_PERIODS_DEG, basis_of
 
 __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram", "plot_singular_values",
@@ -25,14 +25,21 @@ __all__ = ["plot_maps", "plot_residuals_vs_axes", "plot_time", "plot_periodogram
 #: x, y, z residual components: the same colour in every figure.
 COMPONENT_COLOURS = ("tab:blue", "tab:orange", "tab:green")
 
+#: The kind of frame (:class:`~kinid.reports.figures.FigureFrames`) of the residuals against the axes and binned: one
+#: panel an axis, a y scale a row, each label and title set on every drawing: either is drawn in the other's frame.
+RESIDUAL_PANELS = "residual panels"
 
-def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against axis positions") -> None:
+
+def plot_residuals_vs_axes(machine, obs, r_um, path, title="Residuals against axis positions", *,
+                           frames: FigureFrames | None = None) -> None:
     """One panel per axis: residual components (µm) against the reading.
 
     The component is told by colour and shape (x blue circles, y orange triangles, z green squares, as in
     the other residual figures); the approach direction of the panel's axis by fill (filled +, hollow −).
+    ``frames``: where a report keeps its figures to draw them again (:class:`~kinid.reports.figures.FigureFrames`;
+    the other figures of a report take it too).
     """
-    fig, axs = panel_grid(len(machine.axes))
+    fig, axs = (frames or FigureFrames()).panel_grid(RESIDUAL_PANELS, len(machine.axes))
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         s = obs.directions.get(a.name)
@@ -64,12 +71,11 @@ def _position_label(axis) -> str:
     return f"{axis.name} position (mm)" if axis.kind == "prismatic" else f"{axis.name} angle (deg)"
 
 
-def plot_time(obs, r_um, path) -> bool:
+def plot_time(obs, r_um, path, *, frames: FigureFrames | None = None) -> bool:
     """Residual components against time; False if the data have no ``t_s``."""
     if obs.t_s is None:
         return False
-    fig = new_figure((7, 3))
-    ax = fig.subplots()
+    fig, ax = (frames or FigureFrames()).figure("time", (7, 3))
     for comp, (marker, colour) in enumerate(zip("o^s", COMPONENT_COLOURS)):
         ax.plot(obs.t_s, r_um[:, comp], marker, ms=2.5, ls="none", color=colour, alpha=0.7, label="xyz"[comp])
     ax.axhline(0, color="k", lw=0.5)
@@ -126,11 +132,11 @@ def lomb_scargle_power(x, y, freqs) -> np.ndarray:
     return 2.0 * (yc ** 2 / c2 + ys ** 2 / s2) * n / 4.0
 
 
-def plot_periodogram(machine, obs, r_um, path) -> None:
+def plot_periodogram(machine, obs, r_um, path, *, frames: FigureFrames | None = None) -> None:
     """Lomb–Scargle power of the residuals against the spatial period of each axis."""
     from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-    fig, axs = panel_grid(len(machine.axes), sharey=False)
+    fig, axs = (frames or FigureFrames()).panel_grid("periodogram", len(machine.axes), sharey=False)
     centred = r_um[:, :3] - r_um[:, :3].mean(axis=0)
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
@@ -166,11 +172,10 @@ def _candidate_lines(ax, periods) -> None:
     ax.update_datalim(np.column_stack([periods, np.zeros_like(periods)]), updatey=False)
 
 
-def plot_singular_values(fit_result, path) -> None:
+def plot_singular_values(fit_result, path, *, frames: FigureFrames | None = None) -> None:
     """Singular values of the column-scaled Jacobian, and the parameters held fixed (beside the axes, the figure
     widened to their longest line: laid out without drawing it twice to measure it)."""
-    fig = new_figure((7, 3.2))
-    ax = fig.subplots()
+    fig, ax = (frames or FigureFrames()).figure("singular_values", (7, 3.2))
     s = np.sort(fit_result.singular_values)[::-1]
     from matplotlib.ticker import MaxNLocator
 
@@ -355,14 +360,14 @@ def plot_identified_errors(fit_result, obs, path) -> bool:
 
 
 def plot_binned_residuals(machine, obs, r_um, sigma_um, path, *, labels=("x", "y", "z"),
-                          what="residual in the workpiece frame") -> None:
+                          what="residual in the workpiece frame", frames: FigureFrames | None = None) -> None:
     """Mean residual per bin of each axis position, each component, against the noise band ±2σ/√n:
     structure the scatter hides (a periodic error of a few µm) stands out of the band.
 
     Bins: each preset position of an axis read at 16 positions or fewer; else equal-width bins, about
     8 readings each (at most 40), so that a lead error of a few mm shows as a wave.
     """
-    fig, axs = panel_grid(len(machine.axes))
+    fig, axs = (frames or FigureFrames()).panel_grid(RESIDUAL_PANELS, len(machine.axes))
     for j, (ax, a) in enumerate(zip(axs, machine.axes)):
         q = obs.axes[:, j]
         values = np.unique(q[np.isfinite(q)])

@@ -11,6 +11,7 @@ import numpy as np
 
 from kinid.files import write_text
 from kinid.errors import DataError
+from kinid.reports.figures import FigureFrames
 from kinid.reports.html import Figure, Section, Table, report_folder, write_report
 from ..diagnosis import ALPHA
 from .figures import (plot_binned_residuals, plot_identified_errors, plot_maps, plot_measured_vs_model,
@@ -47,7 +48,9 @@ def residuals_csv(diagnosis, obs) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _figures(prefix, machine, obs, fit_result, folder: Path, diagnosis=None):
+def _figures(prefix, machine, obs, fit_result, folder: Path, diagnosis=None, frames=None):
+    """The residual figures of one fit, into ``folder``; ``frames``: a report's figures kept to be drawn again
+    (:class:`~kinid.reports.figures.FigureFrames`: a selection report draws these for its first and last fit)."""
     r = fit_result.residuals_um
     figs = []
     if diagnosis is not None and diagnosis.axis_names and np.all(np.isfinite(diagnosis.axis_residuals_um)):
@@ -55,18 +58,19 @@ def _figures(prefix, machine, obs, fit_result, folder: Path, diagnosis=None):
         plot_binned_residuals(machine, obs, diagnosis.axis_residuals_um, fit_result.noise_um,
                               folder / f"{prefix}residuals_binned.png",
                               labels=tuple(f"{n} reading" for n in diagnosis.axis_names),
-                              what="measured − model reading of the solved axes")
+                              what="measured − model reading of the solved axes", frames=frames)
     else:
-        plot_binned_residuals(machine, obs, r, fit_result.noise_um, folder / f"{prefix}residuals_binned.png")
+        plot_binned_residuals(machine, obs, r, fit_result.noise_um, folder / f"{prefix}residuals_binned.png",
+                              frames=frames)
     figs.append(Figure(f"{prefix}residuals_binned.png", "Mean residual per bin of each axis position, against the "
                        "band where the mean of pure noise falls (95 %)"))
-    plot_residuals_vs_axes(machine, obs, r, folder / f"{prefix}residuals_axes.png")
+    plot_residuals_vs_axes(machine, obs, r, folder / f"{prefix}residuals_axes.png", frames=frames)
     figs.append(Figure(f"{prefix}residuals_axes.png", "Every residual against the axis positions"))
-    if plot_time(obs, r, folder / f"{prefix}residuals_time.png"):
+    if plot_time(obs, r, folder / f"{prefix}residuals_time.png", frames=frames):
         figs.append(Figure(f"{prefix}residuals_time.png", "Residuals against time"))
-    plot_periodogram(machine, obs, r, folder / f"{prefix}periodogram.png")
+    plot_periodogram(machine, obs, r, folder / f"{prefix}periodogram.png", frames=frames)
     figs.append(Figure(f"{prefix}periodogram.png", "Residual periodogram (red lines: the library's periods)"))
-    plot_singular_values(fit_result, folder / f"{prefix}singular_values.png")
+    plot_singular_values(fit_result, folder / f"{prefix}singular_values.png", frames=frames)
     figs.append(Figure(f"{prefix}singular_values.png", "Singular values of the scaled Jacobian, and the parameters "
                        "held fixed"))
     return figs
@@ -366,6 +370,7 @@ def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=N
         caption += f" Held-out: {how}."
     table = Table(tuple(header), tuple(map(tuple, rows)), numeric=tuple(range(2, len(header) - 1)) + (0,),
                   caption=caption)
+    frames = FigureFrames()  # the first and the last fit's residual figures: the same panels, drawn twice
     error_figs = []
     if plot_identified_errors(final, last, folder / "errors.png"):
         error_figs.append(Figure("errors.png", "Identified position-dependent errors against their axes, with the "
@@ -378,11 +383,12 @@ def _selection_report(steps, obs, folder: Path, held_out, provenance, fit_file=N
         if len(steps) > 1 else Section("Nothing was added: the default model stays", tables=(table,)),
         Section("Identified errors (final model)", tables=(errors_table(final, obs=last),), figures=tuple(error_figs)),
         Section("Default model: " + ("its residual" if steps[0].diagnosis.verdict == "noise" else "where it fails"),
-                figures=tuple(_figures("before_", machine, first, steps[0].fit, folder, steps[0].diagnosis)),
+                figures=tuple(_figures("before_", machine, first, steps[0].fit, folder, steps[0].diagnosis, frames)),
                 details=steps[0].diagnosis.text(top=10)),
     ]
     if len(steps) > 1:
-        sections.append(Section("Final model: what is left", figures=tuple(_figures("after_", machine, last, final, folder, steps[-1].diagnosis)),
+        sections.append(Section("Final model: what is left", figures=tuple(_figures("after_", machine, last, final, folder,
+                                                                                    steps[-1].diagnosis, frames)),
                                 details=steps[-1].diagnosis.text(top=5) + "\n\n" + final.table()))
     write_text(folder / "residuals.csv", residuals_csv(steps[-1].diagnosis, last))
     page = folder / "index.html"

@@ -18,7 +18,7 @@ import io
 from ..files import atomic_write
 
 __all__ = ["new_figure", "save_figure", "panel_grid", "fixed_layout", "legend_below", "text_width_in",
-           "SHOWN_WIDTH_IN"]
+           "SHOWN_WIDTH_IN", "FigureFrames"]
 
 
 def new_figure(figsize=(7.0, 4.0)):
@@ -43,12 +43,18 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = True) -> None:
         it as it is), at zlib level 3 (:func:`_write_png`).
     """
     _ticks_in_view(fig)
-    _unlabelled_axes_unmeasured(fig)
+    placed = _unlabelled_axes_unmeasured(fig)
     buf = io.BytesIO()
-    if tight:
-        fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    else:
-        _write_png(fig, buf, dpi)
+    try:
+        if tight:
+            fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+        else:
+            _write_png(fig, buf, dpi)
+    finally:  # a figure drawn again (FigureFrames) may label an axis left empty this time
+        for axis, transform, position in placed:
+            axis.label.set_transform(transform)
+            axis.label.set_position(position)
+            axis._autolabelpos = True  # what set_label_coords turned off
     with atomic_write(path, "wb") as f:
         f.write(buf.getvalue())
 
@@ -64,7 +70,8 @@ def _write_png(fig, out, dpi: int) -> None:
     before = fig.dpi
     try:
         fig.set_dpi(dpi)
-        canvas = FigureCanvasAgg(fig)
+        # a figure drawn again (FigureFrames) keeps its canvas, whose renderer keeps the sizes of the strings it drew
+        canvas = fig.canvas if type(fig.canvas) is FigureCanvasAgg else FigureCanvasAgg(fig)
         canvas.draw()
         rgba = np.asarray(canvas.buffer_rgba())
     finally:
@@ -97,14 +104,19 @@ def _ticks_in_view(fig) -> None:
                 axis.set_minor_locator(in_view(axis.get_minor_locator()))
 
 
-def _unlabelled_axes_unmeasured(fig) -> None:
+def _unlabelled_axes_unmeasured(fig) -> list:
     """Fix the place of every empty axis label, which nothing draws: matplotlib otherwise places each label below
     (beside) the tick labels of its axis and of every axis sharing it, measuring them all, at every draw (the
-    panels of a row share their y axis and only the first is labelled: 5 panels measured 5 times each)."""
+    panels of a row share their y axis and only the first is labelled: 5 panels measured 5 times each).
+
+    Returns (axis, transform, position) of each label fixed, as it was: placed by matplotlib at each draw."""
+    placed = []
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
-            if not axis.label.get_text():
+            if not axis.label.get_text() and axis._autolabelpos:
+                placed.append((axis, axis.label.get_transform(), axis.label.get_position()))
                 axis.set_label_coords(0.5, 0.5)
+    return placed
 
 
 @functools.cache
@@ -175,6 +187,68 @@ def panel_grid(n: int, *, panel_in=(3.0, 2.7), most_per_row: int = 3, sharey: bo
             ax.yaxis.offsetText.set_visible(False)
         axs.append(ax)
     return fig, axs
+
+
+class FigureFrames:
+    """Figures kept to be drawn again: a report draws the same kinds of figure for its first and its last fit (the
+    residuals against the axes, binned, their periodogram, ...), each of the same panels, ticks and labels.
+
+    ``frames.panel_grid(kind, n, ...)`` and ``frames.figure(kind, figsize)`` return the figure last made for ``kind``
+    with that layout, emptied of what was plotted in it — its lines, collections, patches, texts, legends and titles
+    removed, its axis labels emptied, its data limits, autoscaling, colour cycle and scales reset as a new axes has
+    them — or a new one. The
+    axes, their tick objects and the canvas, whose renderer keeps the size of every string it has drawn, are made
+    once: in matplotlib making an axes and its ticks costs as much as drawing them. The code plotting a kind must set
+    everything it shows on every call (labels, ticks, formatters), as it does on a new figure; the tests compare the
+    pixels of figures drawn again with those of new ones.
+    """
+
+    def __init__(self):
+        self._kept = {}
+
+    def panel_grid(self, kind: str, n: int, **kwargs):
+        """:func:`panel_grid` ``(n, **kwargs)``, drawn again for ``kind``: (Figure, list of Axes)."""
+        key = ("grid", kind, n, tuple(sorted(kwargs.items())))
+        if key in self._kept:
+            fig, axs = self._kept[key]
+            _emptied(fig, fig.get_size_inches())
+            return fig, axs
+        self._kept[key] = panel_grid(n, **kwargs)
+        return self._kept[key]
+
+    def figure(self, kind: str, figsize):
+        """A figure of ``figsize`` inches with one axes, drawn again for ``kind``: (Figure, Axes)."""
+        key = ("one", kind, tuple(figsize))
+        if key in self._kept:
+            fig, ax = self._kept[key]
+            _emptied(fig, figsize)
+            return fig, ax
+        fig = new_figure(figsize)
+        self._kept[key] = fig, fig.subplots()
+        return self._kept[key]
+
+
+def _emptied(fig, figsize) -> None:
+    """Remove what was plotted in ``fig`` and reset its axes' limits, autoscaling, scales and colour cycle as a new
+    axes has them (matplotlib's ``Axes.clear`` without its clearing of the axis, which makes the ticks anew)."""
+    fig.set_size_inches(figsize)
+    for legend in list(fig.legends):
+        legend.remove()
+    for ax in fig.axes:
+        for artist in [*ax.lines, *ax.collections, *ax.patches, *ax.texts, *ax.images, *ax.artists]:
+            artist.remove()
+        if ax.legend_ is not None:
+            ax.legend_.remove()
+        for loc in ("center", "left", "right"):
+            ax.set_title("", loc=loc)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.set_prop_cycle(None)
+        ax.set_xscale("linear")
+        ax.set_yscale("linear")
+        ax.ignore_existing_data_limits = True
+        ax.set_xlim(0.0, 1.0, auto=True)
+        ax.set_ylim(0.0, 1.0, auto=True)
 
 
 def fixed_layout(fig, *, left_in: float = 0.75, right_in: float = 0.2, top_in: float = 0.5,

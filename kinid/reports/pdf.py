@@ -112,9 +112,12 @@ class _Flow:
         h, d = self._height_descent(s, size, weight, family)
         _, lp_h, lp_d = self._metric("lp", size, weight, family)
         x = x_pt - self._width(s, size, weight, family) if ha == "right" else x_pt
-        prop = self._props.get((size, weight, family)) or self._props.setdefault(
+        self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, self._prop(size, weight, family), color)
+
+    def _prop(self, size, weight, family):
+        """The font properties of ``size``, ``weight`` and ``family``, made once."""
+        return self._props.get((size, weight, family)) or self._props.setdefault(
             (size, weight, family), _font(size, weight, family))
-        self._lines.add(*self._xy(x, y_pt + max(h, lp_h) - max(d, lp_d)), s, prop, color)
 
     def _line(self, x0, x1, y, color=_RULE, lw=0.6):
         from matplotlib.lines import Line2D
@@ -140,7 +143,8 @@ class _Flow:
         """Width, height and descent, pt, of ``s`` as the PDF renderer measures it (each string measured once)."""
         key = (s, size, weight, family)
         if key not in self._metrics:  # measuring shapes the text (libraqm): about 0.5 ms a string
-            self._metrics[key] = self._measure.get_text_width_height_descent(s, _font(size, weight, family), False)
+            self._metrics[key] = self._measure.get_text_width_height_descent(s, self._prop(size, weight, family),
+                                                                             False)
         return self._metrics[key]
 
     def _height_descent(self, s: str, size: float, weight="normal", family="sans-serif") -> tuple:
@@ -362,14 +366,87 @@ def _lines():
             if not self.get_visible() or not self.items:
                 return
             at = self.get_figure(root=True).transFigure.transform([(x, y) for x, y, *_ in self.items])
+            draw_text = _pdf_text_writer(renderer) or (
+                lambda gc, x, y, s, prop: renderer.draw_text(gc, x, y, s, prop, 0.0, ismath=False))
             for (x, y), (_, _, s, prop, color) in zip(at, self.items):
                 gc = renderer.new_gc()
                 gc.set_foreground(color)
-                renderer.draw_text(gc, x, y, s, prop, 0.0, ismath=False)
+                draw_text(gc, x, y, s, prop)
                 gc.restore()
             self.stale = False
 
     return Lines()
+
+
+def _pdf_text_writer(renderer):
+    """A function ``(gc, x, y, s, prop)`` writing a line of text into the PDF of ``renderer`` as its ``draw_text(gc, x,
+    y, s, prop, 0.0)`` writes it, the same bytes, at a third of its cost; None where the renderer is not matplotlib's
+    PDF renderer of the shape this follows (matplotlib 3.11: text shaped by libraqm, glyphs tracked one by one), or
+    it sets the 14 core fonts: the caller then uses ``draw_text``.
+
+    ``draw_text`` looks the font up by its properties for every string, loads every glyph's outline (which the PDF's
+    text does not use: the fonts are embedded at the end, from the glyphs tracked) and tracks each glyph again; here
+    the font is looked up once per properties, the string is shaped without loading outlines and a glyph is tracked
+    once per file. The tests compare the two PDFs byte by byte.
+    """
+    import itertools
+    import math
+
+    import matplotlib as mpl
+    from matplotlib.backends.backend_pdf import Op, RendererPdf
+    from matplotlib.font_manager import FontPath
+    from matplotlib.ft2font import FT2Font, LoadFlags
+
+    renderer = getattr(renderer, "_vector_renderer", renderer)  # savefig's MixedModeRenderer holds the PDF's
+    tracker = getattr(getattr(renderer, "file", None), "_character_tracker", None)
+    if (not isinstance(renderer, RendererPdf) or not hasattr(FT2Font, "_layout")
+            or not hasattr(tracker, "track_glyph") or mpl.rcParams["pdf.use14corefonts"]):
+        return None
+    file, fonttype = renderer.file, mpl.rcParams["pdf.fonttype"]
+    fonts = {}  # FontProperties -> FT2Font
+    tracked = file.__dict__.setdefault("_kinid_tracked_glyphs", {})  # (font file, face, char, glyph) -> subset, code
+
+    def chunk(kerns_or_chars, fontsize):  # as draw_text's output_singlebyte_chunk
+        if kerns_or_chars:
+            file.output([(-1000 * next(group) / fontsize) if tp == float else renderer._encode_glyphs(group, fonttype)
+                         for tp, group in itertools.groupby(kerns_or_chars, type)], Op.showkern)
+            kerns_or_chars.clear()
+
+    def write(gc, x, y, s, prop):
+        renderer.check_gc(gc, gc._rgb)
+        fontsize = prop.get_size_in_points()
+        font = fonts.get(prop) or fonts.setdefault(prop, renderer._get_font_ttf(prop))
+        font.clear()  # as _get_font_ttf leaves it: a font file's FT2Font is shared by every size
+        font.set_size(fontsize, 72)
+        file.output(Op.gsave)
+        a = math.radians(0.0)
+        file.output(math.cos(a), math.sin(a), -math.sin(a), math.cos(a), x, y, Op.concat_matrix)
+        singlebyte_chunk, prev_font, prev_start_x = [], None, 0
+        file.output(Op.begin_text)
+        for item in font._layout(s, LoadFlags.NO_HINTING, features=None, language=None):
+            key = (item.ft_object.fname, item.ft_object.face_index, item.char, item.glyph_index)
+            subset, charcode = tracked.get(key) or tracked.setdefault(
+                key, tracker.track_glyph(item.ft_object, item.char, item.glyph_index))
+            if (item.ft_object, subset) != prev_font:
+                chunk(singlebyte_chunk, fontsize)
+                file.output(file.fontName(FontPath(item.ft_object.fname, item.ft_object.face_index), subset),
+                            fontsize, Op.selectfont)
+                renderer._setup_textpos(item.x, 0, 0, prev_start_x, 0, 0)
+                prev_font, prev_start_x = (item.ft_object, subset), item.x
+            if item.y:
+                chunk(singlebyte_chunk, fontsize)
+                file.output(item.y, Op.textrise)
+            if item.prev_kern:
+                singlebyte_chunk.append(item.prev_kern)
+            singlebyte_chunk.append(charcode)
+            if item.y:
+                chunk(singlebyte_chunk, fontsize)
+                file.output(0, Op.textrise)
+        chunk(singlebyte_chunk, fontsize)
+        file.output(Op.end_text)
+        file.output(Op.grestore)
+
+    return write
 
 
 def _picture(pixels, box):
