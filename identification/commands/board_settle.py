@@ -111,7 +111,8 @@ def board_move(machine, fit, obs, by_line) -> BoardMove:
     at a 40° tilt (0.84) times that part left the settled depths 0.45 µm RMS off the truth, following the pose, which
     ``--auto`` took for an effect the machine lacks (a cubic EZZ on a B/C table with a straightness of Y: the chain's
     proving ground, scenario 300010). A turn the images determine to no better than the laser's noise over that part
-    of the lever is left at 0."""
+    of the lever, or one ``compensate`` writes as 0 (within its uncertainty), is left at 0."""
+    from ..compensation import compensation_model
     from ..fitting import joint_values
     from .observe import _usable
 
@@ -125,9 +126,10 @@ def board_move(machine, fit, obs, by_line) -> BoardMove:
     if "EC0T" in codes:
         k = codes.index("EC0T")
         values[k] = 0.0
-        # vague when its σ times the marks' own reach (not the spot's) exceeds the noise
+        # vague when its σ times the marks' own reach (not the spot's) exceeds the noise; 0 where compensate writes 0
         marks_reach = float(np.sqrt(np.mean(np.sum(marks**2, axis=1))))
-        if np.isfinite(fit.std[k]) and fit.std[k] * marks_reach * 1e-3 <= fit.noise.value_um:
+        small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
+        if "EC0T" not in small and np.isfinite(fit.std[k]) and fit.std[k] * marks_reach * 1e-3 <= fit.noise.value_um:
             turn = float(fit.theta[k])
     lever_used, lever = _lever(lever, marks, used_turn), _lever(lever, marks, turn)
     slope = _slopes(machine, obs.axes, joint_values(machine, d, values))
