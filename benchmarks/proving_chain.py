@@ -1,7 +1,8 @@
 """Proving ground of the image chain: the laser beside the camera against the laser on its axis, every five-axis layout.
 
 Run: ``python benchmarks/proving_chain.py [--scenarios N] [--seed S] [--layouts L ...] [--lens telecentric pinhole]
-[--jobs J] [--json OUT]``.
+[--jobs J] [--json OUT]``; ``--only ID ... [--keep DIR]`` runs those scenarios alone (an id is the seed printed
+first on its line; give the ``--layouts`` and ``--lens`` of the run that drew it) and keeps each run's files.
 
 Each scenario is drawn from a seeded generator (:func:`draw`), as real set-ups are:
 
@@ -351,18 +352,25 @@ def main(argv=None):
     ap.add_argument("--lens", nargs="+", choices=LENSES, default=list(LENSES))
     ap.add_argument("--jobs", type=int, default=1, help="scenarios run at once (processes)")
     ap.add_argument("--json", help="write every scenario's record here")
+    ap.add_argument("--only", nargs="+", type=int, metavar="ID",
+                    help="run only these scenarios (the seed printed first on a line), drawn with --layouts and --lens")
+    ap.add_argument("--keep", help="with --only: leave each run's files (images, logs, fits) in DIR/ID")
     args = ap.parse_args(argv)
-    seeds = [args.seed * 100003 + k for k in range(args.scenarios)]
+    if args.keep and not args.only:
+        ap.error("--keep needs --only")
+    seeds = args.only or [args.seed * 100003 + k for k in range(args.scenarios)]
+    keeps = [str(Path(args.keep) / str(s)) if args.keep else None for s in seeds]
     started, records = time.perf_counter(), []
     with ProcessPoolExecutor(args.jobs) if args.jobs > 1 else contextlib.nullcontext() as pool:
-        results = (pool.map(run, seeds, [args.layouts] * len(seeds), [args.lens] * len(seeds)) if pool
-                   else (run(s, args.layouts, args.lens) for s in seeds))
+        results = (pool.map(run, seeds, [args.layouts] * len(seeds), [args.lens] * len(seeds), keeps) if pool
+                   else (run(s, args.layouts, args.lens, k) for s, k in zip(seeds, keeps)))
         for rec in results:
             records.append(rec)
             print(line(rec), flush=True)
             if args.json:
                 _write_json(args.json, records)
-    print(f"\n{len(records)} scenarios in {time.perf_counter() - started:.0f} s (seed {args.seed})")
+    print(f"\n{len(records)} scenarios in {time.perf_counter() - started:.0f} s "
+          f"({f'only {args.only}' if args.only else f'seed {args.seed}'})")
     summarise(records)
 
 

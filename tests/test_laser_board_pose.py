@@ -197,7 +197,9 @@ def _params(path):
 def test_data_without_the_lever_columns_give_the_old_fit_and_no_line(tmp_path, capsys):
     """Rows without the lever and slope columns (the laser on the camera's axis, or data not observed by kinid) are
     fitted as before: no pass, no line, the values of the library's fit of the rows (gross errors set aside); with
-    the columns but every lever 0 (a slope that moves nothing), one pass says so and the values are the same."""
+    the columns but every lever 0 (the laser's spot on the mark, in the machine's axes), what moves is the marks' own
+    offsets (0.14 mm RMS, seen in the camera's axes) turned into the machine's axes by the fitted EC0T (466 ± 200 µrad
+    here, the truth 0, 2.3 σ): 0.05 µm in the first pass, nothing in the second; the values move by up to 0.36 σ."""
     from kinid.identification.data import read_observations
     from kinid.identification.fitting import model_effects, set_aside_with_fit
     from kinid.identification.model import load_machine
@@ -226,11 +228,13 @@ def test_data_without_the_lever_columns_give_the_old_fit_and_no_line(tmp_path, c
     _run(tmp_path, "identify", "--machine", MACHINE, "--data", str(tmp_path / "levers.csv"), "--out",
          str(tmp_path / "levers.json"))
     said = _PASS.findall(capsys.readouterr().out)
-    assert [(k, move, how) for k, move, how, *_ in said] == [("1", "0.000", "within")]
+    assert [(k, how) for k, move, how, *_ in said] == [("1", "more than"), ("2", "within")]
+    assert 0.0 < float(said[0][1]) < 0.1 and float(said[1][1]) < 0.005, said
     values_l, std_l, fit_l = _params(tmp_path / "levers.json")
-    assert values_l == values
-    assert np.allclose(np.array(std_l, float), np.array(std, float), rtol=1e-12, equal_nan=True)
-    assert fit_l["board_pose"]["passes"] == 1 and fit_l["board_pose"]["settled"]
+    v, v_l, s = (np.array(x, float) for x in (values, values_l, std))
+    assert np.all(np.isnan(v) == np.isnan(v_l)) and np.nanmax(np.abs(v_l - v) / s) < 0.5, np.nanmax(np.abs(v_l - v) / s)
+    assert np.allclose(np.array(std_l, float), s, rtol=0.01, equal_nan=True)
+    assert fit_l["board_pose"]["passes"] == 2 and fit_l["board_pose"]["settled"]
 
 
 def test_depths_that_do_not_settle_are_said_and_the_passes_capped(tmp_path):
@@ -261,7 +265,10 @@ def test_depths_that_do_not_settle_are_said_and_the_passes_capped(tmp_path):
     assert not out.settled and out.passes == 2 and len(fits) == 2
     assert "did not settle in 2 passes" in said[-1] and len(said) == 3
     move = board_move(machine, fits[0][1], obs, first)
-    lever = np.array([first[line][:2] for line in obs.lines])
+    a = move.turn_urad * 1e-6  # the marks' own part of the lever, seen in the camera's axes, turned into the machine's
+    marks = obs.offsets_mm[:, :2]
+    lever = np.array([first[line][:2] for line in obs.lines]) + marks @ np.array([[np.cos(a), np.sin(a)],
+                                                                                   [-np.sin(a), np.cos(a)]]) - marks
     assert np.allclose(move.dz_mm, -np.sum(move.slope * lever, axis=1), atol=1e-15)  # the slope used was 0
     assert np.allclose(fits[1][0].offsets_mm[:, 2], obs.offsets_mm[:, 2] + move.dz_mm, atol=1e-12)
     assert move.rms_um > 1.0  # the board laid 300 / −200 µrad off level, seen through levers of ±20 mm
