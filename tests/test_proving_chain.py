@@ -84,31 +84,8 @@ def test_settled_depths_beside_a_b_head_are_not_turned_by_a_head_tilt_the_fit_mi
     board's slope, put every settled mark_dz_mm 4.0 µm (mean) off the renderer's truth and the tool's length with it.
     Taken from the turns of the workpiece's chain alone, the settled depths are 0.9 µm off (the head's true 10–40
     µrad turns times the lever)."""
-    from kinid.identification.commands.board_settle import read_levers, settle
-    from kinid.identification.data import read_observations
-    from kinid.identification.fitting import fit, model_effects
-    from kinid.identification.model import load_machine
-    from kinid.urdf import path
-
     sc = pc.draw(67, ("five_axis_bhead_c",), ("telecentric",))
-    tm = pc._machine(sc.layout)
-    frames = []
-    render = cam.render_at
-
-    def spy(pw, Rw, pt, Rt, rng, **kw):
-        frames.append((pw, Rw, pt, Rt))
-        return render(pw, Rw, pt, Rt, rng, **kw)
-
-    monkeypatch.setattr(cam, "render_at", spy)
-    log, sensor = pc.write_run(tmp_path, sc, tm, np.random.default_rng([67, 1]))["offset"]
-    machine_path = str(path(sc.layout))
-    pc._kinid("observe", "--machine", machine_path, "--board", tmp_path / "board.json", "--sensor", sensor,
-              "--data", log, "--out", tmp_path / "obs.csv")
-    machine = load_machine(machine_path)
-    obs = read_observations(tmp_path / "obs.csv", machine)
-    effects = model_effects(machine, ())
-    settled = settle(machine, obs, read_levers(tmp_path / "obs.csv", obs),
-                     lambda o: fit(machine, o, effects, noise_um=None), say=lambda line: None).obs
+    settled, _, frames = _settled_run(tmp_path, monkeypatch, sc, 67, ())
     images = [row["image"] for row in csv.DictReader(open(tmp_path / "obs.csv"))]
     err_um = []
     for i, image in enumerate(images):
@@ -125,32 +102,10 @@ def test_settled_depths_take_the_marks_own_lever_in_the_machines_axes(tmp_path, 
     seen in the camera's axes, left the depths 0.45 µm RMS off the truth (less the laser's noise), following the pose,
     which --auto took for a cubic EZZ the truth lacks (the chain's proving ground, scenario 300010). Turned into the
     machine's axes by the fitted EC0T, the depths are the truth's within 0.2 µm RMS."""
-    from kinid.identification.commands.board_settle import read_levers, settle
-    from kinid.identification.data import read_observations
-    from kinid.identification.fitting import fit, model_effects
-    from kinid.identification.model import load_machine
-    from kinid.urdf import path
-
     sc = pc.draw(300010, pc.LAYOUTS, ("telecentric",))
     assert sc.layout == "five_axis_bc" and abs(sc.constants["EC0T"] - 2251) < 1 and sc.hidden.joint == "EZY"
-    tm = pc._machine(sc.layout)
-    frames = []
-    render = cam.render_at
-
-    def spy(pw, Rw, pt, Rt, rng, **kw):
-        frames.append((pw, Rw, pt, Rt))
-        return render(pw, Rw, pt, Rt, rng, **kw)
-
-    monkeypatch.setattr(cam, "render_at", spy)
-    log, sensor = pc.write_run(tmp_path, sc, tm, np.random.default_rng([300010, 1]))["offset"]
-    machine_path = str(path(sc.layout))
-    pc._kinid("observe", "--machine", machine_path, "--board", tmp_path / "board.json", "--sensor", sensor,
-              "--data", log, "--out", tmp_path / "obs.csv")
-    machine = load_machine(machine_path)
-    obs = read_observations(tmp_path / "obs.csv", machine)
-    effects = model_effects(machine, ("EZY:poly3",))  # the truth's structure: the hidden straightness is a cubic
-    settled = settle(machine, obs, read_levers(tmp_path / "obs.csv", obs),
-                     lambda o: fit(machine, o, effects, noise_um=None), say=lambda line: None).obs
+    # the truth's structure: the hidden straightness is a cubic
+    settled, log, frames = _settled_run(tmp_path, monkeypatch, sc, 300010, ("EZY:poly3",))
     laser = {row["image"]: float(row["laser_mm"]) for row in csv.DictReader(open(log))}
     images = [row["image"] for row in csv.DictReader(open(tmp_path / "obs.csv"))]
     err_um = []
@@ -161,3 +116,33 @@ def test_settled_depths_take_the_marks_own_lever_in_the_machines_axes(tmp_path, 
         err_um.append((settled.offsets_mm[i, 2] + noise_mm - true_mm) * 1e3)
     print(f"settled depths less the laser noise, RMS off the truth: {np.sqrt(np.mean(np.square(err_um))):.3f} µm")
     assert np.sqrt(np.mean(np.square(err_um))) < 0.2, np.sqrt(np.mean(np.square(err_um)))
+
+
+def _settled_run(tmp_path, monkeypatch, sc, seed: int, named: tuple):
+    """Scenario ``sc``'s offset run observed and its depths settled with the default model plus ``named``: the
+    settled observations, the run's log and the frames (board pose, tool pose) each image was rendered at."""
+    from kinid.identification.commands.board_settle import read_levers, settle
+    from kinid.identification.data import read_observations
+    from kinid.identification.fitting import fit, model_effects
+    from kinid.identification.model import load_machine
+    from kinid.urdf import path
+
+    tm = pc._machine(sc.layout)
+    frames = []
+    render = cam.render_at
+
+    def spy(pw, Rw, pt, Rt, rng, **kw):
+        frames.append((pw, Rw, pt, Rt))
+        return render(pw, Rw, pt, Rt, rng, **kw)
+
+    monkeypatch.setattr(cam, "render_at", spy)
+    log, sensor = pc.write_run(tmp_path, sc, tm, np.random.default_rng([seed, 1]))["offset"]
+    machine_path = str(path(sc.layout))
+    pc._kinid("observe", "--machine", machine_path, "--board", tmp_path / "board.json", "--sensor", sensor,
+              "--data", log, "--out", tmp_path / "obs.csv")
+    machine = load_machine(machine_path)
+    obs = read_observations(tmp_path / "obs.csv", machine)
+    effects = model_effects(machine, named)
+    settled = settle(machine, obs, read_levers(tmp_path / "obs.csv", obs),
+                     lambda o: fit(machine, o, effects, noise_um=None), say=lambda line: None).obs
+    return settled, log, frames
