@@ -89,19 +89,6 @@ def _slopes(machine, axes, errors) -> np.ndarray:
     return n[:, :2] / n[:, 2:]
 
 
-def _turned(xy, urad) -> np.ndarray:
-    """Points ``xy`` (N, 2) turned by ``urad`` (scalar or (N,), µrad) about the tool axis."""
-    a = np.asarray(urad, float) * 1e-6
-    c, s = np.cos(a), np.sin(a)
-    return np.column_stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]])
-
-
-def _lever(lever, marks_xy, turn_urad) -> np.ndarray:
-    """The lever (mark − spot, (N, 2) mm) in the machine's axes: the spot's part is there already (the offset as
-    ``kinid sensor`` measures it), the mark's own part was seen in the camera's axes and is turned by ``turn_urad``."""
-    return lever + _turned(marks_xy, turn_urad) - marks_xy
-
-
 def board_move(machine, fit, obs, by_line) -> BoardMove:
     """The move of each row's ``mark_dz_mm`` when the board's slope is the one ``fit`` finds at the row's pose.
 
@@ -113,6 +100,7 @@ def board_move(machine, fit, obs, by_line) -> BoardMove:
     proving ground, scenario 300010). A turn the images determine to no better than the laser's noise over that part
     of the lever, or one ``compensate`` writes as 0 (within its uncertainty), is left at 0."""
     from ..compensation import compensation_model
+    from ..data import lever_in_machine_mm
     from ..fitting import joint_values
     from .observe import _usable
 
@@ -131,7 +119,7 @@ def board_move(machine, fit, obs, by_line) -> BoardMove:
         small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
         if "EC0T" not in small and np.isfinite(fit.std[k]) and fit.std[k] * marks_reach * 1e-3 <= fit.noise.value_um:
             turn = float(fit.theta[k])
-    lever_used, lever = _lever(lever, marks, used_turn), _lever(lever, marks, turn)
+    lever_used, lever = lever_in_machine_mm(lever, marks, used_turn), lever_in_machine_mm(lever, marks, turn)
     slope = _slopes(machine, obs.axes, joint_values(machine, d, values))
     shifts = {}
     for name in TILT_SOURCES:

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..model import tool_rotation_in_workpiece
 
-__all__ = ["BoardPose", "board_pose", "spot_in_tool_mm", "mark_depth_mm", "drawing_turn_um", "LASER_OFFSET_FRAMES"]
+__all__ = ["BoardPose", "board_pose", "spot_in_tool_mm", "mark_depth_mm", "drawing_turn_um", "LASER_OFFSET_FRAMES",
+           "turned_xy", "lever_in_machine_mm"]
 
 #: The frames a sensor file's ``laser_offset_mm`` may be given in: ``machine`` — the machine's axes with the rotary
 #: axes at zero, as ``kinid sensor`` measures it (the default); ``tool`` — the camera's own axes (the tool frame turned
@@ -108,3 +109,16 @@ def mark_depth_mm(dz_spot_mm: float, normal, d_xy_mm, spot_mm) -> np.ndarray:
     ``normal`` (3,) that passes through the laser's spot ``spot_mm`` (2,) at z ``dz_spot_mm``."""
     d = np.atleast_2d(d_xy_mm)
     return dz_spot_mm - (normal[0] * (d[:, 0] - spot_mm[0]) + normal[1] * (d[:, 1] - spot_mm[1])) / normal[2]
+
+
+def turned_xy(xy, urad) -> np.ndarray:
+    """Points ``xy`` (N, 2) turned by ``urad`` (scalar or (N,), µrad) about the tool axis."""
+    a = np.asarray(urad, float) * 1e-6
+    c, s = np.cos(a), np.sin(a)
+    return np.column_stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]])
+
+
+def lever_in_machine_mm(lever, marks_xy, turn_urad) -> np.ndarray:
+    """The lever (mark − spot, (N, 2) mm) in the machine's axes: the spot's part is there already (the offset as
+    ``kinid sensor`` measures it), the mark's own part was seen in the camera's axes and is turned by ``turn_urad``."""
+    return lever + turned_xy(marks_xy, turn_urad) - marks_xy
