@@ -323,3 +323,46 @@ def test_a_tilt_within_its_uncertainty_moves_no_depth(tmp_path):
         move = board_move(machine, fit(machine, obs, model_effects(machine, []), noise_um=0.5), obs, by_line)
         common.append(float(np.mean(move.dz_mm)) * 1e3)
     assert np.sqrt(np.mean(np.square(common))) < 0.01, np.round(common, 4)
+
+
+def test_observe_fit_turns_the_marks_own_part_of_the_lever_by_the_camera_turn_its_normals_leave_out(tmp_path):
+    """``observe --fit`` with EC0T left out of the normals (machine's axes, where the measured offset lies): the marks'
+    own (x, y), seen in the camera's axes, are turned into them by the fitted EC0T, as identify's settle turns them.
+
+    Plain numpy truth (bc_camera_sim): the camera turned 2.25 mrad on the tool, the board tilted and turned, the laser
+    15 mm aside, the tool stopped 0.3 mm from each mark (marks up to ~0.5 mm off the tool point), no reading or laser
+    noise; the pose is the true board's normals in the machine's axes (EC0T 0). Unturned, the depths are 0.40 µm RMS
+    off the truth, turned 0.09 µm (marks 0.35 mm RMS from the tool point)."""
+    from kinid.identification.data import load_sensor, observe, read_run_log
+    from kinid.identification.model import load_machine
+    from kinid.vision import load_board
+
+    truth = {**sim.TRUTH, **sim.BOARD_SETUP, "EC0T": 2250.0}
+    poses = sim.plan(tilts=(-40.0, 40.0), turns=(0.0, 120.0, 240.0), marks=((40.0, 40.0), (-40.0, -40.0)))
+    truth_rows = sim.write_run(tmp_path, poses, rng=np.random.default_rng(5), stop_mm=0.3, reading_noise_um=0.0,
+                               laser_noise_um=0.0, truth=truth, image_noise=0.5, laser_offset_mm=(15.0, 2.0))
+    sensor = json.loads((tmp_path / "sensor.json").read_text())
+    sensor["laser_offset_mm"] = list(sim.laser_offset_as_measured((15.0, 2.0), truth))
+    (tmp_path / "sensor.json").write_text(json.dumps(sensor))
+    machine_axes = {**truth, "EC0T": 0.0}  # the tool frame not turned: the machine's axes
+    normals = np.array([(sim.tool(*t[[0, 2]], machine_axes)[1].T @ sim.workpiece(t[1], b, c, truth)[1])[:, 2]
+                        for t, b, c, _ in truth_rows])
+    machine, board = load_machine(MACHINE), load_board(tmp_path / "board.json")
+    log = read_run_log(tmp_path / "log.csv", machine)
+    want = np.array([sim.seen_offset(t, b, c, m, truth)[2] for t, b, c, m in truth_rows])
+    errors = {}
+    for name, turn in (("unturned", 0.0), ("turned", truth["EC0T"])):
+        pose = BoardPose(normals, marks_turn_urad=turn, marks_reach_limit_mm=np.inf)
+        got = observe(machine, board, load_sensor(tmp_path / "sensor.json"), log, pose=pose)
+        assert len(got.observations) == len(poses)
+        errors[name] = float(np.sqrt(np.mean((got.observations.offsets_mm[:, 2] - want) ** 2)) * 1e3)
+        assert np.all(np.asarray(got.laser_columns.get("laser_marks_turn_urad", [0.0])) == turn)
+    reach = np.sqrt(np.mean(np.sum(got.observations.offsets_mm[:, :2] ** 2, axis=1)))
+    print(f"marks' reach {reach:.3f} mm; mark_dz_mm off the truth: unturned {errors['unturned']:.3f} µm RMS, "
+          f"turned {errors['turned']:.3f} µm RMS")
+    assert errors["unturned"] > 0.15 and errors["turned"] < errors["unturned"] / 4
+    # beyond the reach the turn's σ allows, it is left at 0
+    pose = BoardPose(normals, marks_turn_urad=truth["EC0T"], marks_reach_limit_mm=0.5 * reach)
+    got = observe(machine, board, load_sensor(tmp_path / "sensor.json"), log, pose=pose)
+    assert "laser_marks_turn_urad" not in got.laser_columns
+    assert np.sqrt(np.mean((got.observations.offsets_mm[:, 2] - want) ** 2)) * 1e3 == pytest.approx(errors["unturned"])

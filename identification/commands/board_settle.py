@@ -25,15 +25,17 @@ TILT_SOURCES = ("EA0W", "EB0W")
 
 def read_levers(data_path, obs) -> dict | None:
     """Line -> [lever x, lever y, slope x, slope y, camera turn] of each row of ``obs`` from the observation CSV
-    ``data_path`` (the turn, µrad, the mark's part of the lever was taken with: 0, as observe judges); None when the
-    file has not the four columns (the laser on the camera's axis, or not observed by kinid)."""
-    from .observe import LEVER_COLUMNS
+    ``data_path`` (the turn, µrad, the mark's part of the lever was taken into the slope's axes with: the column
+    ``laser_marks_turn_urad`` ``observe --fit`` writes, else 0, as the first observe judges); None when the file has
+    not the four columns (the laser on the camera's axis, or not observed by kinid)."""
+    from .observe import LEVER_COLUMNS, MARKS_TURN_COLUMN
 
     with open(data_path, newline="") as f:
         reader = csv.DictReader(f)
         if not set(LEVER_COLUMNS) <= set(reader.fieldnames or ()):
             return None
-        by_line = {reader.line_num: [*(_number(row[c], data_path, reader.line_num, c) for c in LEVER_COLUMNS), 0.0]
+        columns = (*LEVER_COLUMNS, MARKS_TURN_COLUMN) if MARKS_TURN_COLUMN in reader.fieldnames else LEVER_COLUMNS
+        by_line = {reader.line_num: [*(_number(row[c], data_path, reader.line_num, c) for c in columns), 0.0][:5]
                    for row in reader}
     if not obs.lines or not all(line in by_line for line in obs.lines):
         return None
@@ -99,10 +101,9 @@ def board_move(machine, fit, obs, by_line) -> BoardMove:
     ``--auto`` took for an effect the machine lacks (a cubic EZZ on a B/C table with a straightness of Y: the chain's
     proving ground, scenario 300010). A turn the images determine to no better than the laser's noise over that part
     of the lever, or one ``compensate`` writes as 0 (within its uncertainty), is left at 0."""
-    from ..compensation import compensation_model
     from ..data import lever_in_machine_mm
     from ..fitting import joint_values
-    from .observe import _usable
+    from .observe import _usable, marks_turn
 
     table = np.array([list(by_line[line]) + [0.0] * (5 - len(by_line[line])) for line in obs.lines])
     lever, used, used_turn = table[:, :2], table[:, 2:4], table[:, 4]
@@ -110,15 +111,10 @@ def board_move(machine, fit, obs, by_line) -> BoardMove:
     d, values, vague = _usable(fit, machine, obs, reach)
     codes = list(fit.param_names)
     marks = obs.offsets_mm[:, :2]
-    turn = 0.0
     if "EC0T" in codes:
-        k = codes.index("EC0T")
-        values[k] = 0.0
-        # vague when its σ times the marks' own reach (not the spot's) exceeds the noise; 0 where compensate writes 0
-        marks_reach = float(np.sqrt(np.mean(np.sum(marks**2, axis=1))))
-        small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
-        if "EC0T" not in small and np.isfinite(fit.std[k]) and fit.std[k] * marks_reach * 1e-3 <= fit.noise.value_um:
-            turn = float(fit.theta[k])
+        values[codes.index("EC0T")] = 0.0
+    turn, reach_limit_mm = marks_turn(fit)
+    turn = turn if float(np.sqrt(np.mean(np.sum(marks**2, axis=1)))) <= reach_limit_mm else 0.0
     lever_used, lever = lever_in_machine_mm(lever, marks, used_turn), lever_in_machine_mm(lever, marks, turn)
     slope = _slopes(machine, obs.axes, joint_values(machine, d, values))
     shifts = {}

@@ -106,6 +106,27 @@ def _usable(fit, machine, obs, lever_mm):
     return design(machine, fit.effects, obs), values, vague
 
 
+def marks_turn(fit) -> tuple[float, float]:
+    """(the fitted camera turn on the tool ``EC0T``, µrad, that takes the marks' own offsets, seen in the camera's
+    axes, into the machine's; the RMS reach of those offsets, mm, up to which it is used): vague beyond it, where its
+    σ times the reach exceeds the fit's noise. (0, 0) without ``EC0T`` or where ``compensate`` writes it as 0 (not
+    significant)."""
+    import math
+
+    import numpy as np
+
+    from ..compensation import compensation_model
+
+    codes = list(fit.param_names)
+    if "EC0T" not in codes:
+        return 0.0, 0.0
+    k = codes.index("EC0T")
+    small = {name for name, why in compensation_model(fit).left_out if why.startswith("not significant")}
+    if "EC0T" in small or not np.isfinite(fit.std[k]):
+        return 0.0, 0.0
+    return float(fit.theta[k]), math.inf if fit.std[k] <= 0 else float(fit.noise.value_um / (fit.std[k] * 1e-3))
+
+
 def _turns_the_board(machine, effect_name: str) -> bool:
     """Whether the error joint of ``effect_name`` (``EA0C``, ``EYB:poly1``) lies on the chain from the machine's base
     to the workpiece (the board's set-up and the table's axes), or is the camera's turn on the tool (``EC0T``, the
@@ -122,6 +143,9 @@ def _turns_the_board(machine, effect_name: str) -> bool:
 
 #: The columns observe writes with the laser beside the camera, with which identify judges the depths again.
 LEVER_COLUMNS = ("laser_lever_x_mm", "laser_lever_y_mm", "board_slope_x", "board_slope_y")
+#: With ``--fit`` where the normals are in the machine's axes but the fit's EC0T turns the marks' own offsets into them:
+#: that turn, µrad (the lever's mark part is written as seen, in the camera's axes).
+MARKS_TURN_COLUMN = "laser_marks_turn_urad"
 
 
 #: Set-up parameters whose σ moves the laser's depth: the board's tilt, and the camera's turn on the tool.
@@ -134,6 +158,7 @@ def _fitted_pose(fit_path, machine, log, sensor):
     import math
     import re
     import warnings
+    from dataclasses import replace
 
     import numpy as np
 
@@ -163,6 +188,11 @@ def _fitted_pose(fit_path, machine, log, sensor):
             joint_values(machine, d, moved), turn + (std if k == k_turn else 0.0))
     pose = board_pose(machine, log.axes, joint_values(machine, d, values), camera_turn_urad=turn, shifted=shifted,
                       source=str(fit_path))
+    # the marks' own offsets are seen in the camera's axes: turned into the normals' by the fitted EC0T the normals
+    # leave out (the rule of identify's settle: used while its σ times the marks' reach is within the noise)
+    marks_urad, reach_limit_mm = marks_turn(fit)
+    if k_turn is not None and marks_urad != values[k_turn]:
+        pose = replace(pose, marks_turn_urad=marks_urad - float(values[k_turn]), marks_reach_limit_mm=reach_limit_mm)
     moves = drawing_turn_um(pose, sensor.laser_offset_mm, turn_std) if drawing and math.isfinite(turn_std) else 0.0
     if moves > fit.noise.value_um:
         warnings.warn(f"{fit_path}: laser_offset_mm is a drawing's, in the camera's axes (laser_offset_frame 'tool'); "

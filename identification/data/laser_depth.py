@@ -44,6 +44,11 @@ class BoardPose:
         The same with one fitted set-up parameter moved by its standard deviation (``shift_<source>_dz_mm``).
     source : str
         Where the pose comes from (the FIT.json's name), for messages.
+    marks_turn_urad : float
+        The turn that takes the marks' own offsets (seen in the camera's axes) into the normals' frame, µrad: the
+        fit's EC0T where the normals leave it out, else 0 (:func:`lever_in_machine_mm`).
+    marks_reach_limit_mm : float
+        The RMS reach of the marks' offsets up to which that turn is used (the fit's noise over the turn's σ).
     """
 
     normals: np.ndarray
@@ -51,6 +56,8 @@ class BoardPose:
     camera_turn_urad: float = 0.0
     shifted: dict = field(default_factory=dict)
     source: str = "the nominal machine"
+    marks_turn_urad: float = 0.0
+    marks_reach_limit_mm: float = 0.0
 
 
 def _normals(machine, axes, errors) -> np.ndarray:

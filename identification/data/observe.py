@@ -32,7 +32,7 @@ from kinid.files import read_image, read_json
 from kinid.progress import as_progress
 from kinid.schema import Either, Fields, Number, Row, Text, validate
 from ..model import Machine, evaluate, tool_rotation_in_workpiece
-from .laser_depth import LASER_OFFSET_FRAMES, BoardPose, board_pose, mark_depth_mm, spot_in_tool_mm
+from .laser_depth import LASER_OFFSET_FRAMES, BoardPose, board_pose, lever_in_machine_mm, mark_depth_mm, spot_in_tool_mm
 from .observations import Observations
 
 #: Passes of the calibrated camera's depth and perspective corrections (the third changes < 1e-6 µm).
@@ -336,6 +336,20 @@ def _pose_shifts(rows, shifted) -> dict:
     return out
 
 
+def _marks_turned(offsets_mm, slope, pose: BoardPose):
+    """(offsets with ``mark_dz_mm`` judged with the marks' own part of the lever turned by ``pose.marks_turn_urad``
+    into the normals' frame, the turn used): the marks (x, y) are seen in the camera's axes, the normals and the
+    spot in the machine's where the fit's EC0T is left out of them; the turn is used while the marks' RMS reach is
+    within ``pose.marks_reach_limit_mm``. The depth is linear in the mark's (x, y): it moves by −slope · the turn's
+    move."""
+    marks = offsets_mm[:, :2]
+    if not pose.marks_turn_urad or np.sqrt(np.mean(np.sum(marks**2, axis=1))) > pose.marks_reach_limit_mm:
+        return offsets_mm, 0.0
+    moved = offsets_mm.copy()
+    moved[:, 2] -= np.sum(slope * (lever_in_machine_mm(np.zeros_like(marks), marks, pose.marks_turn_urad)), axis=1)
+    return moved, float(pose.marks_turn_urad)
+
+
 def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origin_mm=None, marks: str = "nearest",
             progress=None, pose: BoardPose | None = None) -> ObserveResult:
     """Locate and decode the board's marks in every image of a run and make observation rows.
@@ -439,6 +453,7 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
                         f"{rejected[0].line}, {rejected[0].image}: {rejected[0].reason})" if rejected else
                         "the run log lists no image", path=log.source)
     idx = np.array([r[0] for r in rows])
+    offsets_mm, marks_turn = _marks_turned(np.array([r[3] for r in rows]), np.array([r[4] for r in rows]), pose)
     obs = Observations(
         marks=tuple(f"M{r[1]}" for r in rows),
         w_mm=np.array([r[2] for r in rows]),
@@ -447,12 +462,13 @@ def observe(machine: Machine, board, sensor: Sensor, log: RunLog, *, board_origi
         directions={k: v[idx] for k, v in log.directions.items()},
         lines=tuple(log.lines[j] for j in idx),
         source=log.source,
-        offsets_mm=np.array([r[3] for r in rows]),
+        offsets_mm=offsets_mm,
         shifts_mm={**_laser_offset_shifts(sensor, np.array([r[4] for r in rows])), **_pose_shifts(rows, shifted)},
     )
     columns = {}
     if log.laser_mm is not None and np.hypot(*sensor.laser_offset_mm) > 0:
         lever, slope = np.array([r[6] for r in rows]), np.array([r[4] for r in rows])
         columns = {"laser_lever_x_mm": lever[:, 0], "laser_lever_y_mm": lever[:, 1], "board_slope_x": slope[:, 0],
-                   "board_slope_y": slope[:, 1]}
+                   "board_slope_y": slope[:, 1], **({"laser_marks_turn_urad": np.full(len(rows), marks_turn)}
+                                                     if marks_turn else {})}
     return ObserveResult(obs, tuple(log.images[j] for j in idx), tuple(rejected), columns)
