@@ -29,8 +29,12 @@ tool point and the true mark. A scenario passes when the offset run's held-out e
 run's, and the offset run adds no effect the truth lacks: none on an error joint the truth leaves at zero unless it names an axis the
 hidden effect involves (a lead of Y fitted as a periodic pitch of Y, EAY, is the same error seen through its lever).
 
+A scenario whose on-axis run is refused (a command exits 2) has no reference: it is counted apart ("no reference"),
+neither within 1.5× nor beyond, and left out of the rates.
+
 Printed: each scenario's figures, then per layout and lens the pass rate and the medians (held-out on axis, with
-the offset, their ratio; uncompensated), and each failure's figures.
+the offset, their ratio; uncompensated) over the scenarios judged, and each failure's and unjudged scenario's
+figures.
 """
 from __future__ import annotations
 
@@ -67,6 +71,7 @@ HELD_OUT = 24
 STOP_MM = 0.1
 READING_NOISE_UM = LASER_NOISE_UM = 0.5
 RATIO_LIMIT = 1.5
+NO_REFERENCE = "no reference"  # the on-axis run refused: the scenario is judged neither within nor beyond
 
 
 # -- the drawn scenario --------------------------------------------------------------------------------------
@@ -293,13 +298,24 @@ def run(seed: int, layouts=LAYOUTS, lenses=LENSES, keep=None) -> dict:
                          "spurious": [e for e in added if e.split(":")[0] not in in_truth
                                       and not _named_axes(e, kin) & set(sc.hidden.axes)],
                          "board_pose": got["board_pose"]}
-    with np.errstate(invalid="ignore"):  # both refused: inf / inf
-        rec["ratio"] = float(np.nan_to_num(rec["offset"]["held_out_um"] / max(rec["axis"]["held_out_um"], 1e-9), nan=np.inf))
-    rec["pass"] = bool(rec["ratio"] <= RATIO_LIMIT and not rec["offset"]["spurious"])
-    # the laser's own share: what the offset run does worse than the on-axis run of the same images
-    rec["pass_laser"] = bool(rec["ratio"] <= RATIO_LIMIT and set(rec["offset"]["spurious"]) <= set(rec["axis"]["spurious"]))
+    rec.update(judge(rec["axis"], rec["offset"]))
     rec["seconds"] = time.perf_counter() - started
     return rec
+
+
+def judge(axis: dict, offset: dict) -> dict:
+    """The verdict on a scenario from its on-axis and offset runs' records: ``ratio`` (offset held-out error over the
+    on-axis one), ``judged`` — "within" (≤ RATIO_LIMIT), "beyond", or "no reference" when the on-axis run was refused
+    (no evidence either way: its error is no number to divide by, neither within nor beyond) — ``pass`` (within and
+    no effect the truth lacks) and ``pass_laser`` (within and no such effect the on-axis run does not add too)."""
+    if "refused" in axis:
+        return {"ratio": float("nan"), "judged": NO_REFERENCE, "pass": False, "pass_laser": False}
+    ratio = offset["held_out_um"] / max(axis["held_out_um"], 1e-9)  # an offset run refused: inf, beyond
+    within = bool(ratio <= RATIO_LIMIT)
+    # the laser's own share: what the offset run does worse than the on-axis run of the same images
+    return {"ratio": float(ratio), "judged": "within" if within else "beyond",
+            "pass": within and not offset["spurious"],
+            "pass_laser": within and set(offset["spurious"]) <= set(axis["spurious"])}
 
 
 # -- reports ----------------------------------------------------------------------------------------------------
@@ -310,31 +326,48 @@ def line(rec: dict) -> str:
             f"{rec['hidden']:<22} held-out on axis {rec['axis']['held_out_um']:6.3f} offset {rec['offset']['held_out_um']:6.3f} "
             f"µm (×{rec['ratio']:.2f}; uncompensated {rec['uncompensated_um']:6.1f}) passes {bp.get('passes', '-')} "
             f"added {rec['offset']['added'] or '-'} / on axis {rec['axis']['added'] or '-'} "
-            f"{'PASS' if rec['pass'] else 'FAIL'} {rec['seconds']:.0f} s")
+            f"{_verdict(rec)} {rec['seconds']:.0f} s")
+
+
+def _verdict(rec: dict) -> str:
+    return "NO REFERENCE" if rec.get("judged") == NO_REFERENCE else "PASS" if rec["pass"] else "FAIL"
 
 
 def summarise(records) -> None:
+    """Per class the rates over the scenarios judged (those whose on-axis run was refused counted apart, "no ref"),
+    the medians, and each failure's and each unjudged scenario's figures."""
     groups = {}
     for rec in records:
         for key in ("all", f"{rec['layout']} {rec['lens']}", rec["layout"], rec["lens"]):
             groups.setdefault(key, []).append(rec)
-    print(f"\n{'class':<32} {'n':>3} {'pass':>6} {'laser':>6} {'on axis µm':>10} {'offset µm':>10} {'ratio':>6} {'worst':>6} "
-          f"{'uncomp. µm':>10}   (medians; laser: passes but for what the on-axis run adds too)")
+    print(f"\n{'class':<32} {'n':>3} {'no ref':>6} {'within':>6} {'pass':>6} {'laser':>6} {'on axis µm':>10} "
+          f"{'offset µm':>10} {'ratio':>6} {'worst':>6} {'uncomp. µm':>10}   (rates over the scenarios judged; "
+          f"medians; laser: passes but for what the on-axis run adds too)")
     for key in sorted(groups, key=lambda k: (k != "all", k.count(" "), k)):
         items = groups[key]
-        med = lambda f: float(np.median([f(v) for v in items]))  # noqa: E731
-        print(f"{key:<32} {len(items):>3} {np.mean([v['pass'] for v in items]):>6.0%} "
-              f"{np.mean([v['pass_laser'] for v in items]):>6.0%} "
+        judged = [v for v in items if v.get("judged") != NO_REFERENCE]
+        rate = lambda f: f"{np.mean([f(v) for v in judged]):.0%}" if judged else "-"  # noqa: E731
+        med = lambda f: float(np.median([f(v) for v in judged])) if judged else np.nan  # noqa: E731
+        print(f"{key:<32} {len(items):>3} {len(items) - len(judged):>6} {rate(lambda v: v['ratio'] <= RATIO_LIMIT):>6} "
+              f"{rate(lambda v: v['pass']):>6} {rate(lambda v: v['pass_laser']):>6} "
               f"{med(lambda v: v['axis']['held_out_um']):>10.3f} {med(lambda v: v['offset']['held_out_um']):>10.3f} "
-              f"{med(lambda v: v['ratio']):>6.2f} {max(v['ratio'] for v in items):>6.2f} "
-              f"{med(lambda v: v['uncompensated_um']):>10.1f}")
-    failed = [v for v in records if not v["pass"]]
-    print(f"\nfailures: {len(failed)} of {len(records)}")
+              f"{med(lambda v: v['ratio']):>6.2f} {max((v['ratio'] for v in judged), default=np.nan):>6.2f} "
+              f"{float(np.median([v['uncompensated_um'] for v in items])):>10.1f}")
+    unjudged = [v for v in records if v.get("judged") == NO_REFERENCE]
+    failed = [v for v in records if not v["pass"] and v not in unjudged]
+    print(f"\nfailures: {len(failed)} of {len(records) - len(unjudged)} judged")
     for rec in failed:
-        print("  " + line(rec))
-        print(f"    offset {rec['laser_offset_mm']} mm; board pose (offset run): {rec['offset']['board_pose']}; "
-              f"spurious {rec['offset']['spurious'] or 'none'} (on axis {rec['axis']['spurious'] or 'none'})"
-              + "".join(f"; {case} refused: {rec[case]['refused']}" for case in ("axis", "offset") if "refused" in rec[case]))
+        _details(rec)
+    print(f"\nno reference (the on-axis run refused; judged neither within nor beyond): {len(unjudged)}")
+    for rec in unjudged:
+        _details(rec)
+
+
+def _details(rec) -> None:
+    print("  " + line(rec))
+    print(f"    offset {rec['laser_offset_mm']} mm; board pose (offset run): {rec['offset']['board_pose']}; "
+          f"spurious {rec['offset']['spurious'] or 'none'} (on axis {rec['axis']['spurious'] or 'none'})"
+          + "".join(f"; {case} refused: {rec[case]['refused']}" for case in ("axis", "offset") if "refused" in rec[case]))
 
 
 def _write_json(path, records) -> None:

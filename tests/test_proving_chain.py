@@ -18,6 +18,40 @@ import camera_render as cam  # noqa: E402
 import proving_chain as pc  # noqa: E402
 
 
+
+def _case(held_out_um, spurious=(), refused=None):
+    rec = {"held_out_um": held_out_um, "added": list(spurious), "spurious": list(spurious), "board_pose": None}
+    return rec if refused is None else {**rec, "refused": refused}
+
+
+def test_a_refused_on_axis_run_is_no_reference_neither_within_nor_beyond(capsys):
+    """The on-axis run refused (held-out error inf, as run() records it): the offset run's 0.368 µm is judged neither
+    within 1.5× nor beyond (the scenario 1000033 of docs/observe.md was counted within, 0.368 / inf = 0), does not
+    pass, and the summary counts it apart and leaves it out of the rates; a refused offset run is beyond."""
+    refused = _case(float("inf"), refused="compensate: the fit has EYZ:poly2 = 1940 µm")
+    judged = pc.judge(refused, _case(0.368))
+    assert judged["judged"] == pc.NO_REFERENCE and not judged["pass"] and not judged["pass_laser"]
+    assert np.isnan(judged["ratio"])
+    assert pc.judge(refused, refused)["judged"] == pc.NO_REFERENCE
+    within = pc.judge(_case(0.5), _case(0.7))
+    assert within["ratio"] == pytest.approx(1.4) and within["judged"] == "within" and within["pass"] and within["pass_laser"]
+    assert pc.judge(_case(0.5), _case(0.8))["judged"] == "beyond"
+    assert pc.judge(_case(0.5), _case(0.6, ["EZZ:poly1"]))["pass"] is False
+    assert pc.judge(_case(0.5), refused)["judged"] == "beyond"
+    common = {"layout": "five_axis_ac", "lens": "telecentric", "laser_offset_mm": [20.0, 20.0], "laser_mm": 28.3,
+              "hidden": "sag EYZ", "ec0t_urad": 0.0, "board_tilt_urad": 0.0, "board_turn_urad": 0.0,
+              "uncompensated_um": 50.0, "seconds": 1.0}
+    records = [{**common, "seed": 1, "axis": refused, "offset": _case(0.368), **pc.judge(refused, _case(0.368))},
+               {**common, "seed": 2, "axis": _case(0.5), "offset": _case(1.0), **pc.judge(_case(0.5), _case(1.0))}]
+    pc.summarise(records)
+    out = capsys.readouterr().out
+    all_row = next(r.split() for r in out.splitlines() if r.startswith("all "))
+    assert all_row[1:6] == ["2", "1", "0%", "0%", "0%"]  # n, no ref, within, pass, laser: over the one judged
+    assert "failures: 1 of 1 judged" in out
+    assert "no reference (the on-axis run refused; judged neither within nor beyond): 1" in out
+    assert "NO REFERENCE" in out.split("no reference (")[1] and "NO REFERENCE" not in out.split("no reference (")[0]
+
+
 def test_the_shared_laser_is_a_plain_ray_plane_intersection():
     """A beam along the camera's axis (−z of the tool) from (x, y) beside the tool point meets the plane of the board
     where the plane's equation says; the reading adds the stand-off."""
