@@ -8,7 +8,7 @@ from kinid.lazy import front_door as _front_door
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
     "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "chosen_of": "bases",
-    "local_column_index": "bsplines", "local_columns": "bsplines", "local_effect": "bsplines", "local_grid": "bsplines",
+    "local_column_index": "bsplines", "local_columns": "bsplines", "local_effect": "effects", "local_grid": "bsplines",
     "TABLE_POSITIONS": "effects", "axis_dependent_joints": "derived", "basis_values": "effects",
     "candidate_library": "effects", "check_effects": "effects", "default_model": "effects",
     "model_effects": "effects", "param_codes": "effects", "parse_effect": "effects", "position_tables": "effects",

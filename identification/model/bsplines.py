@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["local_effect", "local_grid", "local_columns", "local_column_index"]
+__all__ = ["local_grid", "local_columns", "local_column_index"]
 
 
 def _bsplines(q, centres, step):
@@ -16,22 +16,6 @@ def _bsplines(q, centres, step):
     out[near] = 2 / 3 - r[near] ** 2 + r[near] ** 3 / 2
     out[mid] = (2 - r[mid]) ** 3 / 6
     return out
-
-
-def local_effect(joint, step: float, lo: float, hi: float):
-    """The local error ``CODE:local:<step>:<lo>:<hi>`` of the error joint ``joint`` (its numbers written ``:g``),
-    as :func:`~.effects.parse_effect` makes it from that name — the knots of ``map_knots``, the joint's axis and
-    unit — without writing the name out and parsing it back (a diagnosis tries thousands of windows); None where
-    parse_effect would refuse it (fewer than four steps from ``lo`` to ``hi``)."""
-    from .effects import Effect
-
-    name = f"{joint.code}:local:{step:g}:{lo:g}:{hi:g}"
-    step, lo, hi = (float(v) for v in name.split(":")[2:])
-    n = int(np.ceil((hi - lo) / step - 1e-9)) + 1
-    if not (step > 0 and hi > lo and n >= 5):
-        return None
-    return Effect(name, joint.code, "local", axis=joint.axis, unit=joint.unit,
-                  knots=tuple(float(lo + step * k) for k in range(n)))
 
 
 def local_grid(e) -> tuple:
