@@ -2,7 +2,8 @@
 about 0.4 s, more than a whole fit).
 
 - :func:`chi2_sf`, :func:`chi2_isf`, :func:`chi2_logsf` — χ² with ``k`` degrees of freedom;
-- :func:`f_logsf` — Fisher's F with ``d1``, ``d2`` degrees of freedom.
+- :func:`f_logsf` — Fisher's F with ``d1``, ``d2`` degrees of freedom; :func:`f_logsf_each` for arrays of them
+  at once (the same numbers, bit for bit: the continued fractions of all run together).
 
 For whole ``k`` up to :data:`CLOSED_K` (the 3 coordinates of a residual, the few parameters of a
 candidate) χ² is computed in closed form — ``erfc`` or ``exp`` and a finite sum of positive terms,
@@ -24,7 +25,9 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["chi2_sf", "chi2_isf", "chi2_logsf", "f_logsf", "CLOSED_K", "K_EXPANDED"]
+import numpy as np
+
+__all__ = ["chi2_sf", "chi2_isf", "chi2_logsf", "f_logsf", "f_logsf_each", "CLOSED_K", "K_EXPANDED"]
 
 #: The coverage factor of every expanded uncertainty kinid states, U = k·σ (GUM: about 95 % for a normal
 #: distribution): the reports' and the certificate's U, and the test a term must pass to be compensated.
@@ -76,6 +79,29 @@ def f_logsf(F: float, d1: float, d2: float) -> float:
     return log_p if math.exp(log_p) > 0.0 else -math.inf
 
 
+def f_logsf_each(F, d1, d2) -> list:
+    """:func:`f_logsf` of each element of the arrays ``F``, ``d1``, ``d2`` (broadcast), the same floats; the
+    continued fractions of all run together in numpy (the diagnosis tests hundreds of candidates at once)."""
+    F, d1, d2 = np.broadcast_arrays(*(np.asarray(v, float) for v in (F, d1, d2)))
+    out, todo = [0.0] * F.size, []  # todo: (index, a, b, x, log_front, which end of I_x the fraction gives)
+    for i, (f, n1, n2) in enumerate(zip(F.ravel().tolist(), d1.ravel().tolist(), d2.ravel().tolist())):
+        if not f > 0.0:
+            continue
+        s = n1 * f
+        a, b, x, y = n2 / 2.0, n1 / 2.0, n2 / (n2 + s), s / (n2 + s)
+        if not x > 0.0 or not y > 0.0:
+            out[i] = -math.inf if not x > 0.0 else 0.0
+            continue
+        log_front = a * math.log(x) + b * math.log(y) + math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b)
+        low = x < (a + 1.0) / (a + b + 2.0)
+        todo.append((i, a, b, x, log_front, low) if low else (i, b, a, y, log_front, low))
+    if todo:
+        fractions = _beta_fractions(*(np.array([t[j] for t in todo]) for j in (1, 2, 3))).tolist()
+        for (i, a, _, _, log_front, low), h in zip(todo, fractions):
+            out[i] = log_front + math.log(h / a) if low else math.log1p(-math.exp(log_front) * h / a)
+    return [v if math.exp(v) > 0.0 else -math.inf for v in out]
+
+
 def _log_betainc(a: float, b: float, x: float, y: float) -> float:
     """log I_x(a, b) with y = 1 − x given apart (no cancellation near x = 1): x^a y^b / (a B(a, b)) times the
     continued fraction where it converges fast, x < (a + 1)/(a + b + 2), else 1 − I_y(b, a)."""
@@ -107,6 +133,34 @@ def _beta_fraction(a: float, b: float, x: float) -> float:
         if abs(d * c - 1.0) < 1e-15:
             return h
     raise ArithmeticError(f"the incomplete beta function's continued fraction did not converge (a={a}, b={b}, x={x})")
+
+
+def _beta_fractions(a, b, x) -> np.ndarray:
+    """:func:`_beta_fraction` of each element of the arrays ``a``, ``b``, ``x``: the same operations in the same
+    order, each element's stopping at its own term."""
+    tiny = 1e-300
+    out = np.empty(x.shape)
+    live = np.arange(x.size)
+    c, d = np.ones(x.shape), 1.0 - (a + b) * x / (a + 1.0)
+    d = 1.0 / np.where(np.abs(d) > tiny, d, tiny)
+    h = d
+    for m in range(1, 100_000):
+        for numerator in (m * (b - m) * x / ((a + 2 * m - 1.0) * (a + 2 * m)),
+                          -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1.0))):
+            d = 1.0 + numerator * d
+            d = 1.0 / np.where(np.abs(d) > tiny, d, tiny)
+            c = 1.0 + numerator / c
+            c = np.where(np.abs(c) > tiny, c, tiny)
+            h = h * (d * c)
+        done = np.abs(d * c - 1.0) < 1e-15
+        if done.any():
+            out[live[done]] = h[done]
+            going = ~done
+            live, a, b, x, c, d, h = (v[going] for v in (live, a, b, x, c, d, h))
+            if not live.size:
+                return out
+    raise ArithmeticError("the incomplete beta function's continued fraction did not converge "
+                          f"(a={a[0]}, b={b[0]}, x={x[0]})")
 
 
 def _closed(k) -> bool:

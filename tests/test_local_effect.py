@@ -95,3 +95,30 @@ def test_windows_resting_on_readings_judged_at_once_as_one_by_one():
             assert at_once.tolist() == one_by_one
             windows += len(one_by_one)
     assert windows > 5_000
+
+
+def test_local_effect_is_the_effect_parse_effect_makes_of_its_name(bc):
+    """The windows the diagnosis makes without writing their names out and parsing them back are the effects
+    parse_effect makes of those names — knots, axis, unit, every field — on linear and rotary joints, at steps
+    and ends whose ``:g`` form rounds (six digits), and None where parse_effect refuses the name."""
+    from kinid.identification.model import local_effect
+
+    rng = np.random.default_rng(11)
+    made = 0
+    for _ in range(400):
+        joint = bc.error_joints[int(rng.integers(len(bc.error_joints)))]
+        if joint.axis not in bc.axis_names:
+            continue
+        step = float(rng.choice([0.25, 0.5, 1.0, 2.5, 7.5, 1 / 3, 12.3456789]))
+        lo = float(rng.normal(0, 300))
+        hi = lo + step * int(rng.integers(1, 12)) + float(rng.choice([0.0, 1e-7, -1e-7]))
+        window = local_effect(joint, step, lo, hi)
+        name = f"{joint.code}:local:{step:g}:{lo:g}:{hi:g}"
+        try:
+            parsed = parse_effect(name, bc)
+        except DataError:
+            assert window is None, name
+            continue
+        assert window == parsed, name
+        made += 1
+    assert made > 150

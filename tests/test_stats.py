@@ -58,3 +58,19 @@ def test_the_tail_stays_finite():
     assert chi2_sf(0.0, 3) == 1.0 and chi2_sf(-1.0, 3) == 1.0
     far = chi2_logsf(2000.0, 3)
     assert math.isfinite(far) and far == pytest.approx(math.log(special.chdtrc(3, 1400.0)) - 300.0, rel=0.01)
+
+
+def test_f_tail_of_arrays_is_f_logsf_of_each_bit_for_bit():
+    """f_logsf_each gives the floats f_logsf gives one value at a time: bulk, far tail (-inf), F ≤ 0 and NaN,
+    whole and fractional degrees of freedom."""
+    from kinid.stats import f_logsf_each
+
+    rng = np.random.default_rng(2)
+    F = np.concatenate([10 ** rng.uniform(-5, 4, 2000), [0.0, -1.0, np.nan, 1e6, 1e300]])
+    d1 = np.concatenate([rng.integers(1, 30, F.size - 5), [2.5, 3, 1, 4, 2]])
+    d2 = np.concatenate([rng.integers(1, 100_000, F.size - 5).astype(float), [12.5, 40, 10, 3000, 5]])
+    at_once = f_logsf_each(F, d1, d2)
+    one_by_one = [f_logsf(f, a, b) for f, a, b in zip(F.tolist(), d1.tolist(), d2.tolist())]
+    assert np.array_equal(np.array(at_once), np.array(one_by_one), equal_nan=True)
+    assert -math.inf in at_once and 0.0 in at_once
+    assert f_logsf_each([], [], []) == []

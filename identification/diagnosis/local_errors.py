@@ -313,18 +313,17 @@ def _local_windows(whole, q, distinct, machine, steps=None) -> list:
 def _windows_at(code: str, step: float, lo: float, hi: float, q, distinct, machine) -> list:
     """``CODE:local:<step>:<from>:<to>`` windows of ``LOCAL_WIDTHS`` knot intervals between ``lo`` and ``hi`` with
     knots every ``step`` (on its multiples), that rest on the readings ``q`` (:func:`_rests_on_readings`)."""
-    from kinid.errors import DataError
-
-    from ..model import parse_effect
-
     step = float(f"{step:.6g}")
     knots = np.arange(math.floor(lo / step) * step, hi + step / 2, step)
     support = _bspline_support(q, knots[0], step, len(knots))  # of the B-spline centred at each knot
+    from ..model import local_effect
+
+    joint = machine.error_joint(code)
     out = []
     for width in LOCAL_WIDTHS:
         for i in np.flatnonzero(_rest_on_readings(support, distinct, knots, width)).tolist():
-            try:
-                out.append(parse_effect(f"{code}:local:{step:g}:{knots[i]:g}:{knots[i + width]:g}", machine))
-            except DataError:
-                continue
+            window = local_effect(joint, step, knots[i], knots[i + width])
+            if window is not None:
+                out.append(window)
     return out
+

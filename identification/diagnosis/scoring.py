@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kinid.stats import chi2_logsf, f_logsf
+from kinid.stats import chi2_logsf, f_logsf, f_logsf_each
 from kinid.threads import blas_single_threaded
 
 from ..model import Machine, basis_of, param_codes
@@ -328,6 +328,14 @@ class _Test:
         rms_after = (np.sqrt(np.maximum(rss - delta, 0.0) / M) * sigma).tolist()
         coef_std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)).tolist()
         deltas, kept, coefficients = delta.tolist(), kk.tolist(), beta.tolist()
+        if not self.sigma_known:  # the F tests of all (not aliased) at once
+            tested = ~aliased
+            dof2 = M - result.rank - kk[tested]
+            F = np.zeros(len(kk))
+            F[tested] = (delta[tested] / kk[tested]) / np.maximum((rss - delta[tested]) / dof2, 1e-300)
+            f_log_sf = np.zeros(len(kk))
+            f_log_sf[tested] = f_logsf_each(F[tested], kk[tested], dof2)
+            f_log_sf, F = f_log_sf.tolist(), F.tolist()
         out = []
         for m, (e, unit) in enumerate(zip(effects, units)):
             if aliased[m]:
@@ -338,11 +346,9 @@ class _Test:
             if self.sigma_known:
                 log_sf = _chi2_logsf(d, kd)
             else:
-                dof2 = M - result.rank - kd
-                F = (d / kd) / max((rss - d) / dof2, 1e-300)
-                log_sf = f_logsf(F, kd, dof2)
+                log_sf = f_log_sf[m]
                 if not math.isfinite(log_sf):  # far in the tail, where F·k is χ²_k for large dof2
-                    log_sf = _chi2_logsf(F * kd, kd)
+                    log_sf = _chi2_logsf(F[m] * kd, kd)
             basis = basis_of(e)
             size, size_std = basis.size(e, beta[m], cov[m])
             note = "" if basis.note is None or not self.notes else basis.note(e, beta[m], _axis_unit(machine, e.axis))

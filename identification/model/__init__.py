@@ -8,7 +8,7 @@ from kinid.lazy import front_door as _front_door
 #: The names the other sub-packages use, and the module of this one that defines each (imported on first use).
 _SOURCES = {
     "LINEAR_PERIODS_MM": "bases", "ROTARY_PERIODS_DEG": "bases", "basis_of": "bases", "chosen_of": "bases",
-    "local_column_index": "bsplines", "local_columns": "bsplines", "local_grid": "bsplines",
+    "local_column_index": "bsplines", "local_columns": "bsplines", "local_effect": "effects", "local_grid": "bsplines",
     "TABLE_POSITIONS": "effects", "axis_dependent_joints": "derived", "basis_values": "effects",
     "candidate_library": "effects", "check_effects": "effects", "default_model": "effects",
     "model_effects": "effects", "param_codes": "effects", "parse_effect": "effects", "position_tables": "effects",
@@ -26,7 +26,7 @@ __all__ = ["LINEAR_PERIODS_MM", "MAX_URDF_BYTES", "Machine", "ROTARY_PERIODS_DEG
            "axis_dependent_joints", "axis_directions", "axis_limits", "basis_of", "basis_values",
            "candidate_library", "check_effects", "check_machine", "chosen_of", "default_model",
            "effect_description", "evaluate", "evaluate_blocks", "identification_urdf", "implausible_candidate",
-           "implausible_effects", "joint_kind", "load_machine", "local_column_index", "local_columns",
+           "implausible_effects", "joint_kind", "load_machine", "local_column_index", "local_columns", "local_effect",
            "local_grid", "machine_from_urdf", "model_effects", "param_codes", "parse_effect", "plain_name",
            "position_tables",
            "rigid_transform", "share_of_limit", "tool_in_workpiece_mm", "tool_rotation_in_workpiece",

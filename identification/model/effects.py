@@ -19,7 +19,7 @@ from .rotary_on import rotary_carriers  # registers the on:<rotary axis> basis, 
 from . import sag as _sag  # noqa: F401  registers the sag:<point> basis
 from . import step as _step  # noqa: F401  registers the step:<axis>:<at> basis
 
-__all__ = ["Effect", "parse_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
+__all__ = ["Effect", "parse_effect", "local_effect", "check_effects", "default_model", "model_effects", "candidate_library", "axis_dependent_joints",
            "basis_values", "param_codes", "LINEAR_PERIODS_MM", "ROTARY_PERIODS_DEG"]
 
 
@@ -96,6 +96,20 @@ def parse_effect(name: str, machine: Machine, *, source: str = "effect") -> Effe
     axis = fields.pop("axis", joint.axis if basis.driver in ("position", "direction", "positions", "pose") else "")
     effect = machine.parsed_effects[name] = Effect(name, code, basis.kind, axis=axis, unit=joint.unit, **fields)
     return effect
+
+
+def local_effect(joint, step: float, lo: float, hi: float):
+    """The local error ``CODE:local:<step>:<lo>:<hi>`` of the error joint ``joint`` (its numbers written ``:g``),
+    as :func:`parse_effect` makes it from that name — the knots of ``map_knots``, the joint's axis and
+    unit — without writing the name out and parsing it back (a diagnosis tries thousands of windows); None where
+    parse_effect would refuse it (fewer than four steps from ``lo`` to ``hi``)."""
+    name = f"{joint.code}:local:{step:g}:{lo:g}:{hi:g}"
+    step, lo, hi = (float(v) for v in name.split(":")[2:])
+    n = int(np.ceil((hi - lo) / step - 1e-9)) + 1
+    if not (step > 0 and hi > lo and n >= 5):
+        return None
+    return Effect(name, joint.code, "local", axis=joint.axis, unit=joint.unit,
+                  knots=tuple(float(lo + step * k) for k in range(n)))
 
 
 def check_effects(machine: Machine, effects, name: str = "effects") -> tuple:
